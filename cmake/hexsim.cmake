@@ -1,0 +1,64 @@
+# Shared build helpers for hexsim's folders.
+
+set(HEXSIM_SOURCE_DIR ${CMAKE_CURRENT_SOURCE_DIR})
+
+# Warnings (and -Werror in CI) for hexsim's own targets only.
+function(hexsim_target_options target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wno-unused-parameter)
+  if(HEXSIM_WERROR)
+    target_compile_options(${target} PRIVATE -Werror)
+  endif()
+endfunction()
+
+if(HEXSIM_SANITIZE)
+  add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all)
+  add_link_options(-fsanitize=address,undefined)
+endif()
+
+# hexsim_library(NAME SOURCES ... DEPS ...): a folder's library, hexsim_<NAME>,
+# with its public headers in <folder>/include.
+function(hexsim_library name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;PRIVATE_DEPS" ${ARGN})
+  add_library(hexsim_${name} STATIC ${ARG_SOURCES})
+  add_library(hexsim::${name} ALIAS hexsim_${name})
+  target_include_directories(hexsim_${name} PUBLIC
+    $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+    $<INSTALL_INTERFACE:include>)
+  target_link_libraries(hexsim_${name} PUBLIC ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
+  hexsim_target_options(hexsim_${name})
+endfunction()
+
+# hexsim_test(NAME SOURCES ... DEPS ...): a GoogleTest executable registered with CTest.
+function(hexsim_test name)
+  if(NOT HEXSIM_BUILD_TESTS)
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main)
+  target_compile_definitions(${name} PRIVATE
+    HEXSIM_SOURCE_DIR="${HEXSIM_SOURCE_DIR}"
+    HEXSIM_BINARY_DIR="${CMAKE_BINARY_DIR}")
+  hexsim_target_options(${name})
+  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60
+    PROPERTIES ENVIRONMENT "HEXSIM_DATA_DIR=${HEXSIM_SOURCE_DIR}")
+endfunction()
+
+# hexsim_folder(NAME DEPS ... [PRIVATE_DEPS ...] [TEST_DEPS ...]): the standard folder layout:
+# src/*.cc -> library hexsim_<NAME>; test/*_test.cc -> one test executable <NAME>_test.
+# New files are picked up without editing this file (CONFIGURE_DEPENDS).
+function(hexsim_folder name)
+  cmake_parse_arguments(ARG "" "" "DEPS;PRIVATE_DEPS;TEST_DEPS;EXTRA_SOURCES" ${ARGN})
+  file(GLOB srcs CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/src/*.cc)
+  list(APPEND srcs ${ARG_EXTRA_SOURCES})
+  if(NOT srcs)
+    return()
+  endif()
+  hexsim_library(${name} SOURCES ${srcs} DEPS ${ARG_DEPS} PRIVATE_DEPS ${ARG_PRIVATE_DEPS})
+  file(GLOB tests CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/test/*_test.cc)
+  file(GLOB test_support CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/test/support/*.cc)
+  if(tests)
+    hexsim_test(${name}_test SOURCES ${tests} ${test_support} DEPS hexsim::${name} ${ARG_TEST_DEPS})
+    target_include_directories(${name}_test PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
+  endif()
+endfunction()
