@@ -251,7 +251,8 @@ Status YamlReader::Finish() {
   return *error_;
 }
 
-Status ApplyOverride(YAML::Node root, const std::string& assignment, const std::string& file) {
+Status ApplyOverride(YAML::Node root, const std::string& assignment, const std::string& file,
+                     bool create_missing) {
   const size_t eq = assignment.find('=');
   if (eq == std::string::npos || eq == 0) {
     return Status::BadInput(fmt::format("--set {}: expected KEY=VALUE", assignment));
@@ -274,13 +275,24 @@ Status ApplyOverride(YAML::Node root, const std::string& assignment, const std::
       next = node[static_cast<size_t>(idx)];
     } else if (node.IsMap() && node[p].IsDefined()) {
       next = node[p];
+    } else if (create_missing && (node.IsMap() || node.IsNull())) {
+      if (i + 1 == parts.size()) {
+        try {
+          node[p] = YAML::Load(value);
+        } catch (const YAML::Exception&) {
+          return Status::BadInput(fmt::format("{}: {}: cannot parse value '{}'", file, path, value));
+        }
+        return Status::Ok();
+      }
+      node[p] = YAML::Node(YAML::NodeType::Map);
+      next = node[p];
     } else {
       return Status::BadInput(fmt::format("{}: {}: unknown key '{}'", file, path, p));
     }
     if (i + 1 == parts.size()) {
       try {
         next = YAML::Load(value);
-      } catch (const YAML::Exception& e) {
+      } catch (const YAML::Exception&) {
         return Status::BadInput(fmt::format("{}: {}: cannot parse value '{}'", file, path, value));
       }
       return Status::Ok();

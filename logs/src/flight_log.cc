@@ -95,6 +95,7 @@ Result<FlightLog> ParseFlightLogCsv(const std::string& text, const std::string& 
   bool header = true;
   size_t ncols = 0;
   std::string cell;
+  std::vector<size_t> row_lines;  // file line of each data row, for messages
   while (pos < text.size()) {
     size_t end = text.find('\n', pos);
     if (end == std::string::npos) end = text.size();
@@ -119,6 +120,7 @@ Result<FlightLog> ParseFlightLogCsv(const std::string& text, const std::string& 
       return Status::BadInput(fmt::format("{}:{}: row: expected {} cells, found {}", name, line_no, ncols, cells.size()));
     }
     log.AppendRow();
+    row_lines.push_back(line_no);
     for (size_t c = 0; c < ncols; ++c) {
       if (cells[c].empty()) continue;
       cell.assign(cells[c]);
@@ -137,9 +139,10 @@ Result<FlightLog> ParseFlightLogCsv(const std::string& text, const std::string& 
   if (log.rows() == 0) return Status::BadInput(name + ": no data rows");
   const auto& t = log.Column("t_s");
   for (size_t r = 0; r < log.rows(); ++r) {
-    if (!std::isfinite(t[r])) return Status::BadInput(fmt::format("{}: t_s: missing time in data row {}", name, r + 1));
+    if (!std::isfinite(t[r])) return Status::BadInput(fmt::format("{}:{}: t_s: missing time", name, row_lines[r]));
     if (r > 0 && t[r] < t[r - 1]) {
-      return Status::BadInput(fmt::format("{}: t_s: time goes backwards at data row {}", name, r + 1));
+      return Status::BadInput(fmt::format("{}:{}: t_s: time goes backwards ({} after {})", name, row_lines[r], t[r],
+                                          t[r - 1]));
     }
   }
   return log;

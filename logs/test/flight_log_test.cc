@@ -31,6 +31,36 @@ TEST(FlightLog, RejectsMissingTimeColumnAndRaggedRows) {
             "x.csv:2: b: not a finite number: 'abc'");
 }
 
+TEST(FlightLog, GivenMalformedCsv_WhenParsed_ThenTheMessageNamesFileLineAndColumn) {
+  EXPECT_EQ(ParseFlightLogCsv("t_s,a\n0,1\n\n0.1,\n", "x.csv").status().code(), StatusCode::kOk);
+  EXPECT_EQ(ParseFlightLogCsv("t_s,a\n0,1\n,2\n", "x.csv").status().message(), "x.csv:3: t_s: missing time");
+  EXPECT_EQ(ParseFlightLogCsv("t_s,a\n1,1\n\n0.5,2\n", "x.csv").status().message(),
+            "x.csv:4: t_s: time goes backwards (0.5 after 1)");
+  EXPECT_EQ(ParseFlightLogCsv("t_s,a,a\n", "x.csv").status().message(), "x.csv:1: a: duplicate column");
+  EXPECT_EQ(ParseFlightLogCsv("t_s,,a\n", "x.csv").status().message(), "x.csv:1: header: empty column name");
+  EXPECT_EQ(ParseFlightLogCsv("t_s,a\r\n0,nan\r\n", "x.csv").status().message(),
+            "x.csv:2: a: not a finite number: 'nan'");
+  EXPECT_EQ(ParseFlightLogCsv("t_s,a\n0,1e999\n", "x.csv").status().message(),
+            "x.csv:2: a: not a finite number: '1e999'");
+  EXPECT_EQ(ParseFlightLogCsv("t_s\n", "x.csv").status().message(), "x.csv: no data rows");
+}
+
+TEST(FlightLog, GivenASimulatedStyleLog_WhenWrittenAndParsed_ThenEveryCoreColumnSurvives) {
+  FlightLog log;
+  const std::vector<std::string> cols = {"t_s", "pos_N_m", "q_w", "q_x", "q_y", "q_z", "mag_x_uT", "control_u",
+                                         "current_A", "motor_6_A", "yaw_true_deg", "yaw_est_deg", "mode"};
+  for (const auto& c : cols) log.AddColumn(c);
+  for (int r = 0; r < 50; ++r) {
+    log.AppendRow();
+    for (size_t c = 0; c < cols.size(); ++c) log.Set(c, 0.01 * r + 1.0 / 3.0 * static_cast<double>(c));
+  }
+  log.meta["seed"] = 7;
+  auto back = ParseFlightLogCsv(FlightLogToCsv(log), "sim.csv");
+  ASSERT_TRUE(back.ok()) << back.status().message();
+  EXPECT_EQ(back->columns(), cols);
+  for (size_t c = 0; c < cols.size(); ++c) EXPECT_EQ(back->Column(c), log.Column(c)) << cols[c];
+}
+
 TEST(FlightLog, MetaPathReplacesCsvExtension) {
   EXPECT_EQ(MetaPathFor("out/log.csv"), "out/log.meta.json");
 }

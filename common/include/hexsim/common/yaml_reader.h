@@ -104,6 +104,9 @@ class YamlReader {
 
 // Applies one "--set a.b.c=value" override to a loaded document. The path must name an existing
 // key (numbers index sequences): an unknown key is bad input, never silently added.
-Status ApplyOverride(YAML::Node root, const std::string& assignment, const std::string& file);
+// With create_missing, an absent last key is added (for documents whose strict parser rejects
+// unknown keys afterwards, so a typo is still caught).
+Status ApplyOverride(YAML::Node root, const std::string& assignment, const std::string& file,
+                     bool create_missing = false);
 
 }  // namespace hexsim

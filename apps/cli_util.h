@@ -1,0 +1,22 @@
+// Shared pieces of the hexsim command line: error reporting and exit codes (CONTRACTS.md).
+#pragma once
+
+#include <cstdio>
+#include <string>
+
+#include "hexsim/common/status.h"
+
+namespace hexsim::app {
+
+// Prints "hexsim: <message>" on stderr (one line) and returns the status's exit code.
+inline int Report(const Status& s) {
+  if (s.ok()) return 0;
+  std::string msg = s.message();
+  for (char& c : msg) {
+    if (c == '\n') c = ' ';
+  }
+  std::fprintf(stderr, "hexsim: %s\n", msg.c_str());
+  return s.exit_code();
+}
+
+}  // namespace hexsim::app

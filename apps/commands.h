@@ -1,0 +1,12 @@
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace hexsim::app {
+
+// Adds every subcommand to `app`; the one that runs stores its exit code in *exit_code.
+void RegisterCommands(CLI::App& app, int* exit_code);
+
+void AddRunCommand(CLI::App& app, int* exit_code);
+
+}  // namespace hexsim::app

@@ -1,0 +1,242 @@
+#include "hexsim/control/sequencer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "hexsim/common/rotation.h"
+#include "hexsim/common/status.h"
+
+namespace hexsim::control {
+
+using Eigen::Vector3d;
+
+const char* FlightModeName(FlightMode mode) {
+  switch (mode) {
+    case FlightMode::kIdle: return "idle";
+    case FlightMode::kTakeoff: return "takeoff";
+    case FlightMode::kWaypoint: return "waypoint";
+    case FlightMode::kHold: return "hold";
+    case FlightMode::kLand: return "land";
+    case FlightMode::kLanded: return "landed";
+    case FlightMode::kDone: return "done";
+  }
+  return "?";
+}
+
+MissionSequencer::MissionSequencer(Mission mission, SequencerParams params)
+    : mission_(std::move(mission)), params_(params) {
+  HEXSIM_CHECK(mission_.resolved);
+}
+
+void MissionSequencer::BeginSegment(const Vector3d& end, double speed_mps) {
+  seg_start_ = target_;
+  seg_end_ = end;
+  seg_speed_mps_ = speed_mps;
+  carrot_s_m_ = 0.0;
+  carrot_v_mps_ = 0.0;
+  ++leg_;
+}
+
+void MissionSequencer::HoldAt(const Vector3d& p, Setpoint* sp) const {
+  sp->p_N_m = p;
+  sp->v_ff_N_mps.setZero();
+  sp->yaw_rad = yaw_rad_;
+  sp->idle = false;
+}
+
+void MissionSequencer::BeginItem(size_t index, const NavState& state, SequencerOutput* out) {
+  item_ = static_cast<int>(index);
+  holding_ = false;
+  if (index >= mission_.items.size()) {
+    mode_ = FlightMode::kDone;
+    return;
+  }
+  const MissionItem& it = mission_.items[index];
+  switch (it.type) {
+    case MissionItemType::kTakeoff:
+      mode_ = FlightMode::kTakeoff;
+      landed_ = false;
+      BeginSegment(Vector3d(target_.x(), target_.y(), -it.alt_m), params_.climb_speed_mps);
+      break;
+    case MissionItemType::kWaypoint: {
+      mode_ = FlightMode::kWaypoint;
+      ++waypoint_;
+      const Vector3d d = it.p_N_m - target_;
+      double speed = it.speed_mps.value_or(mission_.speed_mps);
+      if (d.norm() > 1e-9) {
+        const double vertical_fraction = std::abs(d.z()) / d.norm();
+        const double v_limit = d.z() < 0.0 ? params_.max_climb_mps : params_.max_descent_mps;
+        if (speed * vertical_fraction > v_limit) speed = v_limit / vertical_fraction;
+      }
+      BeginSegment(it.p_N_m, speed);
+      if (it.yaw_deg) {
+        yaw_rad_ = WrapPi(*it.yaw_deg * kDegToRad);
+      } else if (mission_.yaw_mode == YawMode::kTravel && d.head<2>().norm() > 1.0) {
+        yaw_rad_ = std::atan2(d.y(), d.x());
+      }
+      break;
+    }
+    case MissionItemType::kHold:
+      mode_ = FlightMode::kHold;
+      timer_s_ = it.duration_s;
+      break;
+    case MissionItemType::kPayload:
+      // Applied at once (the simulator gets the event this step); then a zero-length hold at the
+      // current target, so that at most one payload event leaves per step.
+      mode_ = FlightMode::kHold;
+      timer_s_ = 0.0;
+      out->payload_event = PayloadEvent{it.action, it.mass_kg, state.t_s, item_};
+      break;
+    case MissionItemType::kLand:
+      mode_ = FlightMode::kLand;
+      BeginSegment(Vector3d(target_.x(), target_.y(), params_.ground_D_m), params_.descent_speed_mps);
+      timer_s_ = 0.0;
+      break;
+  }
+}
+
+bool MissionSequencer::AdvanceCarrot(const NavState& state, double speed_mps, double dt_s, Setpoint* sp) {
+  const Vector3d d = seg_end_ - seg_start_;
+  const double length = d.norm();
+  const Vector3d dir = length > 1e-9 ? Vector3d(d / length) : Vector3d::Zero();
+  const double along_m = (state.p_N_m - seg_start_).dot(dir);
+  const double remaining_m = length - carrot_s_m_;
+  // Speed profile: accelerate at accel, brake to stop at the end (v² = 2·a·remaining).
+  const double v_brake = std::sqrt(2.0 * params_.accel_mps2 * std::max(remaining_m, 0.0));
+  double v = std::min({speed_mps, v_brake, carrot_v_mps_ + params_.accel_mps2 * dt_s});
+  if (carrot_s_m_ - along_m > params_.max_lead_m) v = std::min(v, std::max(0.0, carrot_v_mps_ - params_.accel_mps2 * dt_s));
+  const double a = dt_s > 0.0 ? (v - carrot_v_mps_) / dt_s : 0.0;
+  carrot_v_mps_ = v;
+  carrot_s_m_ = std::min(length, carrot_s_m_ + v * dt_s);
+  const bool at_end = carrot_s_m_ >= length - 1e-9;
+  sp->p_N_m = seg_start_ + carrot_s_m_ * dir;
+  sp->v_ff_N_mps = at_end ? Vector3d::Zero() : Vector3d(v * dir);
+  sp->a_ff_N_mps2 = at_end ? Vector3d::Zero() : Vector3d(a * dir);
+  sp->yaw_rad = yaw_rad_;
+  sp->idle = false;
+  return at_end;
+}
+
+SequencerOutput MissionSequencer::Step(const NavState& state, double dt_s) {
+  SequencerOutput out;
+  if (!started_) {
+    started_ = true;
+    target_ = state.p_N_m;
+    yaw_rad_ = EulerFromQuat(state.q_NB).z();
+    BeginItem(0, state, &out);
+  }
+  Setpoint& sp = out.setpoint;
+  switch (mode_) {
+    case FlightMode::kIdle:
+      sp.idle = true;
+      break;
+    case FlightMode::kLanded:
+      sp.idle = true;
+      timer_s_ -= dt_s;
+      if (timer_s_ <= 0.0) BeginItem(static_cast<size_t>(item_) + 1, state, &out);
+      break;
+    case FlightMode::kDone:
+      if (landed_) {
+        sp.idle = true;
+      } else {
+        HoldAt(target_, &sp);
+      }
+      break;
+    case FlightMode::kTakeoff: {
+      const bool at_end = AdvanceCarrot(state, seg_speed_mps_, dt_s, &sp);
+      if (at_end && std::abs(state.p_N_m.z() - seg_end_.z()) < params_.takeoff_acceptance_m) {
+        target_ = seg_end_;
+        BeginItem(static_cast<size_t>(item_) + 1, state, &out);
+      }
+      break;
+    }
+    case FlightMode::kWaypoint: {
+      if (holding_) {
+        HoldAt(target_, &sp);
+        timer_s_ -= dt_s;
+        if (timer_s_ <= 0.0) BeginItem(static_cast<size_t>(item_) + 1, state, &out);
+        break;
+      }
+      const bool at_end = AdvanceCarrot(state, seg_speed_mps_, dt_s, &sp);
+      const double error_m = (state.p_N_m - seg_end_).norm();
+      if (at_end && error_m < mission_.acceptance_radius_m) {
+        target_ = seg_end_;
+        out.arrival = WaypointArrival{waypoint_, state.t_s, error_m};
+        const double hold_s = mission_.items[static_cast<size_t>(item_)].hold_s;
+        if (hold_s > 0.0) {
+          holding_ = true;
+          timer_s_ = hold_s;
+        } else {
+          BeginItem(static_cast<size_t>(item_) + 1, state, &out);
+        }
+      }
+      break;
+    }
+    case FlightMode::kHold:
+      HoldAt(target_, &sp);
+      timer_s_ -= dt_s;
+      if (timer_s_ <= 0.0) BeginItem(static_cast<size_t>(item_) + 1, state, &out);
+      break;
+    case FlightMode::kLand: {
+      const double height_m = params_.ground_D_m - state.p_N_m.z();
+      const double speed =
+          height_m > params_.final_descent_height_m ? params_.descent_speed_mps : params_.final_descent_speed_mps;
+      const bool at_end = AdvanceCarrot(state, speed, dt_s, &sp);
+      // Touchdown: (nearly) still, and either near the ground or unable to follow the carrot down.
+      const bool still = state.v_N_mps.norm() < params_.touchdown_speed_mps;
+      const bool near_ground = height_m < params_.touchdown_height_m;
+      const bool blocked = at_end || sp.p_N_m.z() - state.p_N_m.z() > params_.touchdown_height_m;
+      timer_s_ = (still && (near_ground || blocked) && carrot_s_m_ > 0.0) ? timer_s_ + dt_s : 0.0;
+      if (timer_s_ >= params_.touchdown_time_s) {
+        landed_ = true;
+        target_ = Vector3d(state.p_N_m.x(), state.p_N_m.y(), seg_end_.z());
+        mode_ = FlightMode::kLanded;
+        timer_s_ = params_.touchdown_time_s;  // motors off; stay landed this long before the next item
+        sp = Setpoint();
+        sp.idle = true;
+      }
+      break;
+    }
+  }
+  return out;
+}
+
+std::vector<Vector3d> PlannedPath(const Mission& mission, const Vector3d& start_p_N_m, double ground_D_m) {
+  std::vector<Vector3d> path{start_p_N_m};
+  for (const MissionItem& it : mission.items) {
+    const Vector3d& last = path.back();
+    switch (it.type) {
+      case MissionItemType::kTakeoff: path.emplace_back(last.x(), last.y(), -it.alt_m); break;
+      case MissionItemType::kWaypoint: path.push_back(it.p_N_m); break;
+      case MissionItemType::kLand: path.emplace_back(last.x(), last.y(), ground_D_m); break;
+      default: break;
+    }
+  }
+  return path;
+}
+
+namespace {
+double SegmentDistance(const Vector3d& a, const Vector3d& b, const Vector3d& p) {
+  const Vector3d ab = b - a;
+  const double l2 = ab.squaredNorm();
+  const double t = l2 > 0.0 ? std::clamp((p - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
+  return (a + t * ab - p).norm();
+}
+}  // namespace
+
+double CrossTrackToLeg(const std::vector<Vector3d>& path, int leg, const Vector3d& p_N_m) {
+  if (path.empty()) return 0.0;
+  if (path.size() == 1) return (path[0] - p_N_m).norm();
+  const int k = std::clamp(leg, 0, static_cast<int>(path.size()) - 2);
+  return SegmentDistance(path[static_cast<size_t>(k)], path[static_cast<size_t>(k) + 1], p_N_m);
+}
+
+double CrossTrack(const std::vector<Vector3d>& path, const Vector3d& p_N_m) {
+  if (path.size() < 2) return CrossTrackToLeg(path, 0, p_N_m);
+  double best = std::numeric_limits<double>::infinity();
+  for (size_t k = 0; k + 1 < path.size(); ++k) best = std::min(best, SegmentDistance(path[k], path[k + 1], p_N_m));
+  return best;
+}
+
+}  // namespace hexsim::control

@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Builds and runs hexsim's libFuzzer targets (clang + libclang-rt dev package).
+#
+#   fuzz/fuzz.sh                # CI: each target -runs=100000 with -max_len=65536
+#   fuzz/fuzz.sh 600            # each target for 600 s (a long run: do it before releases)
+#   fuzz/fuzz.sh -runs=1000000  # any libFuzzer limit flag
+#
+# Build dir: build-fuzz beside the sources (HEXSIM_FUZZ_BUILD_DIR overrides). Seeds come from
+# fuzz/corpus/<target> (cut from the real log by fuzz/make_corpus.sh) and are only read; new inputs
+# go to a scratch corpus, crashes to build-fuzz/artifacts/. Exit status: non-zero on any finding.
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+build=${HEXSIM_FUZZ_BUILD_DIR:-$root/build-fuzz}
+arg=${1:--runs=100000}
+if [[ $arg =~ ^[0-9]+$ ]]; then limit=(-max_total_time="$arg"); else limit=("$arg"); fi
+# Tests stay ON: cmake/hexsim.cmake (hexsim_folder) fails to configure with them OFF; only the two
+# fuzz targets are built.
+launcher=()
+if command -v ccache > /dev/null; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
+
+cmake -S "$root" -B "$build" -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHEXSIM_BUILD_FUZZ=ON -DHEXSIM_BUILD_TESTS=ON \
+  -DHEXSIM_BUILD_BENCH=OFF "${launcher[@]}" > "$build.configure.log" 2>&1 ||
+  { cat "$build.configure.log"; exit 1; }
+ninja -C "$build" -j"${HEXSIM_FUZZ_JOBS:-2}" fuzz_dataflash fuzz_flightlog_csv
+
+mkdir -p "$build/artifacts"
+for target in dataflash flightlog_csv; do
+  scratch=$(mktemp -d)
+  log="$build/fuzz_$target.log"
+  echo "fuzz_$target: ${limit[*]} -max_len=65536"
+  if ! "$build/fuzz/fuzz_$target" "$scratch" "$root/fuzz/corpus/$target" -max_len=65536 "${limit[@]}" \
+      -print_final_stats=1 -artifact_prefix="$build/artifacts/${target}-" > "$log" 2>&1; then
+    tail -60 "$log"
+    rm -rf "$scratch"
+    echo "fuzz_$target: FAILED (log: $log)" >&2
+    exit 1
+  fi
+  rm -rf "$scratch"
+  runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log")
+  secs=$(sed -n 's/^Done [0-9]* runs in \([0-9]*\) second.*/\1/p' "$log")
+  echo "fuzz_$target: $runs executions in ${secs:-?} s ($(( runs / (secs > 0 ? secs : 1) )) exec/s)"
+done

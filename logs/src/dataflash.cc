@@ -1,0 +1,395 @@
+#include "hexsim/logs/dataflash.h"
+
+#include <cmath>
+#include <cstring>
+
+namespace hexsim::logs {
+
+size_t DataFlashFormatCharSize(char c) {
+  switch (c) {
+    case 'b': case 'B': case 'M': return 1;
+    case 'h': case 'H': case 'c': case 'C': return 2;
+    case 'i': case 'I': case 'e': case 'E': case 'L': case 'f': case 'n': return 4;
+    case 'd': case 'q': case 'Q': return 8;
+    case 'N': return 16;
+    case 'Z': return 64;
+    case 'a': return 64;  // int16_t[32]
+    default: return 0;
+  }
+}
+
+double DataFlashFormatCharScale(char c) {
+  switch (c) {
+    case 'c': case 'C': case 'e': case 'E': return 0.01;
+    case 'L': return 1e-7;
+    default: return 1.0;
+  }
+}
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+template <class T>
+T Load(const uint8_t* p) {
+  T v;
+  std::memcpy(&v, p, sizeof(T));  // DataFlash is little-endian, as every host we build on.
+  return v;
+}
+
+bool IsTextChar(char c) { return c == 'n' || c == 'N' || c == 'Z'; }
+
+std::string FixedString(const uint8_t* p, size_t n) {
+  size_t len = 0;
+  while (len < n && p[len] != 0) ++len;
+  return std::string(reinterpret_cast<const char*>(p), len);
+}
+
+std::vector<std::string> SplitLabels(const std::string& s) {
+  std::vector<std::string> out;
+  size_t start = 0;
+  while (start <= s.size()) {
+    const size_t comma = s.find(',', start);
+    const size_t end = comma == std::string::npos ? s.size() : comma;
+    out.push_back(s.substr(start, end - start));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return out;
+}
+
+bool PrintableName(const std::string& s) {
+  if (s.empty()) return false;
+  for (char c : s) {
+    if (!((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_')) return false;
+  }
+  return true;
+}
+
+// Units and multipliers of integer fields in logs without FMTU (ArduCopter 3.x). The value after
+// the format char's own scale is multiplied by `multiplier` to give `unit`.
+struct ScaleEntry {
+  const char* message;  // exact name, or a prefix ending in '*'
+  const char* field;
+  char format;  // the field's format char, or 0 for any
+  double multiplier;
+  const char* unit;
+};
+constexpr ScaleEntry kScaleTable[] = {
+    // CURR (3.3): Volt and Curr in hundredths, Vcc in mV, CurrTot in mAh.
+    {"CURR", "Volt", 0, 0.01, "V"},
+    {"CURR", "Curr", 0, 0.01, "A"},
+    {"CURR", "Vcc", 0, 0.001, "V"},
+    {"CURR", "Volt2", 0, 0.01, "V"},
+    {"CURR", "CurrTot", 0, 1.0, "mAh"},
+    // MAG, MAG2, MAG3: milligauss counts.
+    {"MAG*", "MagX", 0, 0.001, "Gauss"},
+    {"MAG*", "MagY", 0, 0.001, "Gauss"},
+    {"MAG*", "MagZ", 0, 0.001, "Gauss"},
+    {"MAG*", "OfsX", 0, 0.001, "Gauss"},
+    {"MAG*", "OfsY", 0, 0.001, "Gauss"},
+    {"MAG*", "OfsZ", 0, 0.001, "Gauss"},
+    {"MAG*", "MOfsX", 0, 0.001, "Gauss"},
+    {"MAG*", "MOfsY", 0, 0.001, "Gauss"},
+    {"MAG*", "MOfsZ", 0, 0.001, "Gauss"},
+    // Attitude ('c'/'C' already in degrees after the format scale).
+    {"ATT", "Roll", 0, 1.0, "deg"},
+    {"ATT", "Pitch", 0, 1.0, "deg"},
+    {"ATT", "Yaw", 0, 1.0, "deg"},
+    // GPS (3.3): Alt/RelAlt 'e' -> m, Spd 'E' -> m/s, GCrs 'e' -> deg, VZ float m/s (down).
+    {"GPS", "Alt", 'e', 1.0, "m"},
+    {"GPS", "Alt", 'i', 0.01, "m"},  // 3.4-3.6: int32 cm without FMTU
+    {"GPS", "RelAlt", 'e', 1.0, "m"},
+    {"GPS", "RelAlt", 'i', 0.01, "m"},
+    {"GPS", "Spd", 'E', 1.0, "m/s"},
+    {"GPS", "Spd", 'f', 1.0, "m/s"},
+    {"GPS", "GCrs", 0, 1.0, "deg"},
+    {"GPS", "VZ", 0, 1.0, "m/s"},
+    {"GPS", "Lat", 0, 1.0, "deg"},
+    {"GPS", "Lng", 0, 1.0, "deg"},
+    {"BARO", "Alt", 0, 1.0, "m"},
+    {"IMU*", "GyrX", 0, 1.0, "rad/s"},
+    {"IMU*", "GyrY", 0, 1.0, "rad/s"},
+    {"IMU*", "GyrZ", 0, 1.0, "rad/s"},
+    {"IMU*", "AccX", 0, 1.0, "m/s/s"},
+    {"IMU*", "AccY", 0, 1.0, "m/s/s"},
+    {"IMU*", "AccZ", 0, 1.0, "m/s/s"},
+    {"IMU*", "Temp", 0, 1.0, "degC"},
+};
+
+bool NameMatches(const char* pattern, const std::string& name) {
+  const size_t n = std::strlen(pattern);
+  if (n > 0 && pattern[n - 1] == '*') return name.compare(0, n - 1, pattern, n - 1) == 0;
+  return name == pattern;
+}
+
+void ApplyScaleTable(DataFlashFormat* fmt) {
+  for (const auto& e : kScaleTable) {
+    if (!NameMatches(e.message, fmt->name)) continue;
+    const int i = fmt->FieldIndex(e.field);
+    if (i < 0) continue;
+    if (e.format != 0 && fmt->format[static_cast<size_t>(i)] != e.format) continue;
+    fmt->multipliers[static_cast<size_t>(i)] = e.multiplier;
+    fmt->units[static_cast<size_t>(i)] = e.unit;
+  }
+}
+
+bool IsCharScaled(char c) { return DataFlashFormatCharScale(c) != 1.0; }
+
+}  // namespace
+
+int DataFlashFormat::FieldIndex(std::string_view label) const {
+  for (size_t i = 0; i < labels.size(); ++i) {
+    if (labels[i] == label) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+double DataFlashMessage::GetIndex(size_t i) const {
+  if (i >= format_->format.size()) return kNaN;
+  const uint8_t* p = payload_ + format_->offsets[i];
+  const char c = format_->format[i];
+  double v = kNaN;
+  switch (c) {
+    case 'b': v = Load<int8_t>(p); break;
+    case 'B': case 'M': v = Load<uint8_t>(p); break;
+    case 'h': case 'c': v = Load<int16_t>(p); break;
+    case 'H': case 'C': v = Load<uint16_t>(p); break;
+    case 'i': case 'e': case 'L': v = Load<int32_t>(p); break;
+    case 'I': case 'E': v = Load<uint32_t>(p); break;
+    case 'f': v = Load<float>(p); break;
+    case 'd': v = Load<double>(p); break;
+    case 'q': v = static_cast<double>(Load<int64_t>(p)); break;
+    case 'Q': v = static_cast<double>(Load<uint64_t>(p)); break;
+    default: return kNaN;
+  }
+  return v * DataFlashFormatCharScale(c) * format_->multipliers[i];
+}
+
+double DataFlashMessage::Get(std::string_view label) const {
+  const int i = format_->FieldIndex(label);
+  return i < 0 ? kNaN : GetIndex(static_cast<size_t>(i));
+}
+
+int64_t DataFlashMessage::GetRawInt(std::string_view label) const {
+  const int idx = format_->FieldIndex(label);
+  if (idx < 0) return 0;
+  const size_t i = static_cast<size_t>(idx);
+  const uint8_t* p = payload_ + format_->offsets[i];
+  switch (format_->format[i]) {
+    case 'b': return Load<int8_t>(p);
+    case 'B': case 'M': return Load<uint8_t>(p);
+    case 'h': case 'c': return Load<int16_t>(p);
+    case 'H': case 'C': return Load<uint16_t>(p);
+    case 'i': case 'e': case 'L': return Load<int32_t>(p);
+    case 'I': case 'E': return Load<uint32_t>(p);
+    case 'q': return Load<int64_t>(p);
+    case 'Q': return static_cast<int64_t>(Load<uint64_t>(p));
+    default: return 0;
+  }
+}
+
+std::string DataFlashMessage::GetString(std::string_view label) const {
+  const int idx = format_->FieldIndex(label);
+  if (idx < 0) return {};
+  const size_t i = static_cast<size_t>(idx);
+  const char c = format_->format[i];
+  if (!IsTextChar(c)) return {};
+  return FixedString(payload_ + format_->offsets[i], DataFlashFormatCharSize(c));
+}
+
+double DataFlashMessage::BootTime_s() const {
+  if (Has("TimeUS")) return static_cast<double>(GetRawInt("TimeUS")) * 1e-6;
+  if (Has("TimeMS")) return static_cast<double>(GetRawInt("TimeMS")) * 1e-3;
+  return kNaN;
+}
+
+DataFlashReader::DataFlashReader(std::string_view bytes) : bytes_(bytes) {
+  auto fmt = std::make_unique<DataFlashFormat>();
+  fmt->type = kDataFlashFmtType;
+  fmt->length = kDataFlashFmtLength;
+  fmt->name = "FMT";
+  fmt->format = "BBnNZ";
+  fmt->labels = {"Type", "Length", "Name", "Format", "Columns"};
+  fmt->offsets = {0, 1, 2, 6, 22};
+  fmt->multipliers.assign(5, 1.0);
+  fmt->units.assign(5, "");
+  formats_[kDataFlashFmtType] = std::move(fmt);
+}
+
+const DataFlashFormat* DataFlashReader::FormatByType(uint8_t type) const { return formats_[type].get(); }
+
+const DataFlashFormat* DataFlashReader::FormatByName(std::string_view name) const {
+  for (const auto& f : formats_) {
+    if (f && f->name == name) return f.get();
+  }
+  return nullptr;
+}
+
+bool DataFlashReader::HeaderAt(size_t pos) const {
+  return pos + 1 < bytes_.size() && static_cast<uint8_t>(bytes_[pos]) == kDataFlashHead1 &&
+         static_cast<uint8_t>(bytes_[pos + 1]) == kDataFlashHead2;
+}
+
+void DataFlashReader::Skip(size_t n) {
+  pos_ += n;
+  damage_.skipped_bytes += n;
+}
+
+void DataFlashReader::HandleFmt(const uint8_t* payload) {
+  const uint8_t type = payload[0];
+  const size_t length = payload[1];
+  DataFlashFormat fmt;
+  fmt.type = type;
+  fmt.length = length;
+  fmt.name = FixedString(payload + 2, 4);
+  fmt.format = FixedString(payload + 6, 16);
+  const std::string columns = FixedString(payload + 22, 64);
+  if (!columns.empty()) fmt.labels = SplitLabels(columns);  // STRT-like messages have no fields
+  size_t offset = 0;
+  bool ok = PrintableName(fmt.name) && fmt.labels.size() == fmt.format.size();
+  for (char c : fmt.format) {
+    const size_t size = DataFlashFormatCharSize(c);
+    if (size == 0) ok = false;
+    fmt.offsets.push_back(offset);
+    offset += size;
+  }
+  for (const auto& l : fmt.labels) ok = ok && PrintableName(l);
+  // A FMT whose length disagrees with its format chars lies about one of them: trust neither.
+  if (ok && length != offset + 3) ok = false;
+  if (type == kDataFlashFmtType) {
+    // Logs define FMT itself; accept only the layout we already use.
+    if (!(ok && length == kDataFlashFmtLength && fmt.format == "BBnNZ")) ++damage_.bad_formats;
+    return;
+  }
+  if (!ok) {
+    ++damage_.bad_formats;
+    return;
+  }
+  fmt.multipliers.assign(fmt.format.size(), 1.0);
+  fmt.units.assign(fmt.format.size(), "");
+  const bool has_fmtu = fmtu_.count(type) > 0;
+  if (!has_fmtu) ApplyScaleTable(&fmt);
+  formats_[type] = std::make_unique<DataFlashFormat>(std::move(fmt));
+  if (has_fmtu) ApplyUnits(formats_[type].get());
+}
+
+void DataFlashReader::ApplyUnits(DataFlashFormat* fmt) const {
+  const auto found = fmtu_.find(fmt->type);
+  if (found == fmtu_.end()) return;
+  const auto& [unit_ids, mult_ids] = found->second;
+  for (size_t i = 0; i < fmt->format.size(); ++i) {
+    const char c = fmt->format[i];
+    if (i < unit_ids.size()) {
+      const auto id = static_cast<uint8_t>(unit_ids[i]);
+      const auto u = unit_by_id_.find(id);
+      if (u != unit_by_id_.end() && !u->second.empty()) fmt->units[i] = u->second;
+    }
+    if (i < mult_ids.size() && !IsCharScaled(c) && !IsTextChar(c)) {
+      const auto id = static_cast<uint8_t>(mult_ids[i]);
+      // '-' (0: no multiplier) and unknown ids leave the value as stored.
+      const auto mu = mult_by_id_.find(id);
+      if (mu != mult_by_id_.end() && mu->second != 0.0 && std::isfinite(mu->second)) {
+        fmt->multipliers[i] = mu->second;
+      }
+    }
+  }
+}
+
+void DataFlashReader::HandleUnitMessage(const DataFlashFormat& fmt, const uint8_t* payload) {
+  DataFlashMessage m;
+  m.format_ = &fmt;
+  m.payload_ = payload;
+  if (fmt.name == "FMTU") {
+    const int64_t type = m.GetRawInt("FmtType");
+    if (type < 0 || type > 255 || type == kDataFlashFmtType) return;
+    fmtu_[static_cast<uint8_t>(type)] = {m.GetString("UnitIds"), m.GetString("MultIds")};
+    if (DataFlashFormat* target = formats_[static_cast<size_t>(type)].get()) {
+      // FMTU supersedes the built-in scale table for this type.
+      target->multipliers.assign(target->format.size(), 1.0);
+      target->units.assign(target->format.size(), "");
+      ApplyUnits(target);
+    }
+  } else if (fmt.name == "MULT") {
+    const int64_t id = m.GetRawInt("Id");
+    const double mult = m.Get("Mult");
+    if (id < 0 || id > 255) return;
+    mult_by_id_[static_cast<uint8_t>(id)] = mult;
+  } else if (fmt.name == "UNIT") {
+    const int64_t id = m.GetRawInt("Id");
+    if (id < 0 || id > 255) return;
+    unit_by_id_[static_cast<uint8_t>(id)] = m.GetString("Label");
+  }
+}
+
+bool DataFlashReader::Next(DataFlashMessage* message) {
+  const size_t size = bytes_.size();
+  bool in_bad_run = false;
+  while (pos_ < size) {
+    if (!HeaderAt(pos_)) {
+      if (pos_ + 1 >= size && static_cast<uint8_t>(bytes_[pos_]) == kDataFlashHead1) {
+        damage_.truncated_tail_bytes += size - pos_;
+      } else if (!in_bad_run) {
+        ++damage_.bad_header_runs;
+        in_bad_run = true;
+      }
+      Skip(1);
+      continue;
+    }
+    if (pos_ + 3 > size) {  // a header with no type byte
+      damage_.truncated_tail_bytes += size - pos_;
+      Skip(size - pos_);
+      break;
+    }
+    const uint8_t type = static_cast<uint8_t>(bytes_[pos_ + 2]);
+    const DataFlashFormat* fmt_ptr = formats_[type].get();
+    if (!fmt_ptr) {
+      ++damage_.unknown_type_messages;
+      Skip(1);
+      continue;
+    }
+    const DataFlashFormat& fmt = *fmt_ptr;
+    const size_t length = fmt.length;
+    if (pos_ + length > size) {
+      // Either a real message cut by the end of the file, or garbage that looks like a header.
+      // Look for a later header before deciding.
+      size_t next = pos_ + 1;
+      while (next < size && !HeaderAt(next)) ++next;
+      if (next >= size) {
+        damage_.truncated_tail_bytes += size - pos_;
+        Skip(size - pos_);
+        break;
+      }
+      ++damage_.misaligned_messages;
+      Skip(1);
+      continue;
+    }
+    // Accept only when the next header (or the end of the file) follows: this catches a FMT that
+    // lies about its length and headers that are really payload bytes.
+    const size_t end = pos_ + length;
+    if (end != size && !HeaderAt(end)) {
+      // A message cut by the end of the file, one byte short of a header, is still good.
+      const bool tail_fragment = end + 1 == size && static_cast<uint8_t>(bytes_[end]) == kDataFlashHead1;
+      if (!tail_fragment) {
+        ++damage_.misaligned_messages;
+        Skip(1);
+        continue;
+      }
+    }
+    const uint8_t* payload = reinterpret_cast<const uint8_t*>(bytes_.data()) + pos_ + 3;
+    const size_t offset = pos_;
+    pos_ = end;
+    if (type == kDataFlashFmtType) {
+      HandleFmt(payload);
+    } else if (fmt.name == "FMTU" || fmt.name == "MULT" || fmt.name == "UNIT") {
+      HandleUnitMessage(fmt, payload);
+    }
+    message->format_ = formats_[type].get();
+    message->payload_ = payload;
+    message->file_offset_ = offset;
+    return true;
+  }
+  return false;
+}
+
+}  // namespace hexsim::logs

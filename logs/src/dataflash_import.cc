@@ -1,0 +1,751 @@
+#include "hexsim/logs/dataflash_import.h"
+
+#include <algorithm>
+#include <cmath>
+#include <ctime>
+#include <initializer_list>
+#include <map>
+#include <optional>
+
+#include <fmt/format.h>
+
+#include "hexsim/common/atomic_file.h"
+#include "hexsim/common/rotation.h"
+
+namespace hexsim::logs {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kUTPerGauss = 100.0;   // 1 G = 100 µT
+constexpr double kUTPerMilliGauss = 0.1;
+constexpr double kThrottleScale = 1000.0;  // control_u: 0..1000
+constexpr int kGps3dFix = 3;
+// WGS-84.
+constexpr double kWgs84A_m = 6378137.0;
+constexpr double kWgs84E2 = 6.69437999014e-3;
+// GPS epoch 1980-01-06 in Unix seconds.
+constexpr double kGpsEpochUnix_s = 315964800.0;
+constexpr double kSecondsPerWeek = 604800.0;
+
+// A sample-and-hold channel: its samples in time order, each with `columns.size()` values.
+struct Channel {
+  std::string t_column;
+  std::vector<std::string> columns;
+  std::vector<double> t;
+  std::vector<double> values;
+  size_t dropped = 0;  // samples with damaged time (see Finalize)
+
+  Channel(std::string t_col, std::vector<std::string> cols) : t_column(std::move(t_col)), columns(std::move(cols)) {}
+  size_t size() const { return t.size(); }
+  double At(size_t sample, size_t col) const { return values[sample * columns.size() + col]; }
+  template <class Values>
+  void AddValues(double time_s, const Values& v) {
+    if (!std::isfinite(time_s)) {
+      ++dropped;
+      return;
+    }
+    t.push_back(time_s);
+    auto it = v.begin();
+    for (size_t i = 0; i < columns.size(); ++i) values.push_back(it != v.end() ? *it++ : kNaN);
+  }
+  void Add(double time_s, std::initializer_list<double> v) { AddValues(time_s, v); }
+  void Add(double time_s, const std::vector<double>& v) { AddValues(time_s, v); }
+  // Drops samples whose time is damaged, keeping time non-decreasing: a sample later than both
+  // of its next two (an upward spike), or earlier than the last kept one.
+  void Finalize() {
+    const size_t n = t.size(), w = columns.size();
+    std::vector<double> nt, nv;
+    double last = -std::numeric_limits<double>::infinity();
+    for (size_t i = 0; i < n; ++i) {
+      const bool spike = i + 1 < n && t[i] > t[i + 1] && (i + 2 >= n || t[i] > t[i + 2]);
+      if (spike || t[i] < last) {
+        ++dropped;
+        continue;
+      }
+      last = t[i];
+      nt.push_back(t[i]);
+      nv.insert(nv.end(), values.begin() + static_cast<std::ptrdiff_t>(i * w),
+                values.begin() + static_cast<std::ptrdiff_t>((i + 1) * w));
+    }
+    t.swap(nt);
+    values.swap(nv);
+  }
+};
+
+// Instance of a multi-instance message: MAG2 -> 1, or its instance column (I / Inst / C) when present.
+int InstanceOf(const DataFlashMessage& m, const std::string& base) {
+  for (const char* col : {"I", "Inst", "Instance", "C"}) {
+    if (m.Has(col)) return static_cast<int>(m.GetRawInt(col));
+  }
+  if (m.name() == base) return 0;
+  const std::string suffix = m.name().substr(base.size());
+  if (suffix.size() == 1 && suffix[0] >= '2' && suffix[0] <= '9') return suffix[0] - '1';
+  return -1;
+}
+
+bool StartsWith(const std::string& s, const std::string& prefix) { return s.compare(0, prefix.size(), prefix) == 0; }
+
+// Log text as printable ASCII (damaged bytes become '?'), so JSON output stays valid UTF-8.
+std::string Printable(const std::string& s) {
+  std::string out = s;
+  for (char& ch : out) {
+    if (ch < 0x20 || ch > 0x7e) ch = '?';
+  }
+  return out;
+}
+
+// Magnetic field value in µT from a decoded MAG field (Gauss when the unit is known, else mG counts).
+double MagToMicroTesla(const DataFlashMessage& m, const char* field) {
+  const int i = m.format().FieldIndex(field);
+  if (i < 0) return kNaN;
+  const double v = m.GetIndex(static_cast<size_t>(i));
+  const std::string& unit = m.format().units[static_cast<size_t>(i)];
+  if (unit == "Gauss" || unit == "G") return v * kUTPerGauss;
+  if (unit == "mGauss" || unit == "mG") return v * kUTPerMilliGauss;
+  return v * kUTPerMilliGauss;  // older logs without units: milligauss counts
+}
+
+double Clamp01(double x) { return std::isfinite(x) ? std::clamp(x, 0.0, 1.0) : kNaN; }
+
+// Motors of a frame named in the "Frame: QUAD" message.
+int MotorsForFrameName(const std::string& frame) {
+  static const std::pair<const char*, int> kFrames[] = {
+      {"OCTA_QUAD", 8}, {"OCTAQUAD", 8}, {"DODECA", 12}, {"QUAD", 4}, {"HEXA", 6}, {"OCTA", 8},
+      {"Y6", 6}, {"TRI", 3}, {"DECA", 10}};
+  for (const auto& [name, n] : kFrames) {
+    if (frame.find(name) != std::string::npos) return n;
+  }
+  return 0;
+}
+
+// Motors of FRAME_CLASS (ArduCopter 3.5+).
+int MotorsForFrameClass(int frame_class) {
+  switch (frame_class) {
+    case 1: return 4;
+    case 2: return 6;
+    case 3: return 8;
+    case 4: return 8;
+    case 5: return 6;
+    case 7: return 3;
+    case 12: return 12;
+    case 14: return 10;
+    default: return 0;
+  }
+}
+
+int64_t DaysFromCivil(int64_t y, unsigned m, unsigned d) {
+  y -= m <= 2;
+  const int64_t era = (y >= 0 ? y : y - 399) / 400;
+  const unsigned yoe = static_cast<unsigned>(y - era * 400);
+  const unsigned doy = (153 * (m + (m > 2 ? -3 : 9)) + 2) / 5 + d - 1;
+  const unsigned doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
+  return era * 146097 + static_cast<int64_t>(doe) - 719468;
+}
+
+// GPS - UTC leap seconds at a GPS time (table to 2017; none announced since).
+double LeapSeconds(double gps_s) {
+  const double unix_s = gps_s + kGpsEpochUnix_s;
+  struct Step { int64_t y; unsigned m; double leap; };
+  static const Step kSteps[] = {{2017, 1, 18}, {2015, 7, 17}, {2012, 7, 16}, {2009, 1, 15}, {2006, 1, 14}};
+  for (const auto& s : kSteps) {
+    if (unix_s >= static_cast<double>(DaysFromCivil(s.y, s.m, 1)) * 86400.0) return s.leap;
+  }
+  return 13.0;
+}
+
+double UnixFromGps(int week, double tow_s) {
+  const double gps_s = week * kSecondsPerWeek + tow_s;
+  return gps_s + kGpsEpochUnix_s - LeapSeconds(gps_s);
+}
+
+std::string IsoUtc(double unix_s) {
+  const std::time_t t = static_cast<std::time_t>(std::floor(unix_s));
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return kNaN;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+nlohmann::json DamageJson(const DataFlashDamage& d) {
+  return {{"skipped_bytes", d.skipped_bytes},
+          {"bad_header_runs", d.bad_header_runs},
+          {"unknown_type_messages", d.unknown_type_messages},
+          {"bad_formats", d.bad_formats},
+          {"misaligned_messages", d.misaligned_messages},
+          {"truncated_tail_bytes", d.truncated_tail_bytes}};
+}
+
+// Everything the first pass collects.
+struct Collected {
+  std::map<std::string, double> params;
+  std::vector<std::string> texts;
+  Channel att{"", {"roll_deg", "pitch_deg", "yaw_deg"}};
+  Channel imu{"imu_t_s", {"gyro_x_radps", "gyro_y_radps", "gyro_z_radps", "accel_x_mps2", "accel_y_mps2",
+                          "accel_z_mps2", "imu_temp_C"}};
+  std::vector<Channel> mags;  // mag, mag2, mag3
+  Channel batt{"batt_t_s", {"current_A", "voltage_V"}};
+  Channel rcou{"rcou_t_s", {}};  // raw PWM, converted later
+  Channel ctun{"ctun_t_s", {"control_u"}};
+  Channel gps{"gps_t_s", {"lat_deg", "lon_deg", "alt_m", "gps_vel_N_mps", "gps_vel_E_mps", "gps_vel_D_mps"}};
+  Channel baro{"baro_t_s", {"baro_alt_m"}};
+  std::map<std::string, Channel> ekf;  // by message name
+  Channel mode{"", {"mode"}};
+  Channel waypoint{"", {"waypoint_index"}};
+  std::optional<nlohmann::json> first_fix;
+  std::optional<nlohmann::json> home;
+  int gps_week = -1;
+  double gps_tow_s = kNaN;
+  std::vector<double> mag_mot_nonzero = {0, 0, 0};
+  size_t messages = 0;
+};
+
+Channel MakeMagChannel(const std::string& prefix) {
+  return Channel(prefix + "_t_s", {prefix + "_x_uT", prefix + "_y_uT", prefix + "_z_uT", prefix + "_mot_x_uT",
+                                   prefix + "_mot_y_uT", prefix + "_mot_z_uT"});
+}
+
+double GpsBootTime_s(const DataFlashMessage& m) {
+  if (m.Has("TimeUS")) return m.BootTime_s();
+  if (m.Has("T")) return static_cast<double>(m.GetRawInt("T")) * 1e-3;  // 3.3: TimeMS is GPS time of week
+  if (m.Has("Week")) return kNaN;                                      // no boot time at all
+  return m.BootTime_s();
+}
+
+void CollectMessage(const DataFlashMessage& m, Collected* c) {
+  const std::string& name = m.name();
+  ++c->messages;
+  if (name == "PARM") {
+    const std::string pname = Printable(m.GetString("Name"));
+    const double v = m.Get("Value");
+    if (!pname.empty() && std::isfinite(v)) c->params[pname] = v;
+  } else if (name == "MSG") {
+    if (c->texts.size() < 64) c->texts.push_back(Printable(m.GetString("Message")));
+  } else if (name == "ATT") {
+    c->att.Add(m.BootTime_s(), {m.Get("Roll"), m.Get("Pitch"), m.Get("Yaw")});
+  } else if (StartsWith(name, "IMU") && (name.size() == 3 || name.size() == 4)) {
+    if (InstanceOf(m, "IMU") != 0) return;
+    c->imu.Add(m.BootTime_s(), {m.Get("GyrX"), m.Get("GyrY"), m.Get("GyrZ"), m.Get("AccX"), m.Get("AccY"),
+                                m.Get("AccZ"), m.Has("Temp") ? m.Get("Temp") : m.Get("T")});
+  } else if (StartsWith(name, "MAG") && (name.size() == 3 || name.size() == 4)) {
+    const int inst = InstanceOf(m, "MAG");
+    if (inst < 0 || inst > 2) return;
+    const size_t k = static_cast<size_t>(inst);
+    const double mx = MagToMicroTesla(m, m.Has("MOfsX") ? "MOfsX" : "MOX");
+    const double my = MagToMicroTesla(m, m.Has("MOfsY") ? "MOfsY" : "MOY");
+    const double mz = MagToMicroTesla(m, m.Has("MOfsZ") ? "MOfsZ" : "MOZ");
+    if ((std::isfinite(mx) && mx != 0) || (std::isfinite(my) && my != 0) || (std::isfinite(mz) && mz != 0)) {
+      c->mag_mot_nonzero[k] = 1;
+    }
+    c->mags[k].Add(m.BootTime_s(), {MagToMicroTesla(m, "MagX"), MagToMicroTesla(m, "MagY"),
+                                    MagToMicroTesla(m, "MagZ"), mx, my, mz});
+  } else if (name == "CURR" || name == "BAT" || name == "BATT") {
+    if (name != "CURR" && InstanceOf(m, name) > 0) return;
+    c->batt.Add(m.BootTime_s(), {m.Get("Curr"), m.Get("Volt")});
+  } else if (name == "RCOU") {
+    // Output channels: C1..C14 (3.4+) or Ch1..Ch14 (3.3), looked up once.
+    static const std::vector<std::pair<std::string, std::string>> kLabels = [] {
+      std::vector<std::pair<std::string, std::string>> v;
+      for (int i = 1; i <= 14; ++i) v.emplace_back(fmt::format("C{}", i), fmt::format("Ch{}", i));
+      return v;
+    }();
+    if (c->rcou.columns.empty()) {
+      for (size_t i = 0; i < kLabels.size(); ++i) {
+        if (m.Has(kLabels[i].first) || m.Has(kLabels[i].second)) c->rcou.columns.push_back(fmt::format("pwm_{}", i + 1));
+      }
+      if (c->rcou.columns.empty()) return;
+    }
+    double pwm[14];
+    const size_t n = std::min<size_t>(c->rcou.columns.size(), 14);
+    for (size_t i = 0; i < n; ++i) {
+      pwm[i] = m.Has(kLabels[i].first) ? m.Get(kLabels[i].first) : m.Get(kLabels[i].second);
+    }
+    c->rcou.AddValues(m.BootTime_s(), std::vector<double>(pwm, pwm + n));
+  } else if (name == "CTUN") {
+    double u = kNaN;
+    if (m.Has("ThrOut")) {
+      u = m.Get("ThrOut");  // 3.x: 0..1000
+    } else if (m.Has("ThO")) {
+      u = m.Get("ThO") * kThrottleScale;  // 3.4+: 0..1
+    }
+    c->ctun.Add(m.BootTime_s(), {u});
+  } else if (name == "GPS") {
+    if (m.Has("I") && m.GetRawInt("I") != 0) return;
+    if (m.GetRawInt("Status") < kGps3dFix) return;
+    const double lat = m.Get("Lat"), lon = m.Get("Lng"), alt = m.Get("Alt");
+    if (!std::isfinite(lat) || !std::isfinite(lon) || std::fabs(lat) > 90 || std::fabs(lon) > 180 ||
+        (lat == 0 && lon == 0)) {
+      return;
+    }
+    const double spd = m.Get("Spd"), crs = m.Get("GCrs") * kDegToRad;
+    const double t = GpsBootTime_s(m);
+    c->gps.Add(t, {lat, lon, alt, spd * std::cos(crs), spd * std::sin(crs), m.Get("VZ")});
+    if (!c->first_fix && std::isfinite(t)) {
+      c->first_fix = nlohmann::json{{"lat_deg", lat}, {"lon_deg", lon}, {"alt_m", alt}, {"t_s", t}};
+      const bool old = m.Has("Week");
+      c->gps_week = static_cast<int>(m.GetRawInt(old ? "Week" : "GWk"));
+      c->gps_tow_s = static_cast<double>(m.GetRawInt(old ? "TimeMS" : "GMS")) * 1e-3;
+    }
+  } else if (name == "BARO") {
+    if (m.Has("I") && m.GetRawInt("I") != 0) return;
+    c->baro.Add(m.BootTime_s(), {m.Get("Alt")});
+  } else if (name == "EKF1" || name == "NKF1" || name == "XKF1") {
+    if (m.Has("C") && m.GetRawInt("C") != 0) return;
+    auto it = c->ekf.find(name);
+    if (it == c->ekf.end()) {
+      it = c->ekf.emplace(name, Channel("ekf_t_s", {"pos_N_m", "pos_E_m", "pos_D_m", "vel_N_mps", "vel_E_mps",
+                                                    "vel_D_mps"})).first;
+    }
+    it->second.Add(m.BootTime_s(), {m.Get("PN"), m.Get("PE"), m.Get("PD"), m.Get("VN"), m.Get("VE"), m.Get("VD")});
+  } else if (name == "MODE") {
+    c->mode.Add(m.BootTime_s(), {m.Has("ModeNum") ? m.Get("ModeNum") : m.Get("Mode")});
+  } else if (name == "CMD") {
+    const double seq = m.Get("CNum");
+    c->waypoint.Add(m.BootTime_s(), {seq});
+    if (seq == 0 && !c->home) {
+      const double lat = m.Get("Lat"), lon = m.Get("Lng"), alt = m.Get("Alt");
+      if (std::isfinite(lat) && std::isfinite(lon) && std::isfinite(alt)) {
+        c->home = nlohmann::json{{"lat_deg", lat}, {"lon_deg", lon}, {"alt_m", alt}, {"source", "CMD 0 (home)"}};
+      }
+    }
+  }
+}
+
+std::optional<double> Param(const Collected& c, const std::string& name) {
+  auto it = c.params.find(name);
+  if (it == c.params.end()) return std::nullopt;
+  return it->second;
+}
+
+// Adds a channel's held samples to the log (columns only when the channel has samples).
+void AddHeld(const Channel& ch, const std::vector<size_t>& cols_to_use, FlightLog* log) {
+  if (ch.size() == 0) return;
+  std::vector<size_t> out_cols;
+  for (size_t c : cols_to_use) out_cols.push_back(log->AddColumn(ch.columns[c]));
+  const bool has_t = !ch.t_column.empty();
+  const size_t t_col = has_t ? log->AddColumn(ch.t_column) : 0;
+  const auto& t_rows = log->Column("t_s");
+  size_t next = 0;
+  for (size_t r = 0; r < log->rows(); ++r) {
+    while (next < ch.size() && ch.t[next] <= t_rows[r]) ++next;
+    if (next == 0) continue;
+    const size_t s = next - 1;
+    for (size_t k = 0; k < cols_to_use.size(); ++k) {
+      const double v = ch.At(s, cols_to_use[k]);
+      log->MutableColumn(out_cols[k])[r] = std::isfinite(v) ? v : kMissing;
+    }
+    if (has_t) log->MutableColumn(t_col)[r] = ch.t[s];
+  }
+}
+
+std::vector<size_t> AllColumns(const Channel& ch) {
+  std::vector<size_t> v(ch.columns.size());
+  for (size_t i = 0; i < v.size(); ++i) v[i] = i;
+  return v;
+}
+
+std::string FirmwareOf(const std::vector<std::string>& texts) {
+  for (const auto& t : texts) {
+    if (t.find("APM:") != std::string::npos || t.find("Ardu") != std::string::npos ||
+        t.find("ArduPilot") != std::string::npos) {
+      return t;
+    }
+  }
+  return "";
+}
+
+std::string VehicleTypeOf(const std::string& firmware) {
+  if (firmware.find("Copter") != std::string::npos) return "copter";
+  if (firmware.find("Plane") != std::string::npos) return "plane";
+  if (firmware.find("Rover") != std::string::npos) return "rover";
+  if (firmware.find("Sub") != std::string::npos) return "sub";
+  return "unknown";
+}
+
+std::string FrameNameOf(const std::vector<std::string>& texts) {
+  for (const auto& t : texts) {
+    if (StartsWith(t, "Frame: ")) return t.substr(7);
+  }
+  return "";
+}
+
+nlohmann::json ParamsOfInterest(const std::map<std::string, double>& params) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [k, v] : params) {
+    if (IsParameterOfInterest(k)) j[k] = v;
+  }
+  return j;
+}
+
+// The meta's description of compass instance k (0-based) from its parameters.
+nlohmann::json CompassMeta(const Collected& c, size_t k, const std::string& prefix) {
+  const std::string n = k == 0 ? "" : std::to_string(k + 1);
+  auto p = [&](const std::string& name) -> nlohmann::json {
+    auto v = Param(c, name);
+    return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
+  };
+  auto vec = [&](const std::string& base) -> nlohmann::json {
+    auto x = Param(c, base + "_X"), y = Param(c, base + "_Y"), z = Param(c, base + "_Z");
+    if (!x || !y || !z) return nullptr;
+    return nlohmann::json::array({*x, *y, *z});
+  };
+  nlohmann::json j;
+  j["column"] = prefix;
+  j["instance"] = k + 1;
+  const auto ext = Param(c, k == 0 ? "COMPASS_EXTERNAL" : "COMPASS_EXTERN" + n);
+  j["external"] = ext ? nlohmann::json(*ext != 0) : nlohmann::json(nullptr);
+  j["orientation"] = p("COMPASS_ORIENT" + n);
+  const auto use = Param(c, "COMPASS_USE" + n);
+  j["use"] = use ? nlohmann::json(*use != 0) : nlohmann::json(nullptr);
+  j["offsets_mG"] = vec("COMPASS_OFS" + n);
+  j["diagonals"] = vec("COMPASS_DIA" + n);
+  j["offdiagonals"] = vec("COMPASS_ODI" + n);
+  j["scale"] = p("COMPASS_SCALE" + n);
+  j["motor_compensation_mG"] = vec("COMPASS_MOT" + n);
+  j["dev_id"] = p("COMPASS_DEV_ID" + n);
+  const auto ofs = Param(c, "COMPASS_OFS" + n + "_X");
+  const bool calibrated = ofs && (*ofs != 0 || Param(c, "COMPASS_OFS" + n + "_Y").value_or(0) != 0 ||
+                                  Param(c, "COMPASS_OFS" + n + "_Z").value_or(0) != 0);
+  j["offsets_set"] = calibrated;
+  j["motor_offset_columns"] = c.mag_mot_nonzero[k] != 0
+                                  ? nlohmann::json::array({prefix + "_mot_x_uT", prefix + "_mot_y_uT", prefix + "_mot_z_uT"})
+                                  : nlohmann::json("all zero: not written");
+  return j;
+}
+
+}  // namespace
+
+bool IsParameterOfInterest(const std::string& n) {
+  static const char* kPrefixes[] = {"COMPASS_", "MOT_PWM_", "RC3_", "BATT", "FRAME", "AHRS_ORIENTATION",
+                                    "MOT_SPIN_", "MOT_THST_", "INS_GYROFFS", "INS_ACCOFFS"};
+  for (const char* p : kPrefixes) {
+    if (StartsWith(n, p)) return true;
+  }
+  return false;
+}
+
+double DecimalYearFromGps(int week, double tow_s) {
+  const double unix_s = UnixFromGps(week, tow_s);
+  const std::time_t t = static_cast<std::time_t>(std::floor(unix_s));
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  const int64_t year = tm.tm_year + 1900;
+  const double start = static_cast<double>(DaysFromCivil(year, 1, 1)) * 86400.0;
+  const double end = static_cast<double>(DaysFromCivil(year + 1, 1, 1)) * 86400.0;
+  return static_cast<double>(year) + (unix_s - start) / (end - start);
+}
+
+Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string& name,
+                                     const ImportOptions& options) {
+  if (bytes.empty()) return Status::BadInput(name + ": empty file");
+  Collected c;
+  c.mags = {MakeMagChannel("mag"), MakeMagChannel("mag2"), MakeMagChannel("mag3")};
+  DataFlashReader reader(bytes);
+  DataFlashMessage m;
+  size_t data_messages = 0;
+  while (reader.Next(&m)) {
+    if (m.type() != kDataFlashFmtType) ++data_messages;
+    CollectMessage(m, &c);
+  }
+  if (data_messages == 0) {
+    return Status::BadInput(fmt::format("{}: not an ArduPilot DataFlash log: no readable messages ({} bytes skipped)",
+                                        name, reader.damage().skipped_bytes));
+  }
+  // Rows need a finite attitude.
+  {
+    Channel att = c.att;
+    c.att = Channel("", att.columns);
+    for (size_t i = 0; i < att.size(); ++i) {
+      if (std::isfinite(att.At(i, 0)) && std::isfinite(att.At(i, 1)) && std::isfinite(att.At(i, 2))) {
+        c.att.Add(att.t[i], {att.At(i, 0), att.At(i, 1), att.At(i, 2)});
+      } else {
+        ++c.att.dropped;
+      }
+    }
+    c.att.dropped += att.dropped;
+  }
+  for (Channel* ch : {&c.att, &c.imu, &c.batt, &c.rcou, &c.ctun, &c.gps, &c.baro, &c.mode, &c.waypoint}) ch->Finalize();
+  for (auto& ch : c.mags) ch.Finalize();
+  for (auto& [n, ch] : c.ekf) ch.Finalize();
+  if (c.att.size() == 0) return Status::BadInput(name + ": ATT: no attitude messages, so no rows to import");
+  const std::vector<double>& att_t = c.att.t;
+
+  ImportResult result;
+  result.damage = reader.damage();
+  result.rows_dropped = c.att.dropped;
+  FlightLog& log = result.log;
+
+  // Rows: one per ATT sample.
+  const size_t t_col = log.AddColumn("t_s");
+  for (size_t i = 0; i < att_t.size(); ++i) {
+    log.AppendRow();
+    log.Set(t_col, att_t[i]);
+  }
+  // Truth position/velocity (the autopilot's EKF) come right after t_s, as in the schema.
+  const Channel* ekf = nullptr;
+  std::string ekf_name;
+  for (const char* n : {"XKF1", "NKF1", "EKF1"}) {
+    auto it = c.ekf.find(n);
+    if (it != c.ekf.end() && it->second.size() > 0) {
+      ekf = &it->second;
+      ekf_name = n;
+      break;
+    }
+  }
+  if (ekf) AddHeld(*ekf, AllColumns(*ekf), &log);
+
+  const size_t qw = log.AddColumn("q_w"), qx = log.AddColumn("q_x"), qy = log.AddColumn("q_y"),
+               qz = log.AddColumn("q_z");
+  Eigen::Quaterniond prev(1, 0, 0, 0);
+  for (size_t r = 0; r < log.rows(); ++r) {
+    Eigen::Quaterniond q =
+        QuatFromEuler(c.att.At(r, 0) * kDegToRad, c.att.At(r, 1) * kDegToRad, c.att.At(r, 2) * kDegToRad).normalized();
+    if ((r == 0 && q.w() < 0) || (r > 0 && q.dot(prev) < 0)) q.coeffs() = -q.coeffs();  // w >= 0 first, then continuous
+    prev = q;
+    log.MutableColumn(qw)[r] = q.w();
+    log.MutableColumn(qx)[r] = q.x();
+    log.MutableColumn(qy)[r] = q.y();
+    log.MutableColumn(qz)[r] = q.z();
+  }
+  AddHeld(c.imu, AllColumns(c.imu), &log);
+  // Compasses; motor-offset columns only when the log has any non-zero.
+  const char* mag_prefix[] = {"mag", "mag2", "mag3"};
+  for (size_t k = 0; k < 3; ++k) {
+    std::vector<size_t> cols = {0, 1, 2};
+    if (c.mag_mot_nonzero[k] != 0) cols.insert(cols.end(), {3, 4, 5});
+    AddHeld(c.mags[k], cols, &log);
+  }
+  AddHeld(c.baro, AllColumns(c.baro), &log);
+
+  // GPS relative to the first 3-D fix (flat Earth about that point, WGS-84 radii).
+  if (c.gps.size() > 0) {
+    const double lat0 = c.gps.At(0, 0), lon0 = c.gps.At(0, 1), alt0 = c.gps.At(0, 2);
+    const double s = std::sin(lat0 * kDegToRad);
+    const double den = 1.0 - kWgs84E2 * s * s;
+    const double r_n = kWgs84A_m * (1.0 - kWgs84E2) / (den * std::sqrt(den));
+    const double r_e = kWgs84A_m / std::sqrt(den);
+    Channel g("gps_t_s", {"gps_N_m", "gps_E_m", "gps_D_m", "gps_vel_N_mps", "gps_vel_E_mps", "gps_vel_D_mps"});
+    for (size_t i = 0; i < c.gps.size(); ++i) {
+      const double dlat = (c.gps.At(i, 0) - lat0) * kDegToRad;
+      const double dlon = WrapPi((c.gps.At(i, 1) - lon0) * kDegToRad);
+      g.Add(c.gps.t[i], {dlat * (r_n + alt0), dlon * (r_e + alt0) * std::cos(lat0 * kDegToRad),
+                         -(c.gps.At(i, 2) - alt0), c.gps.At(i, 3), c.gps.At(i, 4), c.gps.At(i, 5)});
+    }
+    AddHeld(g, AllColumns(g), &log);
+  }
+  AddHeld(c.ctun, AllColumns(c.ctun), &log);
+  AddHeld(c.batt, AllColumns(c.batt), &log);
+
+  // Motors: PWM -> 0..1.
+  const std::vector<std::string> texts = c.texts;
+  const std::string frame_name = FrameNameOf(texts);
+  int motors = 0;
+  std::string motors_source;
+  if (auto fc = Param(c, "FRAME_CLASS"); fc && MotorsForFrameClass(static_cast<int>(*fc)) > 0) {
+    motors = MotorsForFrameClass(static_cast<int>(*fc));
+    motors_source = "FRAME_CLASS";
+  } else if (MotorsForFrameName(frame_name) > 0) {
+    motors = MotorsForFrameName(frame_name);
+    motors_source = "MSG Frame: " + frame_name;
+  }
+  double pwm_min = 1000.0, pwm_max = 2000.0;
+  std::string pwm_source = "default 1000..2000";
+  if (options.pwm_min_us > 0 && options.pwm_max_us > options.pwm_min_us) {
+    pwm_min = options.pwm_min_us;
+    pwm_max = options.pwm_max_us;
+    pwm_source = "import option";
+  } else if (Param(c, "MOT_PWM_MIN").value_or(0) > 0 && Param(c, "MOT_PWM_MAX").value_or(0) > *Param(c, "MOT_PWM_MIN")) {
+    pwm_min = *Param(c, "MOT_PWM_MIN");
+    pwm_max = *Param(c, "MOT_PWM_MAX");
+    pwm_source = "MOT_PWM_MIN/MAX";
+  } else if (Param(c, "RC3_MIN").value_or(0) > 0 && Param(c, "RC3_MAX").value_or(0) > *Param(c, "RC3_MIN")) {
+    pwm_min = *Param(c, "RC3_MIN");
+    pwm_max = *Param(c, "RC3_MAX");
+    pwm_source = "RC3_MIN/MAX";
+  }
+  if (c.rcou.size() > 0) {
+    const size_t n = motors > 0 ? std::min<size_t>(static_cast<size_t>(motors), c.rcou.columns.size())
+                                : c.rcou.columns.size();
+    if (motors == 0) motors_source = "all RCOU channels (frame unknown)";
+    Channel u("rcou_t_s", {});
+    for (size_t i = 0; i < n; ++i) u.columns.push_back(fmt::format("motor_{}_u", i + 1));
+    for (size_t s = 0; s < c.rcou.size(); ++s) {
+      std::vector<double> v;
+      for (size_t i = 0; i < n; ++i) v.push_back(Clamp01((c.rcou.At(s, i) - pwm_min) / (pwm_max - pwm_min)));
+      u.Add(c.rcou.t[s], v);
+    }
+    AddHeld(u, AllColumns(u), &log);
+  }
+  if (ekf) {
+    Channel est("", {"est_pos_N_m", "est_pos_E_m", "est_pos_D_m", "est_vel_N_mps", "est_vel_E_mps", "est_vel_D_mps"});
+    est.t = ekf->t;
+    est.values = ekf->values;
+    AddHeld(est, AllColumns(est), &log);
+  }
+  const size_t yaw_col = log.AddColumn("yaw_true_deg");
+  for (size_t r = 0; r < log.rows(); ++r) log.MutableColumn(yaw_col)[r] = WrapDeg180(c.att.At(r, 2));
+  AddHeld(c.mode, AllColumns(c.mode), &log);
+  AddHeld(c.waypoint, AllColumns(c.waypoint), &log);
+
+  // Meta.
+  nlohmann::json& meta = log.meta;
+  const std::string firmware = FirmwareOf(texts);
+  meta["schema"] = "hexsim.log_meta/1";
+  meta["source"] = name;
+  meta["format"] = "ardupilot-dataflash";
+  meta["firmware"] = firmware;
+  meta["vehicle_type"] = VehicleTypeOf(firmware);
+  meta["frame"] = frame_name;
+  meta["motor_count"] = motors;
+  meta["motor_count_source"] = motors_source;
+  meta["messages_text"] = texts;
+  const double t0 = att_t.front(), t1 = att_t.back();
+  std::vector<double> dt;
+  for (size_t i = 1; i < att_t.size(); ++i) dt.push_back(att_t[i] - att_t[i - 1]);
+  const double median_dt = Median(dt);
+  meta["time"] = {{"start_s", t0}, {"end_s", t1}, {"duration_s", t1 - t0}, {"base", "seconds since autopilot boot"}};
+  meta["rows"] = log.rows();
+  meta["row_source"] = "ATT";
+  meta["row_rate_hz"] = median_dt > 0 ? 1.0 / median_dt : kNaN;
+  meta["mean_row_rate_hz"] = t1 > t0 ? static_cast<double>(log.rows() - 1) / (t1 - t0) : kNaN;
+  meta["sampling"] = "one row per ATT sample; other channels sample-and-hold (latest sample at or before the row), "
+                     "<channel>_t_s = time of the held sample";
+  meta["attitude_source"] = "ATT Roll/Pitch/Yaw: the autopilot's own attitude estimate";
+  meta["position_source"] = ekf ? ekf_name + " PN/PE/PD, VN/VE/VD (autopilot EKF, core 0): pos_*/vel_* and est_*"
+                                : "none";
+  meta["gps_reference"] = "first 3-D fix (gps_N/E/D = 0 there)";
+  meta["motor_pwm_range_us"] = {{"min", pwm_min}, {"max", pwm_max}, {"source", pwm_source}};
+  meta["compass_units"] = "uT, as logged by the autopilot (offsets and, where the firmware applies them, "
+                          "COMPASS_DIA/ODI and motor compensation included)";
+  if (c.first_fix) {
+    meta["location"] = *c.first_fix;
+    meta["location"]["source"] = "first GPS 3-D fix";
+  } else if (c.home) {
+    meta["location"] = *c.home;
+  }
+  if (c.home) meta["home"] = *c.home;
+  if (c.gps_week > 0 && std::isfinite(c.gps_tow_s)) {
+    meta["date_decimal_year"] = DecimalYearFromGps(c.gps_week, c.gps_tow_s);
+    meta["date_utc"] = IsoUtc(UnixFromGps(c.gps_week, c.gps_tow_s));
+    meta["gps_week"] = c.gps_week;
+  }
+  nlohmann::json compasses = nlohmann::json::array();
+  std::string external;
+  for (size_t k = 0; k < 3; ++k) {
+    if (c.mags[k].size() == 0) continue;
+    compasses.push_back(CompassMeta(c, k, mag_prefix[k]));
+    if (compasses.back()["external"] == true && external.empty()) external = mag_prefix[k];
+  }
+  meta["compasses"] = compasses;
+  meta["external_compass"] = external.empty() ? nlohmann::json(nullptr) : nlohmann::json(external);
+  if (auto motct = Param(c, "COMPASS_MOTCT")) meta["compass_motct"] = *motct;
+  meta["params"] = ParamsOfInterest(c.params);
+  nlohmann::json damage = DamageJson(result.damage);
+  damage["rows_dropped"] = result.rows_dropped;
+  size_t samples_dropped = c.imu.dropped + c.batt.dropped + c.rcou.dropped + c.ctun.dropped + c.gps.dropped +
+                           c.baro.dropped + c.mode.dropped + c.waypoint.dropped;
+  for (const auto& mc : c.mags) samples_dropped += mc.dropped;
+  for (const auto& [n, e] : c.ekf) samples_dropped += e.dropped;
+  damage["samples_dropped"] = samples_dropped;
+  meta["damage"] = damage;
+  return result;
+}
+
+Result<ImportResult> ImportDataFlashFile(const std::string& path, const ImportOptions& options) {
+  auto bytes = ReadFile(path);
+  if (!bytes.ok()) return bytes.status();
+  const size_t slash = path.find_last_of('/');
+  auto result = ImportDataFlash(*bytes, path, options);
+  if (result.ok()) result->log.meta["source"] = slash == std::string::npos ? path : path.substr(slash + 1);
+  return result;
+}
+
+Status WriteImport(const ImportResult& result, const std::string& csv_path) {
+  return WriteFlightLog(result.log, csv_path);
+}
+
+nlohmann::json DataFlashInfoJson(const std::string& bytes, const std::string& name) {
+  struct TypeStats {
+    size_t count = 0;
+    double first_s = kNaN, last_s = kNaN;
+  };
+  std::map<std::string, TypeStats> stats;
+  std::map<std::string, double> params;
+  std::vector<std::string> texts;
+  DataFlashReader reader(bytes);
+  DataFlashMessage m;
+  double t_min = kNaN, t_max = kNaN;
+  while (reader.Next(&m)) {
+    TypeStats& s = stats[m.name()];
+    ++s.count;
+    const double t = m.name() == "GPS" ? GpsBootTime_s(m) : m.BootTime_s();
+    if (std::isfinite(t)) {
+      if (!std::isfinite(s.first_s)) s.first_s = t;
+      s.last_s = t;
+      if (m.name() == "ATT") {
+        if (!std::isfinite(t_min)) t_min = t;
+        t_max = t;
+      }
+    }
+    if (m.name() == "PARM") {
+      const std::string p = Printable(m.GetString("Name"));
+      const double v = m.Get("Value");
+      if (!p.empty() && std::isfinite(v)) params[p] = v;
+    } else if (m.name() == "MSG" && texts.size() < 64) {
+      texts.push_back(Printable(m.GetString("Message")));
+    }
+  }
+  nlohmann::json j;
+  j["schema"] = "hexsim.dataflash_info/1";
+  j["source"] = name;
+  j["bytes"] = bytes.size();
+  j["firmware"] = FirmwareOf(texts);
+  j["messages_text"] = texts;
+  nlohmann::json types = nlohmann::json::array();
+  for (const auto& [n, s] : stats) {
+    nlohmann::json t{{"name", n}, {"count", s.count}};
+    if (std::isfinite(s.first_s)) {
+      t["first_s"] = s.first_s;
+      t["last_s"] = s.last_s;
+      if (s.count > 1 && s.last_s > s.first_s) t["rate_hz"] = static_cast<double>(s.count - 1) / (s.last_s - s.first_s);
+    }
+    types.push_back(t);
+  }
+  j["types"] = types;
+  if (std::isfinite(t_min)) j["time"] = {{"start_s", t_min}, {"end_s", t_max}, {"duration_s", t_max - t_min}};
+  j["params"] = ParamsOfInterest(params);
+  j["parameter_count"] = params.size();
+  j["damage"] = DamageJson(reader.damage());
+  return j;
+}
+
+std::string DataFlashInfo(const std::string& bytes, const std::string& name) {
+  const nlohmann::json j = DataFlashInfoJson(bytes, name);
+  std::string out = fmt::format("{}: ArduPilot DataFlash, {} bytes\n", name, bytes.size());
+  if (!j["firmware"].get<std::string>().empty()) out += fmt::format("firmware: {}\n", j["firmware"].get<std::string>());
+  for (const auto& t : j["messages_text"]) out += fmt::format("  text: {}\n", t.get<std::string>());
+  if (j.contains("time")) {
+    out += fmt::format("time: {:.3f} .. {:.3f} s since boot ({:.1f} s, from ATT)\n", j["time"]["start_s"].get<double>(),
+                       j["time"]["end_s"].get<double>(), j["time"]["duration_s"].get<double>());
+  }
+  out += fmt::format("{:<6} {:>8} {:>9}\n", "type", "count", "rate_Hz");
+  for (const auto& t : j["types"]) {
+    const std::string rate = t.contains("rate_hz") ? fmt::format("{:.2f}", t["rate_hz"].get<double>()) : "-";
+    out += fmt::format("{:<6} {:>8} {:>9}\n", t["name"].get<std::string>(), t["count"].get<size_t>(), rate);
+  }
+  out += fmt::format("parameters: {} ({} of interest)\n", j["parameter_count"].get<size_t>(), j["params"].size());
+  for (const auto& [k, v] : j["params"].items()) out += fmt::format("  {} = {}\n", k, v.get<double>());
+  out += "damage:";
+  for (const auto& [k, v] : j["damage"].items()) out += fmt::format(" {}={}", k, v.get<size_t>());
+  out += "\n";
+  return out;
+}
+
+}  // namespace hexsim::logs

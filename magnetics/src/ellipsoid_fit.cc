@@ -1,0 +1,484 @@
+#include "hexsim/magnetics/ellipsoid_fit.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <Eigen/SVD>
+#include <fmt/format.h>
+
+namespace hexsim::magnetics {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+constexpr double kGoldenAngle_rad = 2.39996322972865332;  // π(3 − √5)
+
+Status CheckSamples(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o) {
+  HEXSIM_RETURN_IF_ERROR(o.IsValid());
+  if (static_cast<int>(H.size()) < o.min_samples) {
+    return Status::BadInput(fmt::format("too few samples: {} (need at least {})", H.size(), o.min_samples));
+  }
+  for (size_t i = 0; i < H.size(); ++i) {
+    if (!H[i].allFinite()) return Status::BadInput(fmt::format("sample {} is not finite", i));
+  }
+  return Status::Ok();
+}
+
+// Centroid and RMS distance from it, for conditioning.
+void CentreAndScale(const std::vector<Vector3d>& H, Vector3d* mean, double* scale) {
+  Vector3d m = Vector3d::Zero();
+  for (const auto& h : H) m += h;
+  m /= static_cast<double>(H.size());
+  double ss = 0.0;
+  for (const auto& h : H) ss += (h - m).squaredNorm();
+  *mean = m;
+  *scale = std::sqrt(ss / static_cast<double>(H.size()));
+}
+
+// Smallest / largest principal standard deviation of the cloud.
+double SpreadRatio(const std::vector<Vector3d>& H, const Vector3d& mean) {
+  Matrix3d C = Matrix3d::Zero();
+  for (const auto& h : H) C += (h - mean) * (h - mean).transpose();
+  Eigen::SelfAdjointEigenSolver<Matrix3d> es(C);
+  const Vector3d ev = es.eigenvalues().cwiseMax(0.0);
+  if (ev(2) <= 0.0) return 0.0;
+  return std::sqrt(ev(0) / ev(2));
+}
+
+Matrix3d SymFromParams(const Eigen::Matrix<double, 9, 1>& p) {
+  Matrix3d M;
+  M << p(0), p(3), p(4),  //
+      p(3), p(1), p(5),   //
+      p(4), p(5), p(2);
+  return M;
+}
+
+// Symmetric square root of a symmetric positive definite matrix; false when not positive definite.
+bool SqrtSpd(const Matrix3d& A, Matrix3d* out) {
+  Eigen::SelfAdjointEigenSolver<Matrix3d> es(A);
+  if (es.info() != Eigen::Success || !(es.eigenvalues().minCoeff() > 0.0)) return false;
+  *out = es.eigenvectors() * es.eigenvalues().cwiseSqrt().asDiagonal() * es.eigenvectors().transpose();
+  return true;
+}
+
+// Li & Griffiths (2004): least-squares ellipsoid a x² + b y² + c z² + 2f yz + 2g xz + 2h xy
+// + 2p x + 2q y + 2r z + d = 0 subject to 4J − I² = 1. On centred, scaled data x_n.
+// Out: centre β_n and M_n with ‖M_n(x_n − β_n)‖ = 1 on the ellipsoid.
+Status AlgebraicEllipsoid(const std::vector<Vector3d>& xn, Vector3d* beta_n, Matrix3d* M_n) {
+  const Eigen::Index n = static_cast<Eigen::Index>(xn.size());
+  Eigen::MatrixXd D(n, 10);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double x = xn[i](0), y = xn[i](1), z = xn[i](2);
+    D.row(i) << x * x, y * y, z * z, 2 * y * z, 2 * x * z, 2 * x * y, 2 * x, 2 * y, 2 * z, 1.0;
+  }
+  const Eigen::Matrix<double, 10, 10> S = D.transpose() * D;
+  const Eigen::Matrix<double, 6, 6> S11 = S.topLeftCorner<6, 6>();
+  const Eigen::Matrix<double, 6, 4> S12 = S.topRightCorner<6, 4>();
+  const Eigen::Matrix<double, 4, 4> S22 = S.bottomRightCorner<4, 4>();
+  Eigen::FullPivLU<Eigen::Matrix<double, 4, 4>> lu22(S22);
+  if (!lu22.isInvertible()) return Status::Numerical("algebraic fit: singular linear block (degenerate samples)");
+  const Eigen::Matrix<double, 4, 6> S22inv_S21 = lu22.solve(S12.transpose());
+  const Eigen::Matrix<double, 6, 6> Sred = S11 - S12 * S22inv_S21;
+  // Constraint matrix C1 (k = 4).
+  Eigen::Matrix<double, 6, 6> C1 = Eigen::Matrix<double, 6, 6>::Zero();
+  C1.topLeftCorner<3, 3>() << -1, 1, 1, 1, -1, 1, 1, 1, -1;
+  C1(3, 3) = C1(4, 4) = C1(5, 5) = -4.0;
+  const Eigen::Matrix<double, 6, 6> E = C1.inverse() * Sred;
+  Eigen::EigenSolver<Eigen::Matrix<double, 6, 6>> es(E);
+  if (es.info() != Eigen::Success) return Status::Numerical("algebraic fit: eigen-decomposition failed");
+  int best = -1;
+  double best_val = 0.0;
+  for (int i = 0; i < 6; ++i) {
+    const double re = es.eigenvalues()(i).real();
+    if (std::abs(es.eigenvalues()(i).imag()) < 1e-9 * (1.0 + std::abs(re)) && re > best_val) {
+      best_val = re;
+      best = i;
+    }
+  }
+  if (best < 0) return Status::Numerical("algebraic fit: no ellipsoid solution (no positive eigenvalue)");
+  const Eigen::Matrix<double, 6, 1> v1 = es.eigenvectors().col(best).real();
+  const Eigen::Matrix<double, 4, 1> v2 = -S22inv_S21 * v1;
+  Matrix3d A;
+  A << v1(0), v1(5), v1(4), v1(5), v1(1), v1(3), v1(4), v1(3), v1(2);
+  const Vector3d b(v2(0), v2(1), v2(2));
+  const double d = v2(3);
+  Eigen::FullPivLU<Matrix3d> luA(A);
+  if (!luA.isInvertible()) return Status::Numerical("algebraic fit: singular quadric");
+  const Vector3d centre = -luA.solve(b);
+  // (x − c)ᵀ A (x − c) = cᵀ A c − d = g.
+  const double g = centre.dot(A * centre) - d;
+  Matrix3d Mn;
+  if (!(std::abs(g) > 0.0) || !SqrtSpd(A / g, &Mn)) {
+    return Status::Numerical("algebraic fit: quadric is not an ellipsoid");
+  }
+  *beta_n = centre;
+  *M_n = Mn;
+  return Status::Ok();
+}
+
+struct LmResult {
+  Status status;
+  int iterations = 0;
+  bool converged = false;
+  double condition_number = 0.0;
+};
+
+// Levenberg–Marquardt on e_i = ‖M(H_i − β)‖ − 1, p = [M00 M11 M22 M01 M02 M12 βx βy βz].
+// `fit_shape` false keeps M fixed at a multiple of I (sphere: only M00 = M11 = M22 free).
+LmResult RefineLm(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, bool sphere,
+                  Eigen::Matrix<double, 9, 1>* params) {
+  using Vec9 = Eigen::Matrix<double, 9, 1>;
+  const Eigen::Index n = static_cast<Eigen::Index>(H.size());
+  auto evaluate = [&](const Vec9& p, Eigen::VectorXd* e, Eigen::MatrixXd* J) {
+    const Matrix3d M = SymFromParams(p);
+    const Vector3d beta = p.tail<3>();
+    e->resize(n);
+    if (J) J->setZero(n, 9);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Vector3d v = H[i] - beta;
+      const Vector3d w = M * v;
+      const double nw = w.norm();
+      (*e)(i) = nw - 1.0;
+      if (!J) continue;
+      const Vector3d u = nw > 0.0 ? Vector3d(w / nw) : Vector3d::Zero();
+      if (sphere) {
+        const double dm = u.dot(v);  // d/dm of ‖m v‖ with M = m I
+        (*J)(i, 0) = dm;
+      } else {
+        (*J)(i, 0) = u(0) * v(0);
+        (*J)(i, 1) = u(1) * v(1);
+        (*J)(i, 2) = u(2) * v(2);
+        (*J)(i, 3) = u(0) * v(1) + u(1) * v(0);
+        (*J)(i, 4) = u(0) * v(2) + u(2) * v(0);
+        (*J)(i, 5) = u(1) * v(2) + u(2) * v(1);
+      }
+      J->block<1, 3>(i, 6) = -(u.transpose() * M);
+    }
+  };
+  // Active parameter mask.
+  std::vector<int> active = sphere ? std::vector<int>{0, 6, 7, 8} : std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7, 8};
+  const Eigen::Index na = static_cast<Eigen::Index>(active.size());
+  auto apply_step = [&](const Vec9& p, const Eigen::VectorXd& dx) {
+    Vec9 q = p;
+    for (Eigen::Index k = 0; k < na; ++k) q(active[k]) += dx(k);
+    if (sphere) q(1) = q(2) = q(0);
+    return q;
+  };
+  auto reduce = [&](const Eigen::MatrixXd& J) {
+    Eigen::MatrixXd Ja(J.rows(), na);
+    for (Eigen::Index k = 0; k < na; ++k) Ja.col(k) = J.col(active[k]);
+    return Ja;
+  };
+
+  LmResult r;
+  Vec9 p = *params;
+  Eigen::VectorXd e;
+  Eigen::MatrixXd J;
+  evaluate(p, &e, &J);
+  double cost = e.squaredNorm();
+  double lambda = 1e-3;
+  for (r.iterations = 1; r.iterations <= o.max_iterations; ++r.iterations) {
+    const Eigen::MatrixXd Ja = reduce(J);
+    const Eigen::MatrixXd JtJ = Ja.transpose() * Ja;
+    const Eigen::VectorXd g = Ja.transpose() * e;
+    bool accepted = false;
+    Eigen::VectorXd dx;
+    Vec9 p_new;
+    Eigen::VectorXd e_new;
+    for (int tries = 0; tries < 30 && !accepted; ++tries) {
+      Eigen::MatrixXd A = JtJ;
+      for (Eigen::Index k = 0; k < na; ++k) A(k, k) += lambda * std::max(JtJ(k, k), 1e-300);
+      dx = -A.ldlt().solve(g);
+      if (!dx.allFinite()) {
+        lambda *= 10.0;
+        continue;
+      }
+      p_new = apply_step(p, dx);
+      evaluate(p_new, &e_new, nullptr);
+      const double cost_new = e_new.squaredNorm();
+      if (std::isfinite(cost_new) && cost_new <= cost) {
+        accepted = true;
+        const double rel_decrease = (cost - cost_new) / std::max(cost, 1e-300);
+        const double rel_step = dx.norm() / (p.norm() + 1e-300);
+        p = p_new;
+        cost = cost_new;
+        lambda = std::max(lambda / 10.0, 1e-12);
+        evaluate(p, &e, &J);
+        if (rel_decrease < o.function_tolerance || rel_step < o.parameter_tolerance || cost == 0.0) {
+          r.converged = true;
+        }
+      } else {
+        lambda *= 10.0;
+      }
+    }
+    if (!accepted) {
+      // No step lowers the cost: we are at a minimum to machine precision.
+      r.converged = true;
+    }
+    if (r.converged) break;
+  }
+  if (r.iterations > o.max_iterations) r.iterations = o.max_iterations;
+  // Condition number of the column-scaled Jacobian.
+  Eigen::MatrixXd Ja = reduce(J);
+  for (Eigen::Index k = 0; k < na; ++k) {
+    const double cn = Ja.col(k).norm();
+    if (cn > 0.0) Ja.col(k) /= cn;
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(Ja);
+  const auto& sv = svd.singularValues();
+  r.condition_number = sv(sv.size() - 1) > 0.0 ? sv(0) / sv(sv.size() - 1) : std::numeric_limits<double>::infinity();
+  *params = p;
+  if (!p.allFinite()) {
+    r.status = Status::Numerical("ellipsoid refinement produced non-finite parameters");
+  } else if (!r.converged) {
+    r.status = Status::Numerical(fmt::format("ellipsoid refinement did not converge in {} iterations", o.max_iterations));
+  }
+  return r;
+}
+
+GateCriterion Criterion(const std::string& name, double value, double lo, double hi) {
+  GateCriterion c;
+  c.name = name;
+  c.value = value;
+  c.min = lo;
+  c.max = hi;
+  if (!std::isfinite(value)) {
+    c.pass = false;
+    c.failed_bound = "finite";
+  } else if (value < lo) {
+    c.failed_bound = "min";
+  } else if (value > hi) {
+    c.failed_bound = "max";
+  } else {
+    c.pass = true;
+  }
+  return c;
+}
+
+void EvaluateGate(const EllipsoidFitOptions& o, EllipsoidFit* f) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  FitGate& g = f->gate;
+  g.criteria.clear();
+  g.criteria.push_back(Criterion("radius_uT", f->radius_uT, o.min_radius_uT, o.max_radius_uT));
+  const char* axes[3] = {"x", "y", "z"};
+  double max_off = 0.0;
+  for (int i = 0; i < 3; ++i) {
+    g.criteria.push_back(Criterion(std::string("soft_iron_diag_") + axes[i], f->soft_iron(i, i), o.min_diagonal, o.max_diagonal));
+    for (int j = i + 1; j < 3; ++j) max_off = std::max(max_off, std::abs(f->soft_iron(i, j)));
+  }
+  g.criteria.push_back(Criterion("soft_iron_offdiag_abs_max", max_off, -kInf, o.max_off_diagonal));
+  g.criteria.push_back(Criterion("rms_residual_uT", f->rms_residual_uT, -kInf, o.max_rms_residual_uT));
+  g.criteria.push_back(Criterion("condition_number", f->condition_number, -kInf, o.max_condition_number));
+  GateCriterion cov = Criterion("coverage", f->coverage_fraction, o.min_coverage_fraction, kInf);
+  if (!cov.pass && o.planes_present >= o.min_planes_for_coverage) {
+    cov.pass = true;
+    cov.failed_bound.clear();
+    cov.note = fmt::format("passes by rig planes: {}", o.planes_present);
+  }
+  g.criteria.push_back(cov);
+  g.accepted = std::all_of(g.criteria.begin(), g.criteria.end(), [](const GateCriterion& c) { return c.pass; });
+}
+
+void FinishFit(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, EllipsoidFit* f) {
+  std::vector<Vector3d> corrected;
+  corrected.reserve(H.size());
+  double ss = 0.0, mx = 0.0;
+  for (const auto& h : H) {
+    const Vector3d c = f->Correct(h);
+    corrected.push_back(c);
+    const double e = c.norm() - f->radius_uT;
+    ss += e * e;
+    mx = std::max(mx, std::abs(e));
+  }
+  f->rms_residual_uT = std::sqrt(ss / static_cast<double>(H.size()));
+  f->max_residual_uT = mx;
+  f->coverage_fraction = DirectionCoverage(corrected, o.coverage_bins);
+  EvaluateGate(o, f);
+}
+
+}  // namespace
+
+Status EllipsoidFitOptions::IsValid() const {
+  if (min_samples < 10) return Status::BadInput("min_samples: must be >= 10 (9 parameters)");
+  if (max_iterations < 1) return Status::BadInput("max_iterations: must be >= 1");
+  if (!(function_tolerance >= 0.0) || !(parameter_tolerance >= 0.0)) return Status::BadInput("tolerances: must be >= 0");
+  if (!(planarity_tolerance > 0.0 && planarity_tolerance < 1.0)) return Status::BadInput("planarity_tolerance: must be in (0, 1)");
+  if (!(min_radius_uT >= 0.0 && max_radius_uT > min_radius_uT)) return Status::BadInput("radius bounds: need 0 <= min < max");
+  if (!(min_diagonal > 0.0 && max_diagonal > min_diagonal)) return Status::BadInput("diagonal bounds: need 0 < min < max");
+  if (!(max_off_diagonal >= 0.0)) return Status::BadInput("max_off_diagonal: must be >= 0");
+  if (!(max_rms_residual_uT > 0.0)) return Status::BadInput("max_rms_residual_uT: must be > 0");
+  if (!(max_condition_number > 1.0)) return Status::BadInput("max_condition_number: must be > 1");
+  if (coverage_bins < 4) return Status::BadInput("coverage_bins: must be >= 4");
+  if (!(min_coverage_fraction >= 0.0 && min_coverage_fraction <= 1.0)) return Status::BadInput("min_coverage_fraction: must be in [0, 1]");
+  if (planes_present < 0 || min_planes_for_coverage < 1) return Status::BadInput("planes: counts must be >= 0 / >= 1");
+  return Status::Ok();
+}
+
+const GateCriterion* FitGate::Find(const std::string& name) const {
+  for (const auto& c : criteria) {
+    if (c.name == name) return &c;
+  }
+  return nullptr;
+}
+
+std::string FitGate::Failures() const {
+  std::string out;
+  for (const auto& c : criteria) {
+    if (c.pass) continue;
+    if (!out.empty()) out += "; ";
+    if (c.failed_bound == "min") {
+      out += fmt::format("{} = {:.6g} below min {:.6g}", c.name, c.value, c.min);
+    } else if (c.failed_bound == "max") {
+      out += fmt::format("{} = {:.6g} above max {:.6g}", c.name, c.value, c.max);
+    } else {
+      out += fmt::format("{} = {} is not finite", c.name, c.value);
+    }
+  }
+  return out;
+}
+
+double DirectionCoverage(const std::vector<Vector3d>& v, int bins) {
+  if (bins < 1 || v.empty()) return 0.0;
+  std::vector<Vector3d> centres(static_cast<size_t>(bins));
+  for (int k = 0; k < bins; ++k) {
+    const double z = 1.0 - (2.0 * k + 1.0) / bins;
+    const double rho = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const double phi = kGoldenAngle_rad * k;
+    centres[static_cast<size_t>(k)] = Vector3d(rho * std::cos(phi), rho * std::sin(phi), z);
+  }
+  std::vector<bool> hit(static_cast<size_t>(bins), false);
+  for (const auto& x : v) {
+    const double nx = x.norm();
+    if (!(nx > 0.0)) continue;
+    const Vector3d u = x / nx;
+    size_t best = 0;
+    double best_dot = -2.0;
+    for (size_t k = 0; k < centres.size(); ++k) {
+      const double d = centres[k].dot(u);
+      if (d > best_dot) {
+        best_dot = d;
+        best = k;
+      }
+    }
+    hit[best] = true;
+  }
+  return static_cast<double>(std::count(hit.begin(), hit.end(), true)) / bins;
+}
+
+EllipsoidFit FitEllipsoid(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o) {
+  EllipsoidFit f;
+  f.num_samples = static_cast<int>(H.size());
+  f.status = CheckSamples(H, o);
+  if (!f.status.ok()) return f;
+  Vector3d mean;
+  double scale = 0.0;
+  CentreAndScale(H, &mean, &scale);
+  if (!(scale > 0.0)) {
+    f.status = Status::BadInput("all samples are identical");
+    return f;
+  }
+  const double spread = SpreadRatio(H, mean);
+  if (spread < o.planarity_tolerance) {
+    f.status = Status::BadInput(fmt::format(
+        "samples lie in one plane (spread ratio {:.3g}): rotate the vehicle about more than one axis", spread));
+    return f;
+  }
+  std::vector<Vector3d> xn;
+  xn.reserve(H.size());
+  for (const auto& h : H) xn.push_back((h - mean) / scale);
+  Vector3d beta_n;
+  Matrix3d M_n;
+  f.status = AlgebraicEllipsoid(xn, &beta_n, &M_n);
+  if (!f.status.ok()) return f;
+  // Back to µT: M_n (x_n − β_n) = (M_n / s)(H − (μ + s β_n)).
+  Eigen::Matrix<double, 9, 1> p;
+  const Matrix3d M0 = M_n / scale;
+  const Vector3d beta0 = mean + scale * beta_n;
+  p << M0(0, 0), M0(1, 1), M0(2, 2), M0(0, 1), M0(0, 2), M0(1, 2), beta0;
+  const LmResult lm = RefineLm(H, o, /*sphere=*/false, &p);
+  f.iterations = lm.iterations;
+  f.converged = lm.converged;
+  f.condition_number = lm.condition_number;
+  if (!lm.status.ok()) {
+    f.status = lm.status;
+    return f;
+  }
+  const Matrix3d M = SymFromParams(p);
+  Eigen::SelfAdjointEigenSolver<Matrix3d> es(M);
+  if (!(es.eigenvalues().minCoeff() > 0.0)) {
+    f.status = Status::Numerical("ellipsoid refinement left the positive-definite region");
+    return f;
+  }
+  // M = K⁻¹ / r and det K = 1 → r³ = det(M⁻¹)·... : K_unit = M⁻¹, s = cbrt(det K_unit), K = K_unit / s, r = s.
+  const Matrix3d K_unit = M.inverse();
+  const double s = std::cbrt(K_unit.determinant());
+  f.soft_iron = K_unit / s;
+  f.soft_iron_inv = M * s;
+  f.radius_uT = s;
+  f.hard_iron_uT = p.tail<3>();
+  FinishFit(H, o, &f);
+  return f;
+}
+
+EllipsoidFit FitSphere(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o) {
+  EllipsoidFit f;
+  f.num_samples = static_cast<int>(H.size());
+  f.status = CheckSamples(H, o);
+  if (!f.status.ok()) return f;
+  Vector3d mean;
+  double scale = 0.0;
+  CentreAndScale(H, &mean, &scale);
+  if (!(scale > 0.0)) {
+    f.status = Status::BadInput("all samples are identical");
+    return f;
+  }
+  // ‖x‖² = 2 cᵀx + (r² − ‖c‖²), on centred, scaled data.
+  const Eigen::Index n = static_cast<Eigen::Index>(H.size());
+  Eigen::MatrixXd A(n, 4);
+  Eigen::VectorXd b(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Vector3d x = (H[i] - mean) / scale;
+    A.row(i) << 2 * x(0), 2 * x(1), 2 * x(2), 1.0;
+    b(i) = x.squaredNorm();
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const auto& sv = svd.singularValues();
+  if (!(sv(3) > 1e-9 * sv(0))) {
+    f.status = Status::BadInput("samples do not determine a sphere (degenerate geometry)");
+    return f;
+  }
+  const Eigen::Vector4d sol = svd.solve(b);
+  const Vector3d c_n = sol.head<3>();
+  const double r2 = sol(3) + c_n.squaredNorm();
+  if (!(r2 > 0.0)) {
+    f.status = Status::Numerical("sphere fit: negative squared radius");
+    return f;
+  }
+  Eigen::Matrix<double, 9, 1> p;
+  const double m0 = 1.0 / (std::sqrt(r2) * scale);
+  const Vector3d beta0 = mean + scale * c_n;
+  p << m0, m0, m0, 0, 0, 0, beta0;
+  const LmResult lm = RefineLm(H, o, /*sphere=*/true, &p);
+  f.iterations = lm.iterations;
+  f.converged = lm.converged;
+  f.condition_number = lm.condition_number;
+  if (!lm.status.ok()) {
+    f.status = lm.status;
+    return f;
+  }
+  if (!(p(0) > 0.0)) {
+    f.status = Status::Numerical("sphere fit: non-positive radius");
+    return f;
+  }
+  f.soft_iron.setIdentity();
+  f.soft_iron_inv.setIdentity();
+  f.radius_uT = 1.0 / p(0);
+  f.hard_iron_uT = p.tail<3>();
+  FinishFit(H, o, &f);
+  return f;
+}
+
+}  // namespace hexsim::magnetics

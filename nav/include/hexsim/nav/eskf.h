@@ -1,0 +1,29 @@
+// Error-state Kalman filter (in the spirit of PX4 EKF2).
+//
+// Nominal state: q_NB, v_N, p_N, gyro bias b_g, accel bias b_a. Error state (15): δθ (rotation
+// error in N: R_true = (I + [δθ]×)·R), δv, δp, δb_g, δb_a.
+//   δθ' = −R δb_g,  δv' = −[R(f−b_a)]× δθ − R δb_a,  δp' = δv,  δb' = white noise.
+// Covariance prediction P ← F P Fᵀ + Q with F = I + A·dt, every `cov_predict_every_n`-th IMU sample
+// with the summed dt (1 = every sample; fixed-size 15×15, no heap in the loop).
+// Updates are sequential scalar updates in Joseph form with symmetry enforcement; each measurement
+// group is gated first: every component must satisfy |y_i| ≤ gate_sigma·√S_ii, else the whole group
+// is rejected and counted.
+// Compass: heading mode (ψ from the tilt-compensated field with the estimated roll/pitch, plus the
+// reference declination) or 3-axis mode (h = R_NBᵀ B_N; fused as a heading while the yaw std
+// exceeds 5°, because a large yaw error makes the 3-axis linearisation poor).
+// GPS latency: stored-state approach. Past (p, v) are kept every 5 ms for 1.275 s; the innovation is
+// formed against the stored state at the sample's time of validity, the gain from the current
+// covariance, and the correction is applied to the current state and to the stored history alike.
+// Compass and barometer are fused on arrival (taken as current).
+#pragma once
+
+#include <memory>
+
+#include "hexsim/nav/estimator.h"
+
+namespace hexsim::nav {
+
+// The "eskf" estimator. `params` must pass ValidateNavParams (MakeEstimator checks it).
+std::unique_ptr<Estimator> MakeEskf(const NavParams& params);
+
+}  // namespace hexsim::nav

@@ -1,0 +1,374 @@
+#include "hexsim/nav/eskf.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "hexsim/common/rotation.h"
+#include "state_buffer.h"
+
+namespace hexsim::nav {
+namespace {
+
+using Mat15 = Eigen::Matrix<double, 15, 15>;
+using Vec15 = Eigen::Matrix<double, 15, 1>;
+using Row15 = Eigen::Matrix<double, 1, 15>;
+
+// Error-state indices.
+constexpr int kTh = 0, kV = 3, kP = 6, kBg = 9, kBa = 12;
+// A larger IMU gap than this is integrated as this (a dropped-sample burst must not blow up F·dt).
+constexpr double kMaxImuDt_s = 0.05;
+// Sine of the pitch beyond which the heading is undefined and the compass is not fused.
+constexpr double kMaxHeadingCosPitch2 = 1e-4;
+// 3-axis compass fusion is linearised about the current attitude: until the yaw is known to this
+// accuracy the compass is fused as a heading (as EKF2 aligns yaw before 3-axis fusion).
+constexpr double kThreeAxisMaxYawStd_rad = 5.0 * kDegToRad;
+// A speed no multirotor reaches: beyond it the filter has diverged.
+constexpr double kMaxSpeed_mps = 1000.0;
+
+std::string Num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.4f", v);
+  return buf;
+}
+
+class Eskf final : public Estimator {
+ public:
+  explicit Eskf(const NavParams& params) : prm_(params) { Reset(NavEstimate()); }
+
+  std::string name() const override { return "eskf"; }
+
+  void Reset(const NavEstimate& initial) override {
+    q_ = initial.q_NB.normalized();
+    v_ = initial.v_N_mps;
+    p_ = initial.p_N_m;
+    bg_ = initial.gyro_bias_B_radps;
+    ba_ = initial.accel_bias_B_mps2;
+    w_B_ = Eigen::Vector3d::Zero();
+    t_ = initial.t_s;
+    have_time_ = false;
+    aligning_ = !initial.healthy;
+    aligner_.Clear();
+    buffer_.Clear();
+    cov_dt_ = 0;
+    cov_count_ = 0;
+    stats_ = EstimatorStats();
+    health_ = Status::Ok();
+    InitCovariance();
+  }
+
+  void PredictImu(const ImuSample& s) override {
+    if (!health_.ok()) return;
+    ++stats_.imu_samples;
+    if (!internal::AllFinite(s) || (have_time_ && s.t_s <= t_)) {
+      ++stats_.imu_rejected_invalid;
+      return;
+    }
+    if (aligning_) {
+      aligner_.AddImu(s);
+      t_ = s.t_s;
+      have_time_ = true;
+      MaybeFinishAlignment();
+      return;
+    }
+    if (!have_time_) {
+      t_ = s.t_s;
+      have_time_ = true;
+      w_B_ = s.gyro_B_radps - bg_;
+      buffer_.Push(t_, p_, v_);
+      return;
+    }
+    const double dt = std::min(s.t_s - t_, kMaxImuDt_s);
+    const Eigen::Vector3d w = s.gyro_B_radps - bg_;
+    const Eigen::Vector3d f_B = s.accel_B_mps2 - ba_;
+    const Eigen::Matrix3d R = q_.toRotationMatrix();
+    const Eigen::Vector3d f_N = R * f_B;
+    const Eigen::Vector3d a_N = f_N + Eigen::Vector3d(0, 0, kGravity_mps2);
+    // Nominal propagation: p ← p + v dt + a dt²/2, v ← v + a dt, q ← q ⊗ exp(ω dt).
+    const Eigen::Vector3d p_new = p_ + v_ * dt + 0.5 * a_N * dt * dt;
+    const Eigen::Vector3d v_new = v_ + a_N * dt;
+    const Eigen::Quaterniond q_new = (q_ * QuatExp(w * dt)).normalized();
+    if (!CheckVector(p_new, "p_N_m", s.t_s, "IMU predict") ||
+        !CheckVector(v_new, "v_N_mps", s.t_s, "IMU predict") ||
+        !CheckVector(q_new.coeffs(), "q_NB", s.t_s, "IMU predict") ||
+        !CheckSpeed(v_new, s.t_s, "IMU predict")) {
+      return;
+    }
+    p_ = p_new;
+    v_ = v_new;
+    q_ = q_new;
+    w_B_ = w;
+    t_ = s.t_s;
+    cov_dt_ += dt;
+    if (++cov_count_ >= prm_.cov_predict_every_n) {
+      PredictCovariance(R, f_N, cov_dt_);
+      cov_dt_ = 0;
+      cov_count_ = 0;
+    }
+    buffer_.Push(t_, p_, v_);
+  }
+
+  void FuseMag(const MagSample& s) override {
+    if (!health_.ok()) return;
+    if (!std::isfinite(s.t_s) || !s.mag_B_uT.allFinite() || s.mag_B_uT.squaredNorm() == 0.0) {
+      ++stats_.mag.rejected_invalid;
+      return;
+    }
+    if (aligning_) {
+      aligner_.AddMag(s);
+      MaybeFinishAlignment();
+      return;
+    }
+    const Eigen::Matrix3d R = q_.toRotationMatrix();
+    if (prm_.mag_mode == MagMode::kThreeAxis && P_(kTh + 2, kTh + 2) < kThreeAxisMaxYawStd_rad * kThreeAxisMaxYawStd_rad) {
+      const Eigen::Vector3d& B_N = prm_.earth.B_N_uT;
+      const Eigen::Vector3d h = R.transpose() * B_N;
+      // h(δθ) = Rᵀ(I − [δθ]×)B_N = h + Rᵀ[B_N]× δθ
+      const Eigen::Matrix3d H_th = R.transpose() * Skew(B_N);
+      Row15 H[3];
+      double y[3], r[3];
+      for (int i = 0; i < 3; ++i) {
+        H[i].setZero();
+        H[i].segment<3>(kTh) = H_th.row(i);
+        y[i] = s.mag_B_uT(i) - h(i);
+        r[i] = prm_.mag_std_uT * prm_.mag_std_uT;
+      }
+      FuseGroup(3, H, y, r, prm_.mag_gate_sigma, &stats_.mag, s.t_s, "mag");
+      return;
+    }
+    // Heading: ψ = atan2(r1, r0) with r = R·e_x; ∂ψ/∂δθ = [−r0 r2, −r1 r2, r0² + r1²]/(r0² + r1²).
+    const Eigen::Vector3d r0 = R.col(0);
+    const double d = r0.x() * r0.x() + r0.y() * r0.y();
+    if (d < kMaxHeadingCosPitch2) {
+      ++stats_.mag.rejected_invalid;
+      return;
+    }
+    const Eigen::Vector3d euler = EulerFromQuat(q_);
+    const double psi_meas =
+        TiltCompensatedHeadingRad(s.mag_B_uT, euler.x(), euler.y()) + DeclinationRad(prm_.earth);
+    Row15 H = Row15::Zero();
+    H(kTh + 0) = -r0.x() * r0.z() / d;
+    H(kTh + 1) = -r0.y() * r0.z() / d;
+    H(kTh + 2) = 1.0;
+    double y = WrapPi(psi_meas - euler.z());
+    double r = prm_.mag_heading_std_rad * prm_.mag_heading_std_rad;
+    FuseGroup(1, &H, &y, &r, prm_.mag_gate_sigma, &stats_.mag, s.t_s, "mag heading");
+  }
+
+  void FuseGps(const GpsSample& s) override {
+    if (!health_.ok()) return;
+    if (!std::isfinite(s.t_s) || !s.p_N_m.allFinite() || !s.v_N_mps.allFinite()) {
+      ++stats_.gps_pos.rejected_invalid;
+      ++stats_.gps_vel.rejected_invalid;
+      return;
+    }
+    if (aligning_ || !have_time_) return;  // nothing to compare with yet
+    const double t_valid = s.t_s - prm_.gps_delay_s;
+    Eigen::Vector3d p_then, v_then;
+    if (!buffer_.Lookup(t_valid, t_, p_, v_, &p_then, &v_then)) {
+      ++stats_.gps_pos.rejected_invalid;
+      ++stats_.gps_vel.rejected_invalid;
+      return;
+    }
+    Row15 H[3];
+    double y[3], r[3];
+    for (int i = 0; i < 3; ++i) {
+      H[i].setZero();
+      H[i](kP + i) = 1.0;
+      y[i] = s.p_N_m(i) - p_then(i);
+      r[i] = prm_.gps_pos_std_m * prm_.gps_pos_std_m;
+    }
+    FuseGroup(3, H, y, r, prm_.gps_gate_sigma, &stats_.gps_pos, s.t_s, "gps position");
+    if (!health_.ok()) return;
+    // The position update moved the history too: take the velocity innovation after it.
+    if (!buffer_.Lookup(t_valid, t_, p_, v_, &p_then, &v_then)) return;
+    for (int i = 0; i < 3; ++i) {
+      H[i].setZero();
+      H[i](kV + i) = 1.0;
+      y[i] = s.v_N_mps(i) - v_then(i);
+      r[i] = prm_.gps_vel_std_mps * prm_.gps_vel_std_mps;
+    }
+    FuseGroup(3, H, y, r, prm_.gps_gate_sigma, &stats_.gps_vel, s.t_s, "gps velocity");
+  }
+
+  void FuseBaro(const BaroSample& s) override {
+    if (!health_.ok()) return;
+    if (!std::isfinite(s.t_s) || !std::isfinite(s.alt_m)) {
+      ++stats_.baro.rejected_invalid;
+      return;
+    }
+    if (aligning_ || !have_time_) return;
+    Row15 H = Row15::Zero();
+    H(kP + 2) = -1.0;  // alt = −p_D
+    double y = s.alt_m - (-p_.z());
+    double r = prm_.baro_std_m * prm_.baro_std_m;
+    FuseGroup(1, &H, &y, &r, prm_.baro_gate_sigma, &stats_.baro, s.t_s, "baro");
+  }
+
+  NavEstimate Estimate() const override {
+    NavEstimate e;
+    e.t_s = t_;
+    e.p_N_m = p_;
+    e.v_N_mps = v_;
+    e.w_B_radps = w_B_;
+    e.gyro_bias_B_radps = bg_;
+    e.accel_bias_B_mps2 = ba_;
+    e.q_NB = q_;
+    e.yaw_std_rad = std::sqrt(std::max(0.0, P_(kTh + 2, kTh + 2)));
+    e.healthy = health_.ok() && !aligning_;
+    return e;
+  }
+  Status Health() const override { return health_; }
+  EstimatorStats Stats() const override { return stats_; }
+
+ private:
+  void InitCovariance() {
+    Vec15 d;
+    const double tilt = prm_.init_tilt_std_rad, yaw = prm_.init_yaw_std_rad;
+    d << tilt * tilt, tilt * tilt, yaw * yaw, Eigen::Vector3d::Constant(prm_.init_vel_std_mps * prm_.init_vel_std_mps),
+        Eigen::Vector3d::Constant(prm_.init_pos_std_m * prm_.init_pos_std_m),
+        Eigen::Vector3d::Constant(prm_.init_gyro_bias_std_radps * prm_.init_gyro_bias_std_radps),
+        Eigen::Vector3d::Constant(prm_.init_accel_bias_std_mps2 * prm_.init_accel_bias_std_mps2);
+    P_ = d.asDiagonal();
+  }
+
+  void MaybeFinishAlignment() {
+    if (!aligner_.Ready(t_, prm_.align_time_s)) return;
+    q_ = aligner_.Attitude(prm_.earth);
+    bg_ = aligner_.GyroBias();
+    aligning_ = false;
+    InitCovariance();
+    buffer_.Clear();
+    buffer_.Push(t_, p_, v_);
+  }
+
+  // P ← F P Fᵀ + Q; F = I + A dt (A as in the header), Q from the noise densities.
+  void PredictCovariance(const Eigen::Matrix3d& R, const Eigen::Vector3d& f_N, double dt) {
+    Mat15 F = Mat15::Identity();
+    F.block<3, 3>(kTh, kBg) = -R * dt;
+    F.block<3, 3>(kV, kTh) = -Skew(f_N) * dt;
+    F.block<3, 3>(kV, kBa) = -R * dt;
+    F.block<3, 3>(kP, kV) = Eigen::Matrix3d::Identity() * dt;
+    Mat15 P = F * P_ * F.transpose();
+    const double qg = prm_.gyro_noise_radps_rthz * prm_.gyro_noise_radps_rthz * dt;
+    const double qa = prm_.accel_noise_mps2_rthz * prm_.accel_noise_mps2_rthz * dt;
+    const double qbg = prm_.gyro_bias_rw_radps2_rthz * prm_.gyro_bias_rw_radps2_rthz * dt;
+    const double qba = prm_.accel_bias_rw_mps3_rthz * prm_.accel_bias_rw_mps3_rthz * dt;
+    for (int i = 0; i < 3; ++i) {  // isotropic noise: R Q Rᵀ = Q
+      P(kTh + i, kTh + i) += qg;
+      P(kV + i, kV + i) += qa;
+      P(kBg + i, kBg + i) += qbg;
+      P(kBa + i, kBa + i) += qba;
+    }
+    P = 0.5 * (P + P.transpose());
+    if (!CheckCovariance(P, t_, "covariance predict")) return;
+    P_ = P;
+  }
+
+  // Gates the group (every |y_i| ≤ gate·√S_ii), then fuses its components one by one (Joseph form),
+  // then injects the accumulated error state into the nominal state and resets it.
+  void FuseGroup(int n, const Row15* H, const double* y, const double* r, double gate_sigma,
+                 SensorStats* st, double t_s, const char* what) {
+    double worst = 0;
+    st->last_innovation.setZero();
+    for (int i = 0; i < n; ++i) {
+      const double S = (H[i] * P_ * H[i].transpose())(0, 0) + r[i];
+      worst = std::max(worst, std::abs(y[i]) / (gate_sigma * std::sqrt(S)));
+      st->last_innovation(i) = y[i];
+    }
+    st->last_test_ratio = worst;
+    if (!(worst <= 1.0)) {
+      ++st->rejected_gate;
+      return;
+    }
+    Vec15 dx = Vec15::Zero();
+    Mat15 P = P_;
+    for (int i = 0; i < n; ++i) {
+      const Vec15 PHt = P * H[i].transpose();
+      const double S = (H[i] * PHt)(0, 0) + r[i];
+      const Vec15 K = PHt / S;
+      dx += K * (y[i] - (H[i] * dx)(0, 0));
+      const Mat15 IKH = Mat15::Identity() - K * H[i];
+      P = IKH * P * IKH.transpose() + (K * r[i]) * K.transpose();  // Joseph form
+    }
+    P = 0.5 * (P + P.transpose());
+    const std::string where = std::string(what) + " update";
+    if (!CheckVector(dx, "error state", t_s, where.c_str()) ||
+        !CheckCovariance(P, t_s, where.c_str()) ||
+        !CheckSpeed(v_ + dx.segment<3>(kV), t_s, where.c_str())) {
+      return;
+    }
+    // Injection: q ← exp(δθ)⊗q (δθ in N), additive for the rest; reset Jacobian G_θθ = I − [δθ/2]×.
+    const Eigen::Vector3d dth = dx.segment<3>(kTh);
+    q_ = (QuatExp(dth) * q_).normalized();
+    v_ += dx.segment<3>(kV);
+    p_ += dx.segment<3>(kP);
+    bg_ += dx.segment<3>(kBg);
+    ba_ += dx.segment<3>(kBa);
+    buffer_.Shift(dx.segment<3>(kP), dx.segment<3>(kV));
+    Mat15 G = Mat15::Identity();
+    G.block<3, 3>(kTh, kTh) -= Skew(0.5 * dth);
+    P_ = G * P * G.transpose();
+    ++st->fused;
+  }
+
+  template <class V>
+  bool CheckVector(const V& v, const char* quantity, double t_s, const char* where) {
+    if (v.allFinite()) return true;
+    health_ = Status::Numerical("eskf: non-finite " + std::string(quantity) + " at t=" + Num(t_s) +
+                                " s in " + where);
+    return false;
+  }
+
+  bool CheckSpeed(const Eigen::Vector3d& v_N, double t_s, const char* where) {
+    if (v_N.norm() <= kMaxSpeed_mps) return true;
+    health_ = Status::Numerical("eskf: diverged: |v_N_mps| = " + Num(v_N.norm()) + " m/s at t=" +
+                                Num(t_s) + " s in " + where);
+    return false;
+  }
+
+  bool CheckCovariance(const Mat15& P, double t_s, const char* where) {
+    static const char* kNames[15] = {"δθ_x", "δθ_y", "δθ_z", "δv_N", "δv_E", "δv_D", "δp_N", "δp_E",
+                                     "δp_D", "δbg_x", "δbg_y", "δbg_z", "δba_x", "δba_y", "δba_z"};
+    if (!P.allFinite()) {
+      health_ = Status::Numerical("eskf: non-finite covariance at t=" + Num(t_s) + " s in " + where);
+      return false;
+    }
+    for (int i = 0; i < 15; ++i) {
+      if (P(i, i) < 0.0) {
+        health_ = Status::Numerical("eskf: negative variance of " + std::string(kNames[i]) +
+                                    " at t=" + Num(t_s) + " s in " + where);
+        return false;
+      }
+    }
+    return true;
+  }
+
+  NavParams prm_;
+  Eigen::Quaterniond q_ = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d v_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d p_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d bg_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d ba_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d w_B_ = Eigen::Vector3d::Zero();
+  Mat15 P_ = Mat15::Identity();
+  double t_ = 0;
+  bool have_time_ = false;
+  bool aligning_ = false;
+  internal::StaticAligner aligner_;
+  internal::StateBuffer buffer_;
+  double cov_dt_ = 0;
+  int cov_count_ = 0;
+  EstimatorStats stats_;
+  Status health_;
+};
+
+}  // namespace
+
+std::unique_ptr<Estimator> MakeEskf(const NavParams& params) { return std::make_unique<Eskf>(params); }
+
+}  // namespace hexsim::nav
