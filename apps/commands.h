@@ -8,5 +8,9 @@ namespace hexsim::app {
 void RegisterCommands(CLI::App& app, int* exit_code);
 
 void AddRunCommand(CLI::App& app, int* exit_code);
+void AddBatchCommands(CLI::App& app, int* exit_code);
+void AddCalibrationCommands(CLI::App& app, int* exit_code);
+void AddCompareCommand(CLI::App& app, int* exit_code);
+void AddImportCommand(CLI::App& app, int* exit_code);
 
 }  // namespace hexsim::app

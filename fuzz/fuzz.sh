@@ -18,10 +18,11 @@ if [[ $arg =~ ^[0-9]+$ ]]; then limit=(-max_total_time="$arg"); else limit=("$ar
 launcher=()
 if command -v ccache > /dev/null; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
 
+mkdir -p "$build"
 cmake -S "$root" -B "$build" -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
   -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHEXSIM_BUILD_FUZZ=ON -DHEXSIM_BUILD_TESTS=ON \
-  -DHEXSIM_BUILD_BENCH=OFF "${launcher[@]}" > "$build.configure.log" 2>&1 ||
-  { cat "$build.configure.log"; exit 1; }
+  -DHEXSIM_BUILD_BENCH=OFF "${launcher[@]}" > "$build/configure.log" 2>&1 ||
+  { cat "$build/configure.log"; exit 1; }
 ninja -C "$build" -j"${HEXSIM_FUZZ_JOBS:-2}" fuzz_dataflash fuzz_flightlog_csv
 
 mkdir -p "$build/artifacts"

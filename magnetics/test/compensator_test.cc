@@ -80,6 +80,27 @@ TEST(Compensator, GivenSamplesFromOnePlane_WhenLearning_ThenBadInputSaysSo) {
   EXPECT_NE(r.status().message().find("plane"), std::string::npos) << r.status().message();
 }
 
+TEST(Compensator, GivenTwoPlanesOnly_WhenLearning_ThenBadInputAskingForThree) {
+  // Two circles do not determine an ellipsoid: a pencil of quadrics passes through them.
+  testing::SynthRig rig;
+  rig.planes = {"xy", "yz"};
+  RngStream rng(12, "two_planes");
+  const auto r = LearnCompensator("traditional", testing::Turntable(rig, rng), LearnOptions{}, nullptr);
+  EXPECT_EQ(r.status().code(), StatusCode::kBadInput);
+  EXPECT_NE(r.status().message().find("plane"), std::string::npos) << r.status().message();
+}
+
+TEST(Compensator, GivenAGateBoundTheDataViolates_WhenLearning_ThenTheCompensatorIsReturnedButTheReportRejectsIt) {
+  LearnOptions o;
+  o.ellipsoid.max_radius_uT = 40.0;  // the synthetic field is ≈ 52 µT
+  nlohmann::json report;
+  const auto r = LearnCompensator("adaptive", PaperSamples(13), o, &report);
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_FALSE(report["accepted"].get<bool>());
+  EXPECT_FALSE(report["gate"]["accepted"].get<bool>());
+  EXPECT_NE(report["gate"]["failures"].get<std::string>().find("radius_uT"), std::string::npos) << report["gate"].dump();
+}
+
 TEST(Compensator, GivenTooFewSamples_WhenLearning_ThenBadInput) {
   testing::SynthRig rig;
   rig.angle_step_deg = 120.0;  // 3 per plane, 9 per control amount

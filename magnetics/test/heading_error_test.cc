@@ -105,8 +105,8 @@ TEST(HeadingError, GivenSamplesWithoutTheTrueEarthField_WhenEvaluated_ThenBadInp
 }
 
 TEST(HeadingError, GivenAKnownBodyFieldError_WhenOneSampleIsEvaluated_ThenTheErrorIsTheExactAngle) {
-  // Level, heading 0: earth field along body x; a +y error field of B_h·tan(10°) turns the reading
-  // to the right (east) → ψ_mag = +10°.
+  // Level, heading 0: earth field along body x; a +y error field of B_h·tan(10°) puts north to the
+  // right of the nose, so the reading says the nose points 10° west: ψ_mag = −10°.
   MagSample s;
   s.plane = "xy";
   s.earth_B_uT = Vector3d(20.0, 0.0, 40.0);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 
 #include <Eigen/Core>
@@ -281,6 +282,9 @@ class Eskf final : public Estimator {
       st->last_innovation(i) = y[i];
     }
     st->last_test_ratio = worst;
+    if (std::getenv("NAVDBG") && (worst > 1.0 || std::fmod(t_s, 2.0) < 0.013)) {
+      std::fprintf(stderr, "%8.3f %-14s ratio %6.2f y=[%8.3f %8.3f %8.3f] sqrtS0 %.3f | bg %.4f %.4f %.4f ba %.3f %.3f %.3f Pyaw %.4f\n", t_s, what, worst, y[0], n > 1 ? y[1] : 0.0, n > 2 ? y[2] : 0.0, std::sqrt((H[0] * P_ * H[0].transpose())(0, 0) + r[0]), bg_.x(), bg_.y(), bg_.z(), ba_.x(), ba_.y(), ba_.z(), std::sqrt(P_(2,2)));
+    }
     if (!(worst <= 1.0)) {
       ++st->rejected_gate;
       return;

@@ -3,6 +3,7 @@
 #include <mutex>
 
 #include <ode/ode.h>
+#include <ode/threading_impl.h>
 
 #include "hexsim/common/status.h"
 
@@ -16,6 +17,9 @@ void EnsureOdeInitialised() {
 
 struct RigidBodyWorld::Impl {
   dWorldID world = nullptr;
+  // Each world has its own (single-threaded) stepping implementation: ODE's default one is shared
+  // by every world in the process and is not safe when worlds step on different threads.
+  dThreadingImplementationID threading = nullptr;
   dSpaceID space = nullptr;
   dJointGroupID contacts = nullptr;
   dBodyID body = nullptr;
@@ -44,6 +48,8 @@ RigidBodyWorld::RigidBodyWorld(const RigidBodyParams& p, const BodyState& s, boo
   EnsureOdeInitialised();
   Impl& w = *impl_;
   w.world = dWorldCreate();
+  w.threading = dThreadingAllocateSelfThreadedImplementation();
+  dWorldSetStepThreadingImplementation(w.world, dThreadingImplementationGetFunctions(w.threading), w.threading);
   // NED: gravity points along +D.
   dWorldSetGravity(w.world, 0, 0, p.gravity_mps2);
   dWorldSetERP(w.world, 0.2);
@@ -70,7 +76,9 @@ RigidBodyWorld::RigidBodyWorld(const RigidBodyParams& p, const BodyState& s, boo
 RigidBodyWorld::~RigidBodyWorld() {
   dJointGroupDestroy(impl_->contacts);
   dSpaceDestroy(impl_->space);  // destroys its geoms
+  dWorldSetStepThreadingImplementation(impl_->world, nullptr, nullptr);
   dWorldDestroy(impl_->world);
+  dThreadingFreeImplementation(impl_->threading);
 }
 
 void RigidBodyWorld::SetState(const BodyState& s) {

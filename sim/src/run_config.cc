@@ -124,6 +124,7 @@ Result<RunSetup> LoadRunSetup(const RunRequest& req) {
     r.Opt("estimator", &o.estimator, {"truth", "eskf", "complementary"});
     r.Opt("write_log", &o.write_log);
     r.Opt("control_on_truth", &o.control_on_truth);
+    r.Opt("motor_slew_up_per_s", &o.motor_slew_up_per_s, Positive());
     HEXSIM_RETURN_IF_ERROR(r.Finish());
   }
   if (!req.estimator.empty()) o.estimator = req.estimator;

@@ -311,8 +311,11 @@ RunOutput RunMission(const RunSetup& setup) {
           max_thrust = std::max(max_thrust, vehicle::ThrustForCommand(vp, i, 1.0, measured_bus_V));
         }
         const control::MixResult mix = mixer.Mix(u.thrust_N, u.torque_B_Nm, max_thrust);
+        const double max_up = opt.motor_slew_up_per_s * ap_dt;
         for (size_t i = 0; i < n_rotors; ++i) {
-          commands[i] = vehicle::CommandForThrust(vp, i, mix.thrust_N[static_cast<Eigen::Index>(i)], measured_bus_V);
+          const double wanted =
+              vehicle::CommandForThrust(vp, i, mix.thrust_N[static_cast<Eigen::Index>(i)], measured_bus_V);
+          commands[i] = std::min(wanted, commands[i] + max_up);
         }
       }
       control_u = control::ControlAmount(Eigen::Map<const Eigen::VectorXd>(commands.data(), commands.size()));

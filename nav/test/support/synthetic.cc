@@ -40,6 +40,59 @@ Trajectory YawSpin(double yaw_rate_radps, double yaw0_rad) {
   };
 }
 
+namespace {
+
+struct Kinematics {
+  Eigen::Vector3d p, v, a;
+  double yaw;
+};
+
+Kinematics FigureEightKinematics(double A, double w, double h, double swing, const Eigen::Vector3d& c, double t) {
+  Kinematics k;
+  const double s1 = std::sin(w * t), c1 = std::cos(w * t), s2 = std::sin(2 * w * t), c2 = std::cos(2 * w * t);
+  k.p = c + Eigen::Vector3d(A * s1, 0.5 * A * s2, h * s1);
+  k.v = Eigen::Vector3d(A * w * c1, A * w * c2, h * w * c1);
+  k.a = Eigen::Vector3d(-A * w * w * s1, -2 * A * w * w * s2, -h * w * w * s1);
+  k.yaw = swing * std::sin(0.5 * w * t) + 0.3 * w * t;  // keeps turning, so every heading is seen
+  return k;
+}
+
+// Body axes of a multirotor: z along −(a − g), x towards the yaw in the plane normal to z.
+Eigen::Matrix3d AttitudeFor(const Eigen::Vector3d& a_N, double yaw) {
+  const Eigen::Vector3d f_N = a_N - Eigen::Vector3d(0, 0, kGravity_mps2);
+  const Eigen::Vector3d z_B = -f_N.normalized();
+  const Eigen::Vector3d x_c(std::cos(yaw), std::sin(yaw), 0.0);
+  const Eigen::Vector3d y_B = z_B.cross(x_c).normalized();
+  const Eigen::Vector3d x_B = y_B.cross(z_B);
+  Eigen::Matrix3d R;
+  R << x_B, y_B, z_B;
+  return R;
+}
+
+}  // namespace
+
+Trajectory FigureEight(double half_length_m, double period_s, double weave_m, double yaw_swing_rad,
+                       const Eigen::Vector3d& centre_N_m) {
+  const double w = 2 * kPi / period_s;
+  return [=](double t) {
+    const Kinematics k = FigureEightKinematics(half_length_m, w, weave_m, yaw_swing_rad, centre_N_m, t);
+    Truth x;
+    x.t_s = t;
+    x.p_N_m = k.p;
+    x.v_N_mps = k.v;
+    x.a_N_mps2 = k.a;
+    const Eigen::Matrix3d R = AttitudeFor(k.a, k.yaw);
+    x.q_NB = Eigen::Quaterniond(R);
+    // [ω]× = Rᵀ dR/dt by a central difference.
+    constexpr double kH_s = 1e-4;
+    const Kinematics kp = FigureEightKinematics(half_length_m, w, weave_m, yaw_swing_rad, centre_N_m, t + kH_s);
+    const Kinematics km = FigureEightKinematics(half_length_m, w, weave_m, yaw_swing_rad, centre_N_m, t - kH_s);
+    const Eigen::Matrix3d W = R.transpose() * (AttitudeFor(kp.a, kp.yaw) - AttitudeFor(km.a, km.yaw)) / (2 * kH_s);
+    x.w_B_radps = 0.5 * Eigen::Vector3d(W(2, 1) - W(1, 2), W(0, 2) - W(2, 0), W(1, 0) - W(0, 1));
+    return x;
+  };
+}
+
 Eigen::Vector3d DefaultEarthField_N_uT() { return Eigen::Vector3d(26.0, -4.3, 46.0); }
 
 Eigen::Vector3d TrueSpecificForce_B(const Truth& x) {

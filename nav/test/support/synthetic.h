@@ -31,6 +31,13 @@ Trajectory ConstantVelocity(const Eigen::Vector3d& v_N_mps, double yaw_rad,
 // Level, stationary, turning about the down axis at a constant rate.
 Trajectory YawSpin(double yaw_rate_radps, double yaw0_rad);
 
+// A multirotor flying a horizontal figure eight with a vertical weave, yaw along the velocity plus a
+// swing: p = (A sin ωt, (A/2) sin 2ωt, D0 + h sin ωt). The attitude is what a multirotor needs for
+// that acceleration: body z along −(a − g), nose towards the yaw. The body rate comes from the
+// attitude by a central difference (exact to O(1e-8)), so gyro and accelerometer are consistent.
+Trajectory FigureEight(double half_length_m, double period_s, double weave_m, double yaw_swing_rad,
+                       const Eigen::Vector3d& centre_N_m = Eigen::Vector3d(0, 0, -10));
+
 // A Changchun-like field: declination ≈ −9.4°, inclination ≈ 60°, |B| ≈ 53 µT.
 Eigen::Vector3d DefaultEarthField_N_uT();
 

@@ -31,6 +31,9 @@ struct SimOptions {
   // true: the estimator runs and is logged, but the controller flies on the true state (to study
   // an estimator open-loop).
   bool control_on_truth = false;
+  // Autopilot motor-command slew limit upwards (1/s), as ArduPilot's spool-up: without it an ESC
+  // jumping from stop to hover duty draws hundreds of amperes for a few milliseconds.
+  double motor_slew_up_per_s = 4.0;
   bool write_log = true;
 };
 

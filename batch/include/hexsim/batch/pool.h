@@ -1,0 +1,58 @@
+// The process pool: each run in its own forked worker process (a crash, abort or runaway in one run
+// never takes the batch down), at most `jobs` at a time. The parent alone writes results.sqlite,
+// one transaction per finished run.
+#pragma once
+
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "hexsim/batch/batch_spec.h"
+#include "hexsim/batch/results_db.h"
+#include "hexsim/common/status.h"
+
+namespace hexsim::batch {
+
+struct PoolOptions {
+  int jobs = 1;
+  std::string out_dir;        // workers write out_dir/runs/<run_id>/summary.json
+  double run_timeout_s = 0.0; // > 0: a run still going after this long is killed, status "timeout"
+  // Progress on `progress_stream`: a bar when `progress_tty`, else one line per finished run.
+  std::FILE* progress_stream = stderr;
+  bool progress_tty = false;
+  size_t already_done = 0;    // runs of this shard found finished before (resume), for the bar
+};
+
+// Runs inside the worker process: the run's summary (hexsim.summary/1), or why there is none.
+using RunFn = std::function<Result<nlohmann::json>(const RunPoint&)>;
+
+struct PoolStats {
+  size_t finished = 0;   // rows written by this call
+  size_t failed = 0;     // of them, IsFailure(status)
+  double wall_s = 0.0;
+};
+
+// Runs every point (none of which may be in `db` already) and records each in `db` as it ends.
+Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, const PoolOptions& options,
+                          ResultsDb* db);
+
+// The progress display (exposed for tests).
+class Progress {
+ public:
+  Progress(std::FILE* out, bool tty, size_t total, size_t already_done);
+  void RunFinished(const RunRow& row);
+  void Finish();
+  // "0:07", "1:02:03"
+  static std::string FormatDuration(double seconds);
+
+ private:
+  std::FILE* out_;
+  bool tty_;
+  size_t total_, done_, failed_ = 0, done_here_ = 0;
+  double start_s_;
+};
+
+}  // namespace hexsim::batch

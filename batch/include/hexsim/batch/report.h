@@ -1,0 +1,47 @@
+// `hexsim batch-report`: runs grouped by their parameters except the seed (replicates of one
+// configuration), each summary figure as mean, sample standard deviation and a 95 % confidence
+// interval of the mean (Student t, n − 1 degrees of freedom). Figures are taken from runs whose
+// status is completed or not_completed; diverged/failed/crashed runs are counted, not averaged.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "hexsim/batch/results_db.h"
+
+namespace hexsim::batch {
+
+struct MetricStats {
+  size_t n = 0;
+  double mean = 0.0;
+  std::optional<double> std;             // n ≥ 2
+  std::optional<double> ci95_lo, ci95_hi;  // n ≥ 2
+};
+
+// Mean, sample std and the 95 % t interval of `values` (n = 0: mean 0, nothing else).
+MetricStats ComputeStats(const std::vector<double>& values);
+// Two-sided 97.5 % quantile of Student's t with `dof` degrees of freedom (dof ≥ 1).
+double StudentT975(size_t dof);
+
+struct GroupReport {
+  std::string label;          // "square paper_hex changchun none eskf control.rate.roll.kp=0.12"
+  nlohmann::json params;      // the run parameters without the seed
+  size_t runs = 0;
+  std::map<std::string, size_t> status_counts;
+  std::map<std::string, MetricStats> metrics;  // by MetricColumns() name
+  std::map<std::string, std::vector<double>> values;  // the figures averaged, in seed order
+};
+
+// Groups in order of first appearance when rows are sorted by (label, seed).
+std::vector<GroupReport> AggregateRuns(const std::vector<RunRow>& rows);
+
+// hexsim.batch_report/1: {schema, runs, groups: [{label, params, runs, status, metrics: {m: {n, mean, std, ci95}}}]}
+nlohmann::json ReportJson(const std::vector<GroupReport>& groups);
+// A fixed-width text table: one block per group, one line per metric.
+std::string ReportTable(const std::vector<GroupReport>& groups);
+
+}  // namespace hexsim::batch

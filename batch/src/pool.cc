@@ -1,0 +1,199 @@
+#include "hexsim/batch/pool.h"
+
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstring>
+#include <deque>
+#include <filesystem>
+#include <map>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "hexsim/common/atomic_file.h"
+
+namespace hexsim::batch {
+
+using nlohmann::json;
+
+namespace {
+
+constexpr int kExitResultWritten = 0;
+constexpr int kExitErrorWritten = 4;
+constexpr int kExitNoResult = 5;
+constexpr auto kPollInterval = std::chrono::milliseconds(5);
+
+double NowS() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+std::string RunDir(const std::string& out_dir, const std::string& id) { return out_dir + "/runs/" + id; }
+
+// The worker: runs one point, leaves summary.json or error.txt, never returns.
+[[noreturn]] void WorkerMain(const RunPoint& point, const RunFn& fn, const std::string& dir) {
+  int code = kExitNoResult;
+  try {
+    Result<json> r = fn(point);
+    if (r.ok()) {
+      code = WriteFileAtomic(dir + "/summary.json", r->dump(2) + "\n").ok() ? kExitResultWritten : kExitNoResult;
+    } else {
+      code = WriteFileAtomic(dir + "/error.txt", r.status().message()).ok() ? kExitErrorWritten : kExitNoResult;
+    }
+  } catch (const std::exception& e) {
+    code = WriteFileAtomic(dir + "/error.txt", std::string("exception: ") + e.what()).ok() ? kExitErrorWritten
+                                                                                           : kExitNoResult;
+  }
+  std::_Exit(code);  // no atexit handlers, no flushing of the parent's buffers
+}
+
+struct Running {
+  RunPoint point;
+  std::string id;
+  double start_s = 0.0;
+  bool timed_out = false;
+};
+
+// The row for a reaped worker.
+RunRow Collect(const Running& r, int wait_status, double wall_s, const std::string& out_dir) {
+  const std::string dir = RunDir(out_dir, r.id);
+  if (r.timed_out) return FailedRow(r.point, "timeout", fmt::format("killed after {:.1f} s wall time", wall_s), wall_s);
+  if (WIFSIGNALED(wait_status)) {
+    const int sig = WTERMSIG(wait_status);
+    return FailedRow(r.point, "crashed", fmt::format("worker killed by signal {} ({})", sig, strsignal(sig)), wall_s);
+  }
+  const int code = WIFEXITED(wait_status) ? WEXITSTATUS(wait_status) : -1;
+  if (code == kExitResultWritten) {
+    auto text = ReadFile(dir + "/summary.json");
+    if (text.ok()) {
+      try {
+        return RowFromSummary(r.point, json::parse(*text), wall_s);
+      } catch (const json::exception& e) {
+        return FailedRow(r.point, "crashed", std::string("unreadable summary.json: ") + e.what(), wall_s);
+      }
+    }
+  }
+  if (code == kExitErrorWritten) {
+    auto text = ReadFile(dir + "/error.txt");
+    if (text.ok()) return FailedRow(r.point, "failed", *text, wall_s);
+  }
+  return FailedRow(r.point, "crashed", fmt::format("worker exited with code {} and left no result", code), wall_s);
+}
+
+}  // namespace
+
+Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, const PoolOptions& options,
+                          ResultsDb* db) {
+  if (options.jobs < 1) return Status::BadInput("--jobs: must be at least 1");
+  PoolStats stats;
+  const double start = NowS();
+  Progress progress(options.progress_stream, options.progress_tty, runs.size() + options.already_done,
+                    options.already_done);
+  std::deque<const RunPoint*> queue;
+  for (const auto& p : runs) queue.push_back(&p);
+  std::map<pid_t, Running> running;
+  Status error;
+  while ((!queue.empty() && error.ok()) || !running.empty()) {
+    while (error.ok() && !queue.empty() && static_cast<int>(running.size()) < options.jobs) {
+      const RunPoint& p = *queue.front();
+      queue.pop_front();
+      Running r{p, p.RunId(), NowS(), false};
+      const std::string dir = RunDir(options.out_dir, r.id);
+      std::error_code ec;
+      std::filesystem::create_directories(dir, ec);
+      std::filesystem::remove(dir + "/summary.json", ec);  // a result left by a killed earlier attempt
+      std::filesystem::remove(dir + "/error.txt", ec);
+      std::fflush(nullptr);
+      const pid_t pid = fork();
+      if (pid < 0) {
+        error = Status::Numerical(fmt::format("fork failed: {}", std::strerror(errno)));
+        break;
+      }
+      if (pid == 0) WorkerMain(p, fn, dir);
+      running.emplace(pid, std::move(r));
+    }
+    if (running.empty()) break;
+    int wait_status = 0;
+    pid_t pid = 0;
+    if (options.run_timeout_s > 0) {
+      pid = waitpid(-1, &wait_status, WNOHANG);
+      if (pid == 0) {
+        const double now = NowS();
+        for (auto& [wpid, r] : running) {
+          if (!r.timed_out && now - r.start_s > options.run_timeout_s) {
+            r.timed_out = true;
+            kill(wpid, SIGKILL);
+          }
+        }
+        std::this_thread::sleep_for(kPollInterval);
+        continue;
+      }
+    } else {
+      pid = waitpid(-1, &wait_status, 0);
+    }
+    if (pid < 0) {
+      if (errno == EINTR) continue;
+      error = Status::Numerical(fmt::format("waitpid failed: {}", std::strerror(errno)));
+      break;
+    }
+    auto it = running.find(pid);
+    if (it == running.end()) continue;  // not one of ours
+    const double wall_s = NowS() - it->second.start_s;
+    const RunRow row = Collect(it->second, wait_status, wall_s, options.out_dir);
+    running.erase(it);
+    const Status s = db->Insert(row);
+    if (!s.ok() && error.ok()) error = s;
+    ++stats.finished;
+    if (IsFailure(row.status)) ++stats.failed;
+    progress.RunFinished(row);
+  }
+  progress.Finish();
+  stats.wall_s = NowS() - start;
+  if (!error.ok()) return error;
+  return stats;
+}
+
+Progress::Progress(std::FILE* out, bool tty, size_t total, size_t already_done)
+    : out_(out), tty_(tty), total_(total), done_(already_done), start_s_(NowS()) {}
+
+std::string Progress::FormatDuration(double seconds) {
+  if (!(seconds >= 0) || seconds > 1e8) return "--:--";
+  const long s = static_cast<long>(seconds + 0.5);
+  if (s >= 3600) return fmt::format("{}:{:02d}:{:02d}", s / 3600, (s / 60) % 60, s % 60);
+  return fmt::format("{}:{:02d}", s / 60, s % 60);
+}
+
+void Progress::RunFinished(const RunRow& row) {
+  ++done_;
+  ++done_here_;
+  if (IsFailure(row.status)) ++failed_;
+  if (!out_) return;
+  const double elapsed = NowS() - start_s_;
+  const double rate = elapsed > 0 ? static_cast<double>(done_here_) / elapsed : 0.0;
+  const double left = rate > 0 ? static_cast<double>(total_ - done_) / rate : -1.0;
+  if (tty_) {
+    constexpr int kWidth = 30;
+    const int filled = total_ ? static_cast<int>(kWidth * done_ / total_) : kWidth;
+    std::string bar(static_cast<size_t>(filled), '#');
+    bar.resize(kWidth, '.');
+    std::fprintf(out_, "\r[%s] %zu/%zu runs  %.2f runs/s  %s left%s\x1b[K", bar.c_str(), done_, total_, rate,
+                 FormatDuration(left).c_str(), failed_ ? fmt::format("  ({} failed)", failed_).c_str() : "");
+  } else {
+    std::fprintf(out_, "hexsim batch: [%zu/%zu] %s %s %s %s seed %llu: %s%s%s (%.2f s)\n", done_, total_,
+                 row.run_id.c_str(), row.mission.c_str(), row.vehicle.c_str(), row.calibration.c_str(),
+                 static_cast<unsigned long long>(row.seed), row.status.c_str(), row.reason.empty() ? "" : ": ",
+                 row.reason.c_str(), row.wall_s);
+  }
+  std::fflush(out_);
+}
+
+void Progress::Finish() {
+  if (out_ && tty_ && done_here_ > 0) {
+    std::fprintf(out_, "\n");
+    std::fflush(out_);
+  }
+}
+
+}  // namespace hexsim::batch

@@ -1,0 +1,178 @@
+#include "hexsim/batch/pool.h"
+
+#include <chrono>
+#include <cstdlib>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "test_util.h"
+
+namespace hexsim::batch {
+namespace {
+
+using nlohmann::json;
+
+std::vector<RunPoint> Points(int n) {
+  std::vector<RunPoint> out;
+  for (int i = 1; i <= n; ++i) {
+    RunPoint p;
+    p.seed = static_cast<uint64_t>(i);
+    out.push_back(p);
+  }
+  return out;
+}
+
+// A stand-in for a mission: a summary that depends only on the point; seed 3 aborts (a crash),
+// seed 4 reports an error, seed 5 diverges.
+Result<json> FakeRun(const RunPoint& p) {
+  if (p.seed == 3) std::abort();
+  if (p.seed == 4) return Status::BadInput("mission file vanished");
+  const double s = static_cast<double>(p.seed);
+  return json{{"status", p.seed == 5 ? "diverged" : "completed"},
+              {"reason", p.seed == 5 ? "non-finite v_N_mps at t = 1.000 s" : ""},
+              {"mission", p.mission},
+              {"cross_track_m", {{"max", 2 * s}, {"rms", s}}},
+              {"yaw_error_deg", {{"max", 0.5 * s}, {"rms", 0.25 * s}}},
+              {"energy_Wh", 1.5 + s},
+              {"duration_s", 10.0},
+              {"mission_time_s", nullptr},
+              {"waypoints", json::array()},
+              {"wall_s", 0.01 * s},
+              {"version", "test"}};
+}
+
+std::vector<std::string> RunWithJobs(int jobs, const std::string& name, PoolStats* stats_out) {
+  const std::string dir = testing::TempDir(name);
+  auto db = ResultsDb::Open(dir + "/results.sqlite", true);
+  EXPECT_TRUE(db.ok());
+  PoolOptions opt;
+  opt.jobs = jobs;
+  opt.out_dir = dir;
+  opt.progress_stream = nullptr;
+  auto stats = RunPool(Points(8), FakeRun, opt, &*db);
+  EXPECT_TRUE(stats.ok()) << stats.status().message();
+  if (stats.ok()) *stats_out = *stats;
+  return testing::ComparableTable(dir + "/results.sqlite");
+}
+
+TEST(RunPool, GivenRunsThatCrashFailAndDivergeWhenPooledThenEachIsRecordedWithItsReasonAndTheRestFinish) {
+  const std::string dir = testing::TempDir("pool_failures");
+  auto db = ResultsDb::Open(dir + "/results.sqlite", true);
+  ASSERT_TRUE(db.ok());
+  PoolOptions opt;
+  opt.jobs = 2;
+  opt.out_dir = dir;
+  opt.progress_stream = nullptr;
+  auto stats = RunPool(Points(8), FakeRun, opt, &*db);
+  ASSERT_TRUE(stats.ok()) << stats.status().message();
+  EXPECT_EQ(stats->finished, 8u);
+  EXPECT_EQ(stats->failed, 3u);
+  auto rows = db->ReadAll();
+  ASSERT_TRUE(rows.ok());
+  ASSERT_EQ(rows->size(), 8u);
+  for (const auto& r : *rows) {
+    SCOPED_TRACE(r.seed);
+    switch (r.seed) {
+      case 3:
+        EXPECT_EQ(r.status, "crashed");
+        EXPECT_NE(r.reason.find("signal 6"), std::string::npos) << r.reason;
+        EXPECT_FALSE(r.metrics.at("cross_track_rms_m").has_value());
+        break;
+      case 4:
+        EXPECT_EQ(r.status, "failed");
+        EXPECT_EQ(r.reason, "mission file vanished");
+        break;
+      case 5:
+        EXPECT_EQ(r.status, "diverged");
+        EXPECT_NE(r.reason.find("non-finite"), std::string::npos);
+        break;
+      default:
+        EXPECT_EQ(r.status, "completed");
+        ASSERT_TRUE(r.metrics.at("cross_track_rms_m").has_value());
+        EXPECT_DOUBLE_EQ(*r.metrics.at("cross_track_rms_m"), static_cast<double>(r.seed));
+        EXPECT_DOUBLE_EQ(*r.metrics.at("energy_Wh"), 1.5 + static_cast<double>(r.seed));
+        EXPECT_FALSE(r.metrics.at("mission_time_s").has_value());
+        EXPECT_EQ(r.summary_json.find("wall_s"), std::string::npos);  // kept out of the comparable columns
+    }
+    EXPECT_EQ(r.run_id, RunPoint{Points(8)[r.seed - 1]}.RunId());
+  }
+}
+
+TEST(RunPool, GivenOneOrTwoWorkersWhenTheSameRunsArePooledThenTheTablesAreIdentical) {
+  PoolStats s1, s2;
+  const auto one = RunWithJobs(1, "pool_jobs1", &s1);
+  const auto two = RunWithJobs(2, "pool_jobs2", &s2);
+  ASSERT_EQ(one.size(), 8u);
+  EXPECT_EQ(one, two);
+}
+
+TEST(RunPool, GivenARunThatHangsWhenATimeoutIsSetThenItIsKilledAndRecordedAsTimeout) {
+  const std::string dir = testing::TempDir("pool_timeout");
+  auto db = ResultsDb::Open(dir + "/results.sqlite", true);
+  ASSERT_TRUE(db.ok());
+  PoolOptions opt;
+  opt.jobs = 2;
+  opt.out_dir = dir;
+  opt.run_timeout_s = 0.3;
+  opt.progress_stream = nullptr;
+  auto hang = [](const RunPoint& p) -> Result<json> {
+    if (p.seed == 1) std::this_thread::sleep_for(std::chrono::seconds(30));
+    return json{{"status", "completed"}, {"reason", ""}};
+  };
+  const auto t0 = std::chrono::steady_clock::now();
+  auto stats = RunPool(Points(2), hang, opt, &*db);
+  const double took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_TRUE(stats.ok());
+  EXPECT_LT(took_s, 10.0);
+  auto rows = db->ReadAll();
+  ASSERT_TRUE(rows.ok());
+  ASSERT_EQ(rows->size(), 2u);
+  for (const auto& r : *rows) EXPECT_EQ(r.status, r.seed == 1 ? "timeout" : "completed");
+}
+
+TEST(ResultsDb, GivenARowInsertedTwiceWhenReadThenItIsPresentOnceAndTheFirstIsKept) {
+  const std::string dir = testing::TempDir("db_dupe");
+  auto db = ResultsDb::Open(dir + "/results.sqlite", true);
+  ASSERT_TRUE(db.ok());
+  RunPoint p;
+  bool inserted = false;
+  ASSERT_TRUE(db->Insert(FailedRow(p, "crashed", "first", 1.0), &inserted).ok());
+  EXPECT_TRUE(inserted);
+  ASSERT_TRUE(db->Insert(FailedRow(p, "crashed", "second", 1.0), &inserted).ok());
+  EXPECT_FALSE(inserted);
+  auto rows = db->ReadAll();
+  ASSERT_EQ(rows->size(), 1u);
+  EXPECT_EQ((*rows)[0].reason, "first");
+}
+
+TEST(ResultsDb, GivenOverlappingShardFilesWhenMergedThenEveryRunIsPresentExactlyOnce) {
+  const std::string dir = testing::TempDir("db_merge");
+  const auto points = Points(6);
+  for (int s = 0; s < 2; ++s) {
+    auto db = ResultsDb::Open(dir + "/s" + std::to_string(s) + ".sqlite", true);
+    ASSERT_TRUE(db.ok());
+    for (size_t i = 0; i < points.size(); ++i) {
+      if (i % 2 == static_cast<size_t>(s) || i == 0) ASSERT_TRUE(db->Insert(FailedRow(points[i], "crashed", "x", 0)).ok());
+    }
+  }
+  auto merged = ResultsDb::Open(dir + "/all.sqlite", true);
+  ASSERT_TRUE(merged.ok());
+  int64_t a = 0, b = 0;
+  ASSERT_TRUE(merged->MergeFrom(dir + "/s0.sqlite", &a).ok());
+  ASSERT_TRUE(merged->MergeFrom(dir + "/s1.sqlite", &b).ok());
+  EXPECT_EQ(a, 3);
+  EXPECT_EQ(b, 3);  // point 0 was in both
+  EXPECT_EQ(*merged->Count(), 6);
+  EXPECT_FALSE(merged->MergeFrom(dir + "/missing.sqlite", &a).ok());
+}
+
+TEST(Progress, GivenSecondsWhenFormattedThenMinutesAndHoursShow) {
+  EXPECT_EQ(Progress::FormatDuration(7), "0:07");
+  EXPECT_EQ(Progress::FormatDuration(62), "1:02");
+  EXPECT_EQ(Progress::FormatDuration(3723), "1:02:03");
+  EXPECT_EQ(Progress::FormatDuration(-1), "--:--");
+}
+
+}  // namespace
+}  // namespace hexsim::batch

@@ -1,0 +1,111 @@
+// Sim-to-real gap diagnosis (issue 9, CONTRACTS.md "Gap diagnosis").
+//
+// Replay: the log's attitude (q_*), currents (current_A, motor_i_A) and throttle (control_u) drive
+// the configured models to predict each measured channel; residual r = measured − predicted.
+//   compass c:  H = R_SB·scale·K(I)·(R_NBᵀ·B_wmm + B_wiring(p_c, lagged I)) + β   (sensor frame)
+//   gyro:       w_B = 2·Im(q_kᵀ⁻¹ ⊗ q_k+1)/dt (central difference of the logged attitude)
+//   accel:      f_B = R_NBᵀ·(dv_N/dt − g_N)
+// Where: residual RMS by flight phase, regime bin (current, throttle, speed, tilt) and band.
+// Which: each candidate effect is a linear model of the residual (nonlinear parameters such as a lag
+// are profiled over a grid); per time block the normal equations are accumulated once, so blocked
+// cross-validation, the block bootstrap (attribution probability) and cluster-robust 95 % intervals
+// are cheap. How much: held-out shrink 1 − RMS_after/RMS_before (RMS about zero).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "hexsim/common/status.h"
+#include "hexsim/logs/flight_log.h"
+#include "hexsim/vehicle/vehicle_params.h"
+
+namespace hexsim::gap {
+
+struct DiagnoseOptions {
+  int blocks = 20;                 // contiguous time blocks (CV folds = blocks / 2, bootstrap unit)
+  int bootstrap_samples = 200;     // block bootstrap resamples for attribution probabilities
+  double alpha = 0.01;             // family-wise false-alarm level of the gap test
+  double explain_shrink = 0.2928932188134524;  // 1 − √0.5: removes half the held-out mean square
+  double adequacy_ratio = 1.3;     // residual MS / high-frequency noise MS above this: structure left
+  double min_duration_s = 20.0;    // shorter logs are not diagnosed
+  int min_samples = 400;           // per channel
+  uint64_t seed = 1;               // bootstrap resampling
+  bool allow_field_extrapolation = true;  // dates outside 2015–2030 use the nearest WMM epoch
+  // The compass the attitude reference fused (column prefix, e.g. "mag"); empty: decided from the
+  // log meta (sim truth: none; imported log: the primary compass).
+  std::string contaminating_compass = "auto";
+};
+
+struct CandidateResult {
+  std::string effect;
+  double probability = 0.0;          // block-bootstrap attribution probability
+  double heldout_shrink = 0.0;       // 1 − RMS_after/RMS_before on held-out blocks, alone
+  double p_value = 1.0;              // F test against no effect
+  double bic = 0.0;
+  double magnitude = 0.0;            // one scalar figure (e.g. |d| µT/A), its unit in magnitude_unit
+  double magnitude_ci95[2] = {0.0, 0.0};
+  std::string magnitude_unit;
+  nlohmann::json params = nlohmann::json::object();  // named physical parameters
+  nlohmann::json ci95 = nlohmann::json::object();    // same names, [lo, hi]
+  bool selected = false;             // part of the chosen model
+};
+
+struct ChannelResult {
+  std::string channel;  // FlightLog column prefix: mag, mag2, gyro, accel
+  std::string unit;
+  int samples = 0;
+  double rms_before = 0.0;
+  double noise_rms = 0.0;            // high-frequency (first-difference) noise estimate
+  bool gap_detected = false;
+  double p_value = 1.0;
+  double ljung_box_p = 1.0;
+  bool reference_contaminated = false;
+  nlohmann::json where = nlohmann::json::object();
+  std::string verdict = "none";      // none | unexplained | ambiguous | <effect>
+  std::string explanation;           // plain-language note (ambiguity manoeuvre, adequacy)
+  std::vector<CandidateResult> candidates;  // best first
+  double heldout_shrink = 0.0;       // of the selected model
+  std::vector<std::string> not_available;  // candidate effects the log cannot support here
+  // For plots: sample times, residual before/after (3 axes), the chosen regressor.
+  std::vector<double> t_s, chosen_regressor;
+  std::string chosen_regressor_name;
+  std::vector<Eigen::Vector3d> residual_before, residual_after;
+};
+
+struct PhaseSpan {
+  double t0_s = 0.0, t1_s = 0.0;
+  std::string phase;
+};
+
+struct GapReport {
+  std::string log_name;
+  std::string attitude_source;
+  std::string field_model;
+  Eigen::Vector3d earth_field_N_uT = Eigen::Vector3d::Zero();
+  std::vector<ChannelResult> channels;
+  std::vector<std::pair<std::string, std::string>> not_diagnosed;  // channel, why
+  std::vector<PhaseSpan> phases;
+  std::vector<std::string> effects_not_built;
+};
+
+// Flight phases per log row: ground, takeoff, hover, climb, cruise, descent, landing.
+std::vector<std::string> ClassifyPhases(const logs::FlightLog& log);
+
+// The whole diagnosis. Bad input (no rows, no t_s) is kBadInput; missing channels or a short log are
+// not: they are listed in not_diagnosed.
+Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle,
+                           const DiagnoseOptions& options = {});
+
+// gap.json (hexsim.gap/1).
+nlohmann::json ToJson(const GapReport& report);
+// The plain-language summary for stdout.
+std::string Summary(const GapReport& report);
+// The vehicle YAML text with the chosen effects added (compass keys, wiring segments, lag), and a
+// comment block for those the vehicle schema cannot express.
+Result<std::string> UpdatedVehicleYaml(const std::string& vehicle_yaml_text, const vehicle::VehicleParams& vehicle,
+                                       const GapReport& report);
+
+}  // namespace hexsim::gap

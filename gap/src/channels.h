@@ -1,0 +1,55 @@
+// Replay of a FlightLog into per-channel residuals and the candidate effects' regressors (private).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "hexsim/gap/diagnose.h"
+#include "hexsim/magnetics/current_field.h"
+
+namespace hexsim::gap::internal {
+
+using Vec3 = Eigen::Vector3d;
+using Mat3X = Eigen::Matrix<double, 3, Eigen::Dynamic>;
+
+// One candidate model: per sample a 3×p block of regressors; coefficient j times scale[j] is the
+// physical parameter names[j].
+struct Candidate {
+  std::string effect;
+  std::string regressor_name;  // for the "residual vs regressor" plot
+  std::vector<std::string> names;
+  std::vector<double> scale;
+  std::vector<Mat3X> X;
+  std::vector<double> regressor;  // scalar regressor per sample for the plot (may be empty)
+  double grid_value = 0.0;        // profiled nonlinear parameter (lag τ), else 0
+  std::string grid_name;          // e.g. "tau_s"
+  std::string magnitude_unit;
+  int p() const { return static_cast<int>(names.size()); }
+};
+
+// The replayed channel.
+struct ChannelData {
+  std::string name, unit;
+  bool bias_nuisance = false;  // the configured noise model has a constant bias: intercept always in
+  std::vector<double> t;
+  std::vector<Vec3> y;                 // residual measured − predicted
+  std::vector<int> row;                // nearest log row (phase, regimes)
+  std::vector<Candidate> candidates;   // families share `effect`
+  std::vector<std::string> not_available;
+};
+
+// Builds every channel the log and the vehicle support; the rest go to not_diagnosed.
+struct ReplayResult {
+  std::vector<ChannelData> channels;
+  std::vector<std::pair<std::string, std::string>> not_diagnosed;
+  std::string attitude_source;
+  std::string contaminated;  // compass column prefix fused by the attitude reference, or empty
+  std::string field_model;
+  Vec3 earth_field_N_uT = Vec3::Zero();
+};
+
+ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, const DiagnoseOptions& options);
+
+}  // namespace hexsim::gap::internal

@@ -1,0 +1,157 @@
+// The hexsim command line as a user meets it: exit codes, one-line errors naming file and field,
+// nothing half-written, determinism.
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CmdResult {
+  int code = -1;
+  std::string err;
+  std::string out;
+};
+
+CmdResult Hexsim(const std::string& args) {
+  const fs::path dir = fs::temp_directory_path() / "hexsim_cli_test";
+  fs::create_directories(dir);
+  const std::string err_file = (dir / "stderr.txt").string(), out_file = (dir / "stdout.txt").string();
+  const std::string cmd = std::string(HEXSIM_BINARY) + " " + args + " >" + out_file + " 2>" + err_file;
+  const int raw = std::system(cmd.c_str());
+  CmdResult r;
+  r.code = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+  std::ifstream e(err_file), o(out_file);
+  std::stringstream es, os;
+  es << e.rdbuf();
+  os << o.rdbuf();
+  r.err = es.str();
+  r.out = os.str();
+  return r;
+}
+
+fs::path TempDir(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("hexsim_cli_" + name);
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p;
+}
+
+void Write(const fs::path& p, const std::string& text) {
+  std::ofstream f(p);
+  f << text;
+}
+
+int Lines(const std::string& s) {
+  int n = 0;
+  for (char c : s) n += c == '\n';
+  return n;
+}
+
+std::string Slurp(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+TEST(Cli, GivenMalformedYamlMissionWhenRunThenOneLineNamesFileAndExit2AndNoOutput) {
+  const fs::path d = TempDir("malformed");
+  Write(d / "bad.yaml", "items: [\n  - {type: takeoff, alt_m: 10\n");
+  const fs::path out = d / "out";
+  const CmdResult r = Hexsim("fly " + (d / "bad.yaml").string());
+  // (mission is a positional of `run`)
+  const CmdResult r2 = Hexsim("run " + (d / "bad.yaml").string() + " --out " + out.string());
+  EXPECT_EQ(r2.code, 2);
+  EXPECT_EQ(Lines(r2.err), 1) << r2.err;
+  EXPECT_NE(r2.err.find("bad.yaml:"), std::string::npos) << r2.err;
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_EQ(r.code, 2);  // an unknown subcommand is bad usage too
+}
+
+TEST(Cli, GivenNegativeMassWhenRunThenErrorNamesFieldAndLine) {
+  const fs::path d = TempDir("mass");
+  std::ifstream in(std::string(HEXSIM_SOURCE_DIR) + "/worlds/vehicles/default_hex.yaml");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string text = ss.str();
+  const size_t pos = text.find("mass_kg:");
+  ASSERT_NE(pos, std::string::npos);
+  const size_t eol = text.find('\n', pos);
+  text.replace(pos, eol - pos, "mass_kg: -2.0");
+  Write(d / "neg.yaml", text);
+  const fs::path out = d / "out";
+  const CmdResult r = Hexsim("run square --vehicle " + (d / "neg.yaml").string() + " --out " + out.string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(Lines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find("neg.yaml:"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("mass_kg: must be > 0"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(Cli, GivenUnknownKeyOrMissingFileWhenRunThenExit2) {
+  const fs::path d = TempDir("unknown");
+  Write(d / "m.yaml", "speed_mps: 3\ncolour: red\nitems:\n  - {type: takeoff, alt_m: 5}\n  - {type: land}\n");
+  CmdResult r = Hexsim("run " + (d / "m.yaml").string() + " --out " + (d / "o").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("m.yaml:2: colour: unknown key"), std::string::npos) << r.err;
+  r = Hexsim("run " + (d / "nope.yaml").string() + " --out " + (d / "o").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("nope.yaml"), std::string::npos) << r.err;
+  r = Hexsim("run square --set control.rate.roll.kq=1 --out " + (d / "o").string());
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_FALSE(fs::exists(d / "o"));
+}
+
+TEST(Cli, GivenSameSeedWhenRunTwiceThenLogsAreByteIdentical) {
+  const fs::path d = TempDir("determinism");
+  const std::string args = "run square --vehicle default_hex --duration 20 --seed 42";
+  ASSERT_EQ(Hexsim(args + " --out " + (d / "a").string()).code, 0);
+  ASSERT_EQ(Hexsim(args + " --out " + (d / "b").string()).code, 0);
+  const std::string a = Slurp(d / "a" / "log.csv"), b = Slurp(d / "b" / "log.csv");
+  EXPECT_GT(a.size(), 10000u);
+  EXPECT_TRUE(a == b);
+  ASSERT_EQ(Hexsim("run square --vehicle default_hex --duration 20 --seed 43 --out " + (d / "c").string()).code, 0);
+  EXPECT_FALSE(a == Slurp(d / "c" / "log.csv"));
+}
+
+TEST(Cli, GivenBadSampleFilesWhenCalibratingThenExit2WithReason) {
+  const fs::path d = TempDir("badsamples");
+  Write(d / "empty.csv", "");
+  CmdResult r = Hexsim("calibrate " + (d / "empty.csv").string() + " --method traditional --out " + (d / "c.yaml").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(Lines(r.err), 1) << r.err;
+  // One plane only.
+  ASSERT_EQ(Hexsim("turntable --planes xy --control 0,300 --step-deg 20 --out " + (d / "tt").string()).code, 0);
+  r = Hexsim("calibrate " + (d / "tt" / "samples.csv").string() + " --method adaptive --out " + (d / "c.yaml").string());
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("plane"), std::string::npos) << r.err;
+  // A NaN reading.
+  std::string text = Slurp(d / "tt" / "samples.csv");
+  const size_t row2 = text.find('\n', text.find('\n') + 1) + 1;
+  const size_t comma = text.find(",mag", 0);
+  (void)comma;
+  std::string line = text.substr(row2, text.find('\n', row2) - row2);
+  std::string bad = line;
+  const size_t c8 = [&] {
+    size_t p = 0;
+    for (int i = 0; i < 8; ++i) p = bad.find(',', p) + 1;
+    return p;
+  }();
+  bad.replace(c8, bad.find(',', c8) - c8, "nan");
+  text.replace(row2, line.size(), bad);
+  Write(d / "nan.csv", text);
+  r = Hexsim("calibrate " + (d / "nan.csv").string() + " --method traditional --out " + (d / "c.yaml").string());
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("nan.csv:3"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(d / "c.yaml"));
+}
+
+}  // namespace
