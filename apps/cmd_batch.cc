@@ -20,6 +20,7 @@
 #include "hexsim/batch/pool.h"
 #include "hexsim/batch/report.h"
 #include "hexsim/batch/results_db.h"
+#include "hexsim/batch/setup_cache.h"
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/paths.h"
 #include "hexsim/logs/flight_log.h"
@@ -46,34 +47,22 @@ struct BatchArgs {
   std::string out;
 };
 
-sim::RunRequest RequestFor(const batch::RunPoint& p) {
-  sim::RunRequest req;
-  req.mission = p.mission;
-  req.vehicle = p.vehicle;
-  req.world = p.world;
-  req.estimator = p.estimator;
-  req.seed = p.seed;
-  req.duration_s = p.duration_s;
-  req.sets = p.SetAssignments();
-  return req;
-}
-
 // Everything that can be checked before a run starts, so bad input fails the batch up front
-// (exit 2, nothing written) rather than run by run: each point's files and overrides load, and each
-// calibration attaches once.
-Status ValidatePoints(const std::string& batch_file, const std::vector<batch::RunPoint>& points) {
-  std::set<std::string> setups_seen, calibrations_seen;
+// (exit 2, nothing written) rather than run by run: each point's files and overrides load (into
+// `cache`, which the forked workers inherit), and each calibration attaches once.
+Status ValidatePoints(const std::string& batch_file, const std::vector<batch::RunPoint>& points,
+                      batch::SetupCache* cache) {
+  std::set<std::string> keys_seen, calibrations_seen;
   for (const auto& p : points) {
-    json key = p.Params();
-    key.erase("seed");
-    key.erase("calibration");
-    if (!setups_seen.insert(key.dump()).second && calibrations_seen.count(p.calibration)) continue;
-    auto setup = sim::LoadRunSetup(RequestFor(p));
+    const bool new_setup = keys_seen.insert(batch::SetupCache::Key(p)).second;
+    const bool new_calibration = calibrations_seen.insert(p.calibration).second;
+    if (!new_setup && !new_calibration) continue;
+    auto setup = cache->Get(p);
     if (!setup.ok()) {
       return Status::BadInput(fmt::format("{}: run {} {}: {}", batch_file, p.RunId(), p.CanonicalJson(),
                                           setup.status().message()));
     }
-    if (calibrations_seen.insert(p.calibration).second) {
+    if (new_calibration) {
       const Status s = AttachCalibration(p.calibration, &*setup);
       if (!s.ok()) return Status::BadInput(fmt::format("{}: calibrations: {}", batch_file, s.message()));
     }
@@ -82,8 +71,8 @@ Status ValidatePoints(const std::string& batch_file, const std::vector<batch::Ru
 }
 
 // The worker's job (in its own process): one mission, its summary; the log too with --keep-logs.
-Result<json> RunOne(const batch::RunPoint& p, const std::string& run_dir, bool keep_log) {
-  auto setup = sim::LoadRunSetup(RequestFor(p));
+Result<json> RunOne(const batch::RunPoint& p, batch::SetupCache* cache, const std::string& run_dir, bool keep_log) {
+  auto setup = cache->Get(p);
   if (!setup.ok()) return setup.status();
   HEXSIM_RETURN_IF_ERROR(AttachCalibration(p.calibration, &*setup));
   sim::RunOutput out = sim::RunMission(*setup);
@@ -104,7 +93,8 @@ Status BatchCommand(const BatchArgs& args, int* exit_code) {
     return Status::Ok();
   }
   if (args.out.empty()) return Status::BadInput("batch: --out DIR is required");
-  HEXSIM_RETURN_IF_ERROR(ValidatePoints(spec->file, mine));
+  batch::SetupCache cache;
+  HEXSIM_RETURN_IF_ERROR(ValidatePoints(spec->file, mine, &cache));
   const int jobs = args.jobs > 0 ? args.jobs : std::max(1, static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN)));
   const std::string db_path = args.out + "/" + kResultsFile;
   std::error_code ec;
@@ -134,7 +124,10 @@ Status BatchCommand(const BatchArgs& args, int* exit_code) {
   const bool keep = args.keep_logs;
   auto stats = batch::RunPool(
       todo,
-      [&args, keep](const batch::RunPoint& p) { return RunOne(p, args.out + "/runs/" + p.RunId(), keep); }, opt,
+      [&args, &cache, keep](const batch::RunPoint& p) {
+        return RunOne(p, &cache, args.out + "/runs/" + p.RunId(), keep);
+      },
+      opt,
       &*db);
   if (!stats.ok()) return stats.status();
   // Exit 1 when any run of this shard failed, including those recorded by an earlier attempt.

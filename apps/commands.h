@@ -8,6 +8,7 @@ namespace hexsim::app {
 void RegisterCommands(CLI::App& app, int* exit_code);
 
 void AddRunCommand(CLI::App& app, int* exit_code);
+void AddGapCommand(CLI::App& app, int* exit_code);
 void AddBatchCommands(CLI::App& app, int* exit_code);
 void AddCalibrationCommands(CLI::App& app, int* exit_code);
 void AddCompareCommand(CLI::App& app, int* exit_code);

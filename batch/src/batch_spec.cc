@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <set>
 
 #include <fmt/format.h>
@@ -287,6 +288,13 @@ Result<BatchSpec> ParseBatch(const YAML::Node& root, const std::string& file) {
   HEXSIM_RETURN_IF_ERROR(ReadNames(file, root, "vehicles", "vehicles", &spec.vehicles));
   HEXSIM_RETURN_IF_ERROR(ReadNames(file, root, "worlds", "environments", &spec.worlds));
   HEXSIM_RETURN_IF_ERROR(ReadNames(file, root, "calibrations", "", &spec.calibrations));
+  for (auto& c : spec.calibrations) {  // a calib.yaml path is taken relative to the batch file
+    std::error_code ec;
+    const bool looks_like_file = c.find('/') != std::string::npos || c.find(".yaml") != std::string::npos;
+    if (looks_like_file && !std::filesystem::exists(c, ec) && std::filesystem::exists(DirName(file) + "/" + c, ec)) {
+      c = DirName(file) + "/" + c;
+    }
+  }
   HEXSIM_RETURN_IF_ERROR(ReadNames(file, root, "estimators", "", &spec.estimators));
   for (size_t i = 0; i < spec.estimators.size(); ++i) {
     const std::string& e = spec.estimators[i];

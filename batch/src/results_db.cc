@@ -167,7 +167,7 @@ Result<ResultsDb> ResultsDb::Open(const std::string& path, bool create) {
   }
   sqlite3_busy_timeout(db.db_, kBusyTimeout_ms);
   // WAL: a committed row survives a killed process; synchronous=FULL: and a power cut.
-  HEXSIM_RETURN_IF_ERROR(db.Exec("PRAGMA journal_mode=WAL; PRAGMA synchronous=FULL;"));
+  HEXSIM_RETURN_IF_ERROR(db.Exec("PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL;"));
   if (create) {
     HEXSIM_RETURN_IF_ERROR(db.Exec(CreateTableSql()));
   } else {

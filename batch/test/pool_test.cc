@@ -153,7 +153,9 @@ TEST(ResultsDb, GivenOverlappingShardFilesWhenMergedThenEveryRunIsPresentExactly
     auto db = ResultsDb::Open(dir + "/s" + std::to_string(s) + ".sqlite", true);
     ASSERT_TRUE(db.ok());
     for (size_t i = 0; i < points.size(); ++i) {
-      if (i % 2 == static_cast<size_t>(s) || i == 0) ASSERT_TRUE(db->Insert(FailedRow(points[i], "crashed", "x", 0)).ok());
+      if (i % 2 == static_cast<size_t>(s) || i == 0) {
+        ASSERT_TRUE(db->Insert(FailedRow(points[i], "crashed", "x", 0)).ok());
+      }
     }
   }
   auto merged = ResultsDb::Open(dir + "/all.sqlite", true);

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Starts a real single-node Slurm cluster (munged + slurmctld + slurmd) under a temporary
-# directory, submits a small batch as a 4-task job array with scripts/slurm/submit.sh, waits,
-# merges with scripts/slurm/merge.sh and checks every run is present exactly once.
+# directory, submits a small batch as a 4-task job array with scripts/slurm/submit.sh --merge (the
+# array, then a dependent job running scripts/slurm/merge.sh), waits, and checks every run is
+# present exactly once in the merged results.
 # Recipe: /work/shared/design/SLURM_NOTES.md. Exit 0 pass, 1 fail, 77 skip (packages missing).
 #   slurm_cluster.sh HEXSIM_EXE SOURCE_DIR BATCH_YAML
 set -uo pipefail
@@ -82,21 +83,24 @@ for _ in $(seq 100); do
 done
 [ "$(sinfo -h -o %t 2>/dev/null)" = idle ] || fail "node not idle: $(sinfo 2>&1)"
 
-IDS=$(HEXSIM=$HEXSIM "$SRC/scripts/slurm/submit.sh" "$BATCH" "$D/out" --tasks $TASKS --jobs 1) || fail "submit.sh failed"
-JOB=$(echo "$IDS" | head -1)
-echo "submitted array job $JOB"
-for _ in $(seq 400); do
-  [ -z "$(squeue -h -j "$JOB" 2>/dev/null)" ] && break
+IDS=$(HEXSIM=$HEXSIM "$SRC/scripts/slurm/submit.sh" "$BATCH" "$D/out" --tasks $TASKS --jobs 1 --merge) ||
+  fail "submit.sh failed"
+JOB=$(echo "$IDS" | sed -n 1p)
+MJOB=$(echo "$IDS" | sed -n 2p)
+[ -n "$JOB" ] && [ -n "$MJOB" ] || fail "submit.sh printed '$IDS', expected two job ids"
+echo "submitted array job $JOB, merge job $MJOB"
+for _ in $(seq 450); do
+  [ -z "$(squeue -h -j "$JOB,$MJOB" 2>/dev/null)" ] && break
   sleep 0.1
 done
-[ -z "$(squeue -h -j "$JOB" 2>/dev/null)" ] || fail "job $JOB still queued after 40 s"
+[ -z "$(squeue -h -j "$JOB,$MJOB" 2>/dev/null)" ] || fail "jobs $JOB/$MJOB still queued after 45 s"
 for i in $(seq 0 $((TASKS - 1))); do
   [ -f "$D/out/shard_$i/results.sqlite" ] || fail "task $i wrote no shard_$i/results.sqlite"
 done
-HEXSIM=$HEXSIM "$SRC/scripts/slurm/merge.sh" "$D/out" || fail "merge.sh failed"
+[ -f "$D/out/results.sqlite" ] || fail "the merge job wrote no results.sqlite"
+cat "$D/out/slurm/merge.out"
 # Every run of the batch exactly once.
 "$HEXSIM" batch "$BATCH" --list | cut -d' ' -f1 | sort > "$D/expected.txt"
-sqlite3 -version >/dev/null 2>&1 || true
 "$HEXSIM" batch-report "$D/out" --no-plots --json "$D/report.json" >/dev/null || fail "batch-report failed"
 python3 - "$D/out/results.sqlite" "$D/expected.txt" <<'PY' || fail "merged results do not match the batch"
 import sqlite3, sys

@@ -74,7 +74,11 @@ inline std::vector<std::string> ComparableTable(const std::string& db_path) {
       std::ostringstream ss;
       ss.precision(17);
       ss << "|" << k << "=";
-      if (v) ss << *v; else ss << "NULL";
+      if (v) {
+        ss << *v;
+      } else {
+        ss << "NULL";
+      }
       line += ss.str();
     }
     out.push_back(line);

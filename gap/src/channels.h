@@ -26,6 +26,7 @@ struct Candidate {
   double grid_value = 0.0;        // profiled nonlinear parameter (lag τ), else 0
   std::string grid_name;          // e.g. "tau_s"
   std::string magnitude_unit;
+  int magnitude_params = -1;  // the magnitude uses the first this many parameters (-1: all)
   int p() const { return static_cast<int>(names.size()); }
 };
 

@@ -414,11 +414,12 @@ void Describe(const Evaluated& e, const std::vector<double>& grid_boot, Candidat
     return;
   }
   r->magnitude_unit = c.magnitude_unit;
-  Eigen::VectorXd v(p);
-  for (int j = 0; j < p; ++j) v[j] = e.full.beta[j] * c.scale[j];
-  Eigen::MatrixXd S = Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(c.scale.data(), p)).asDiagonal();
-  const Eigen::MatrixXd cov = S * e.cov * S;
-  if (p == 1) {
+  const int pm = c.magnitude_params > 0 ? c.magnitude_params : p;
+  Eigen::VectorXd v(pm);
+  for (int j = 0; j < pm; ++j) v[j] = e.full.beta[j] * c.scale[j];
+  Eigen::MatrixXd S = Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(c.scale.data(), pm)).asDiagonal();
+  const Eigen::MatrixXd cov = S * e.cov.topLeftCorner(pm, pm) * S;
+  if (pm == 1) {
     r->magnitude = v[0];
     const double sd = std::sqrt(std::max(0.0, cov(0, 0)));
     r->magnitude_ci95[0] = v[0] - t975 * sd;
@@ -426,7 +427,7 @@ void Describe(const Evaluated& e, const std::vector<double>& grid_boot, Candidat
     return;
   }
   const double mag = v.norm();
-  const Eigen::VectorXd grad = mag > 0 ? Eigen::VectorXd(v / mag) : Eigen::VectorXd::Zero(p);
+  const Eigen::VectorXd grad = mag > 0 ? Eigen::VectorXd(v / mag) : Eigen::VectorXd::Zero(pm);
   // |v| is biased up by noise; the delta-method interval is widened by the trace term.
   const double var = grad.dot(cov * grad);
   const double sd = std::sqrt(std::max(0.0, var));

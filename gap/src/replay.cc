@@ -198,6 +198,10 @@ void ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, 
       for (auto* mu : in.motor_u) thr += Lerp(*mu, i, w) / static_cast<double>(in.motor_u.size());
     }
     bool ok = std::isfinite(cu.battery_A);
+    // Between two log rows the current is unknown; where it jumps (motor spin-up, touchdown) the
+    // interpolated current cannot predict the wiring field, so such samples are left out.
+    constexpr double kMaxCurrentStep_A = 2.0;
+    if (has_current && w > 0 && std::fabs((*in.current)[i + 1] - (*in.current)[i]) > kMaxCurrentStep_A) continue;
     for (double a : cu.motor_A) ok = ok && std::isfinite(a);
     if (!ok) continue;
     const double dt = first ? 0.0 : std::max(0.0, ts[k] - prev_t);
@@ -309,10 +313,15 @@ void ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, 
     temp_ok = tvar / static_cast<double>(n) > 0.01;  // needs > 0.1 °C of variation
   }
   if (temp_ok) {
-    Candidate td = MakeCandidate("temperature_drift", {"d_x_uT_per_C", "d_y_uT_per_C", "d_z_uT_per_C"}, {1, 1, 1},
-                                 "uT/C", "imu_temp_C");
+    // B = d·(T − T_cal) with T_cal unknown: a slope and an offset.
+    Candidate td = MakeCandidate("temperature_drift",
+                                 {"d_x_uT_per_C", "d_y_uT_per_C", "d_z_uT_per_C", "b_x_uT", "b_y_uT", "b_z_uT"},
+                                 {1, 1, 1, 1, 1, 1}, "uT/C", "imu_temp_C");
+    td.magnitude_params = 3;
     for (size_t k = 0; k < n; ++k) {
-      td.X.push_back(Diag3(temp[k] - tmean));
+      Mat3X x(3, 6);
+      x << Eigen::Matrix3d::Identity() * (temp[k] - tmean), Eigen::Matrix3d::Identity();
+      td.X.push_back(x);
       td.regressor.push_back(temp[k]);
     }
     ch.candidates.push_back(std::move(td));

@@ -1,0 +1,100 @@
+// hexsim gap diagnose --real LOG.csv --sim VEHICLE_OR_CONFIG --out DIR
+// hexsim gap selftest [--trials N] [--seed S] [--json FILE]
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <unistd.h>
+
+#include "cli_util.h"
+#include "commands.h"
+#include "hexsim/common/atomic_file.h"
+#include "hexsim/common/paths.h"
+#include "hexsim/gap/diagnose.h"
+#include "hexsim/gap/report_html.h"
+#include "hexsim/gap/selftest.h"
+#include "hexsim/logs/flight_log.h"
+#include "hexsim/vehicle/vehicle_params.h"
+
+namespace hexsim::app {
+namespace {
+
+struct DiagnoseArgs {
+  std::string real, sim_config, out;
+  uint64_t seed = 1;
+};
+
+Status DiagnoseCommand(const DiagnoseArgs& a) {
+  auto log = logs::ReadFlightLog(a.real);
+  if (!log.ok()) return log.status();
+  if (log->rows() == 0) return Status::BadInput(a.real + ": no data rows");
+  auto path = ResolveWorldFile("vehicles", a.sim_config);
+  if (!path.ok()) return path.status();
+  auto text = ReadFile(*path);
+  if (!text.ok()) return text.status();
+  auto vehicle = vehicle::LoadVehicleFile(*path);
+  if (!vehicle.ok()) return vehicle.status();
+  gap::DiagnoseOptions opt;
+  opt.seed = a.seed;
+  auto report = gap::Diagnose(*log, *vehicle, opt);
+  if (!report.ok()) return report.status().WithContext(a.real);
+  report->log_name = a.real;
+  auto updated = gap::UpdatedVehicleYaml(*text, *vehicle, *report);
+  if (!updated.ok()) return updated.status();
+  OutputDirectory out;
+  HEXSIM_RETURN_IF_ERROR(out.Open(a.out));
+  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out.File("gap.json"), gap::ToJson(*report).dump(2) + "\n"));
+  HEXSIM_RETURN_IF_ERROR(gap::WriteGapHtml(*report, out.path()));
+  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out.File(FileStem(*path) + ".updated.yaml"), *updated));
+  out.Commit();
+  std::fputs(gap::Summary(*report).c_str(), stdout);
+  return Status::Ok();
+}
+
+struct SelftestArgs {
+  gap::SelftestOptions options;
+  std::string json;
+};
+
+void Progress(int done, int total) {
+  std::fprintf(stderr, "\rgap selftest: %d/%d", done, total);
+  if (done == total) std::fputc('\n', stderr);
+}
+
+Status SelftestCommand(const SelftestArgs& a, int* exit_code) {
+  auto r = gap::RunSelftest(a.options, isatty(2) ? &Progress : nullptr);
+  if (!r.ok()) return r.status();
+  if (!a.json.empty()) HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(a.json, r->json.dump(2) + "\n"));
+  std::fputs(r->table.c_str(), stdout);
+  *exit_code = r->targets_met ? 0 : 1;
+  return Status::Ok();
+}
+
+}  // namespace
+
+void AddGapCommand(CLI::App& app, int* exit_code) {
+  CLI::App* gap = app.add_subcommand("gap", "Sim-to-real gap: diagnose a real log, or the blind selftest");
+  gap->require_subcommand(1);
+  auto d = std::make_shared<DiagnoseArgs>();
+  CLI::App* diag = gap->add_subcommand("diagnose", "Where the gap lies, which effect causes it, how much it shrinks");
+  diag->add_option("--real", d->real, "FlightLog CSV (its .meta.json beside it)")->required();
+  diag->add_option("--sim", d->sim_config, "Vehicle name under worlds/vehicles or a vehicle YAML")->required();
+  diag->add_option("--out", d->out, "Output directory (gap.json, gap.html, <vehicle>.updated.yaml)")->required();
+  diag->add_option("--seed", d->seed, "Bootstrap seed")->capture_default_str();
+  diag->callback([d, exit_code] {
+    const Status s = DiagnoseCommand(*d);
+    *exit_code = s.ok() ? 0 : Report(s);
+  });
+  auto st = std::make_shared<SelftestArgs>();
+  CLI::App* self = gap->add_subcommand("selftest", "Blind check on pseudo-real simulated logs with withheld effects");
+  self->add_option("--trials", st->options.trials, "Trials per class")->capture_default_str();
+  self->add_option("--seed", st->options.seed, "Seed")->capture_default_str();
+  self->add_option("--threshold-trials", st->options.threshold_trials, "Trials per magnitude in the threshold sweep")
+      ->capture_default_str();
+  self->add_option("--json", st->json, "Also write hexsim.gap_selftest/1 JSON here");
+  self->callback([st, exit_code] {
+    const Status s = SelftestCommand(*st, exit_code);
+    if (!s.ok()) *exit_code = Report(s);
+  });
+}
+
+}  // namespace hexsim::app

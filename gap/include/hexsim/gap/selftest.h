@@ -1,0 +1,78 @@
+// `hexsim gap selftest`: a blind check of the diagnosis on pseudo-real logs. The simulator flies a
+// mission with effects switched on that the diagnosis is not told about (it replays the log against
+// the unmodified vehicle); classes clean / one effect / two effects / out-of-library.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "hexsim/common/rng.h"
+#include "hexsim/common/status.h"
+#include "hexsim/gap/diagnose.h"
+#include "hexsim/logs/flight_log.h"
+#include "hexsim/sim/simulation.h"
+
+namespace hexsim::gap {
+
+// The compass the selftest injects into (0-based; quad_x's internal "mag2").
+inline constexpr size_t kSelftestCompass = 1;
+
+// One withheld effect. `magnitude` is in the unit the diagnosis reports for that effect
+// (current_hard_iron µT/A, current_soft_iron 1/A Frobenius, misalignment deg, scale_error 1,
+// local_anomaly µT, current_lag s, hard_iron_offset µT, throttle_hard_iron µT/throttle,
+// temperature_drift µT/°C); out-of-library: current_exponent (exponent − 1), thermal_ramp (µT).
+struct Injection {
+  std::string effect;
+  double magnitude = 0.0;
+};
+
+// In-library effects the selftest can inject, and each one's magnitude range for the "one effect"
+// class (realistic sizes, each well above the measured detection threshold).
+struct EffectRange {
+  const char* effect;
+  double lo, hi;
+  bool signed_magnitude;
+};
+const std::vector<EffectRange>& InjectableEffects();
+
+// The truth setup of a trial: the vehicle/world/mission loaded (estimator truth, so the withheld
+// compass effects do not change the flight) with the injections applied at the simulator level,
+// plus the log-level injections applied by InjectIntoLog afterwards. `true_magnitude` receives the
+// magnitude the diagnosis should report for each injection (same order).
+struct Trial {
+  sim::RunSetup truth;
+  vehicle::VehicleParams configured;  // what the diagnosis is given
+  std::vector<Injection> injections;
+  std::vector<double> true_magnitude;
+};
+
+struct SelftestOptions {
+  int trials = 100;                 // per class
+  uint64_t seed = 1;
+  std::string vehicle = "quad_x";
+  std::string mission = "square";
+  std::string world = "default";
+  double duration_s = 0.0;          // 0: the whole mission
+  int threshold_trials = 20;        // per magnitude in the detection-threshold sweep
+  bool thresholds_all_effects = false;  // false: current_hard_iron only
+  DiagnoseOptions diagnose;
+};
+
+// Builds a trial's setups; the direction of each effect is drawn from `rng`.
+Result<Trial> MakeTrial(const SelftestOptions& options, uint64_t seed, const std::vector<Injection>& injections,
+                        RngStream* rng);
+// Flies the trial and applies the log-level injections; returns the pseudo-real log.
+Result<logs::FlightLog> FlyTrial(Trial* trial, RngStream* rng);
+
+struct SelftestResult {
+  nlohmann::json json;  // hexsim.gap_selftest/1
+  std::string table;    // human-readable metrics
+  bool targets_met = false;
+};
+
+// Runs every class and the detection-threshold sweep. `progress` (may be null) is called per trial.
+Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progress)(int done, int total) = nullptr);
+
+}  // namespace hexsim::gap

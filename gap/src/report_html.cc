@@ -1,0 +1,138 @@
+#include "hexsim/gap/report_html.h"
+
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "hexsim/common/atomic_file.h"
+#include "hexsim/render/figures.h"
+#include "hexsim/render/plot.h"
+
+namespace hexsim::gap {
+namespace {
+
+std::string Escape(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    if (c == '<') o += "&lt;";
+    else if (c == '>') o += "&gt;";
+    else if (c == '&') o += "&amp;";
+    else o += c;
+  }
+  return o;
+}
+
+std::vector<double> Norms(const std::vector<Eigen::Vector3d>& v) {
+  std::vector<double> n;
+  for (const auto& x : v) n.push_back(x.norm());
+  return n;
+}
+
+render::Series MakeSeries(std::string label, std::vector<double> x, std::vector<double> y) {
+  render::Series s;
+  s.label = std::move(label);
+  s.x = std::move(x);
+  s.y = std::move(y);
+  return s;
+}
+
+Status Png(const render::Plot2D& p, const std::string& path) {
+  auto img = render::Render(p, render::kFigureWidth_px, render::kFigureHeight_px);
+  if (!img.ok()) return img.status();
+  auto png = render::EncodePng(*img);
+  if (!png.ok()) return png.status();
+  return WriteFileAtomic(path, *png);
+}
+
+}  // namespace
+
+Status WriteGapHtml(const GapReport& r, const std::string& dir) {
+  std::string html = "<!doctype html><html><head><meta charset=\"utf-8\"><title>hexsim gap diagnosis</title>"
+                     "<style>body{font-family:sans-serif;max-width:1150px;margin:auto}table{border-collapse:collapse}"
+                     "td,th{border:1px solid #ccc;padding:3px 6px}img{max-width:100%}</style></head><body>";
+  html += "<h1>Sim-to-real gap diagnosis</h1><p>Log: " + Escape(r.log_name) + "<br>Attitude taken as truth: " +
+          Escape(r.attitude_source) + "<br>Field model: " + Escape(r.field_model) + "</p>";
+  html += "<pre>" + Escape(Summary(r)) + "</pre>";
+  static const char* kPhaseColours[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2"};
+  static const char* kPhases[] = {"ground", "takeoff", "hover", "climb", "cruise", "descent", "landing"};
+  for (const auto& c : r.channels) {
+    html += "<h2>" + Escape(c.channel) + " (" + Escape(c.unit) + ")</h2>";
+    html += fmt::format("<p>verdict <b>{}</b>; RMS before {:.4g}, noise {:.3g}, p = {:.3g}, held-out shrink {:.0f} %{}</p>",
+                        Escape(c.verdict), c.rms_before, c.noise_rms, c.p_value, 100 * c.heldout_shrink,
+                        c.reference_contaminated ? " &mdash; <b>reference-contaminated</b>" : "");
+    if (!c.explanation.empty()) html += "<p>" + Escape(c.explanation) + "</p>";
+    html += "<table><tr><th>effect</th><th>probability</th><th>held-out shrink</th><th>magnitude [95 % CI]</th><th>selected</th></tr>";
+    for (const auto& k : c.candidates) {
+      html += fmt::format("<tr><td>{}</td><td>{:.2f}</td><td>{:.0f} %</td><td>{:.4g} [{:.4g}, {:.4g}] {}</td><td>{}</td></tr>",
+                          k.effect, k.probability, 100 * k.heldout_shrink, k.magnitude, k.magnitude_ci95[0],
+                          k.magnitude_ci95[1], Escape(k.magnitude_unit), k.selected ? "yes" : "");
+    }
+    html += "</table>";
+    // Residual vs time with phases.
+    render::Plot2D p;
+    p.title = c.channel + ": |residual| against time";
+    p.x_label = "t (s)";
+    p.y_label = "|residual| (" + c.unit + ")";
+    p.series.push_back(MakeSeries("before", c.t_s, Norms(c.residual_before)));
+    p.series.push_back(MakeSeries("after", c.t_s, Norms(c.residual_after)));
+    for (const auto& ph : r.phases) {
+      for (int i = 0; i < 7; ++i) {
+        if (ph.phase == kPhases[i] && ph.t1_s > ph.t0_s) {
+          p.spans.push_back({ph.t0_s, ph.t1_s, "", render::Hex(kPhaseColours[i], 0.12f)});
+        }
+      }
+    }
+    const std::string f1 = "gap_" + c.channel + "_time.png";
+    HEXSIM_RETURN_IF_ERROR(Png(p, dir + "/" + f1));
+    html += "<p><img src=\"" + f1 + "\"><br>Shading: ";
+    for (int i = 0; i < 7; ++i) html += fmt::format("<span style=\"color:{}\">{}</span> ", kPhaseColours[i], kPhases[i]);
+    html += "</p>";
+    // Per-axis before/after.
+    render::Plot2D q;
+    q.title = c.channel + ": residual per axis, before (solid) and after (dashed) the chosen effect";
+    q.x_label = "t (s)";
+    q.y_label = c.unit;
+    const char* ax[3] = {"x", "y", "z"};
+    for (int a = 0; a < 3; ++a) {
+      render::Series sb = MakeSeries(std::string(ax[a]) + " before", c.t_s, {});
+      render::Series sa = MakeSeries(std::string(ax[a]) + " after", c.t_s, {});
+      for (const auto& v : c.residual_before) sb.y.push_back(v[a]);
+      for (const auto& v : c.residual_after) sa.y.push_back(v[a]);
+      sb.colour = render::PaletteColour(a);
+      sa.colour = render::PaletteColour(a);
+      sa.dashed = true;
+      q.series.push_back(sb);
+      q.series.push_back(sa);
+    }
+    const std::string f2 = "gap_" + c.channel + "_axes.png";
+    HEXSIM_RETURN_IF_ERROR(Png(q, dir + "/" + f2));
+    html += "<p><img src=\"" + f2 + "\"></p>";
+    if (!c.chosen_regressor.empty() && c.chosen_regressor.size() == c.residual_before.size()) {
+      render::Plot2D s;
+      s.title = c.channel + ": residual against " + c.chosen_regressor_name;
+      s.x_label = c.chosen_regressor_name;
+      s.y_label = c.unit;
+      for (int a = 0; a < 3; ++a) {
+        render::Series se = MakeSeries(std::string(ax[a]), c.chosen_regressor, {});
+        for (const auto& v : c.residual_before) se.y.push_back(v[a]);
+        se.style = render::SeriesStyle::kScatter;
+        se.marker_px = 2.0f;
+        s.series.push_back(se);
+      }
+      const std::string f3 = "gap_" + c.channel + "_regressor.png";
+      HEXSIM_RETURN_IF_ERROR(Png(s, dir + "/" + f3));
+      html += "<p><img src=\"" + f3 + "\"></p>";
+    }
+  }
+  if (!r.not_diagnosed.empty()) {
+    html += "<h2>Not diagnosed</h2><ul>";
+    for (const auto& [ch, why] : r.not_diagnosed) html += "<li>" + Escape(ch) + ": " + Escape(why) + "</li>";
+    html += "</ul>";
+  }
+  html += "<p>Effects not built: ";
+  for (const auto& e : r.effects_not_built) html += e + " ";
+  html += "</p></body></html>\n";
+  return WriteFileAtomic(dir + "/gap.html", html);
+}
+
+}  // namespace hexsim::gap

@@ -1,0 +1,376 @@
+// Blind selftest of the gap diagnosis on pseudo-real simulated logs.
+#include "hexsim/gap/selftest.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+#include <fmt/format.h>
+
+#include "hexsim/common/rotation.h"
+#include "hexsim/magnetics/current_field.h"
+#include "hexsim/sim/run_config.h"
+
+namespace hexsim::gap {
+namespace {
+
+Eigen::Vector3d RandomUnit(RngStream* rng) {
+  Eigen::Vector3d v = rng->Normal3(1.0);
+  return v / std::max(1e-12, v.norm());
+}
+
+// A short battery-current segment next to point p whose field there is d_B (µT per ampere).
+magnetics::WireSegment SegmentWithField(const Eigen::Vector3d& p, const Eigen::Vector3d& d_B, const std::string& name) {
+  constexpr double kRho_m = 0.003, kHalf_m = 0.002;
+  const Eigen::Vector3d dh = d_B.normalized();
+  const Eigen::Vector3d u = dh.unitOrthogonal();
+  const Eigen::Vector3d mid = p - dh.cross(u) * kRho_m;
+  const double per_A = magnetics::kMu0Over4Pi_uTmpA / kRho_m * 2 * kHalf_m / std::hypot(kHalf_m, kRho_m);
+  magnetics::WireSegment s;
+  s.a_B_m = mid - u * kHalf_m;
+  s.b_B_m = mid + u * kHalf_m;
+  s.source = magnetics::CurrentSource::kBattery;
+  s.share = d_B.norm() / per_A;
+  s.name = name;
+  return s;
+}
+
+Eigen::Matrix3d SensorGain(const magnetics::CompassErrorParams& e) { return e.R_SB * e.scale * e.soft_iron; }
+
+bool IsLogLevel(const std::string& e) {
+  return e == "throttle_hard_iron" || e == "temperature_drift" || e == "thermal_ramp";
+}
+
+double Interp(const std::vector<double>& t, const std::vector<double>& v, double tq) {
+  auto it = std::lower_bound(t.begin(), t.end(), tq);
+  if (it == t.begin()) return v.front();
+  if (it == t.end()) return v.back();
+  const size_t i = static_cast<size_t>(it - t.begin());
+  const double w = (tq - t[i - 1]) / (t[i] - t[i - 1]);
+  return (1 - w) * v[i - 1] + w * v[i];
+}
+
+struct LogEffect {
+  std::string effect;
+  Eigen::Vector3d d_s = Eigen::Vector3d::Zero();
+};
+
+}  // namespace
+
+const std::vector<EffectRange>& InjectableEffects() {
+  static const std::vector<EffectRange> kEffects = {
+      {"current_hard_iron", 0.1, 0.6, false},  {"current_soft_iron", 0.002, 0.006, false},
+      {"misalignment", 1.5, 5.0, false},       {"scale_error", 0.02, 0.06, true},
+      {"local_anomaly", 1.0, 4.0, false},      {"current_lag", 0.1, 0.5, false},
+      {"hard_iron_offset", 1.0, 5.0, false},   {"throttle_hard_iron", 15.0, 40.0, false},
+      {"temperature_drift", 0.05, 0.2, false},
+  };
+  return kEffects;
+}
+
+Result<Trial> MakeTrial(const SelftestOptions& o, uint64_t seed, const std::vector<Injection>& injections, RngStream* rng) {
+  sim::RunRequest req;
+  req.mission = o.mission;
+  req.vehicle = o.vehicle;
+  req.world = o.world;
+  req.estimator = "truth";
+  req.seed = seed;
+  req.duration_s = o.duration_s;
+  auto setup = sim::LoadRunSetup(req);
+  if (!setup.ok()) return setup.status();
+  Trial trial;
+  trial.truth = std::move(*setup);
+  trial.configured = trial.truth.vehicle;
+  trial.injections = injections;
+  auto& v = trial.truth.vehicle;
+  if (v.compasses.size() <= kSelftestCompass) return Status::BadInput(o.vehicle + ": the selftest needs at least 2 compasses");
+  auto& cp = v.compasses[kSelftestCompass];
+  const Eigen::Matrix3d M = SensorGain(cp.error);
+  for (const Injection& inj : injections) {
+    double truth = inj.magnitude;
+    if (inj.effect == "current_hard_iron") {
+      const Eigen::Vector3d d_s = RandomUnit(rng) * inj.magnitude;
+      v.wiring.segments.push_back(SegmentWithField(cp.position_B_m, M.inverse() * d_s, "withheld"));
+      magnetics::CurrentFieldParams only;
+      only.segments.push_back(v.wiring.segments.back());
+      magnetics::Currents one;
+      one.battery_A = 1.0;
+      one.motor_A.assign(v.rotors.size(), 0.0);
+      truth = (M * magnetics::CurrentDrivenField_uT(only, cp.position_B_m, one)).norm();
+    } else if (inj.effect == "current_soft_iron") {
+      Eigen::Matrix3d D;
+      for (int i = 0; i < 9; ++i) D(i / 3, i % 3) = rng->Normal();
+      D *= inj.magnitude / D.norm();
+      cp.error.soft_iron_per_A += D;
+      truth = (cp.error.R_SB * cp.error.scale * D * M.inverse()).norm();
+    } else if (inj.effect == "misalignment") {
+      const Eigen::Vector3d phi = RandomUnit(rng) * inj.magnitude * kDegToRad;
+      cp.error.R_SB = QuatExp(phi).toRotationMatrix() * cp.error.R_SB;
+    } else if (inj.effect == "scale_error") {
+      cp.error.scale *= 1.0 + inj.magnitude;
+    } else if (inj.effect == "local_anomaly") {
+      trial.truth.world.anomaly_N_uT = RandomUnit(rng) * inj.magnitude;
+    } else if (inj.effect == "current_lag") {
+      cp.current_lag_tau_s = inj.magnitude;
+    } else if (inj.effect == "hard_iron_offset") {
+      cp.error.hard_iron_uT += RandomUnit(rng) * inj.magnitude;
+    } else if (inj.effect == "current_exponent") {
+      // Out of library: the whole wiring field ∝ I^(1+m), plus a stronger lead near the compass.
+      v.wiring.segments.push_back(SegmentWithField(cp.position_B_m, M.inverse() * RandomUnit(rng) * 0.3, "withheld"));
+      v.wiring.exponent = 1.0 + inj.magnitude;
+    } else if (!IsLogLevel(inj.effect)) {
+      return Status::BadInput("selftest: unknown effect '" + inj.effect + "'");
+    }
+    trial.true_magnitude.push_back(truth);
+  }
+  return trial;
+}
+
+Result<logs::FlightLog> FlyTrial(Trial* trial, RngStream* rng) {
+  HEXSIM_RETURN_IF_ERROR(sim::ValidateRunSetup(trial->truth));
+  sim::RunOutput out = sim::RunMission(trial->truth);
+  if (!out.status.ok()) return out.status;
+  logs::FlightLog log = std::move(out.log);
+  // Log-level injections on the selftest compass, evaluated at each sample's time.
+  const std::string pre = kSelftestCompass == 0 ? "mag" : fmt::format("mag{}", kSelftestCompass + 1);
+  const auto& t = log.Column("t_s");
+  const size_t n = log.rows();
+  bool need_temp = false;
+  std::vector<LogEffect> effects;
+  for (size_t k = 0; k < trial->injections.size(); ++k) {
+    const Injection& inj = trial->injections[k];
+    if (!IsLogLevel(inj.effect)) continue;
+    effects.push_back({inj.effect, RandomUnit(rng) * inj.magnitude});
+    need_temp = need_temp || inj.effect == "temperature_drift";
+  }
+  if (effects.empty()) return log;
+  // Board temperature: warms from 25 °C towards 45 °C with a 40 s time constant, 0.05 °C noise.
+  std::vector<double> temp(n);
+  for (size_t i = 0; i < n; ++i) temp[i] = 25.0 + 20.0 * (1 - std::exp(-t[i] / 40.0)) + rng->Normal(0, 0.05);
+  if (need_temp) {
+    const size_t c = log.AddColumn("imu_temp_C");
+    for (size_t i = 0; i < n; ++i) log.MutableColumn(c)[i] = temp[i];
+  }
+  const size_t cx = static_cast<size_t>(log.ColumnIndex(pre + "_x_uT"));
+  const auto& mt = log.Column(pre + "_t_s");
+  const auto& u = log.Column("control_u");
+  for (size_t i = 0; i < n; ++i) {
+    if (!std::isfinite(mt[i])) continue;
+    Eigen::Vector3d add = Eigen::Vector3d::Zero();
+    for (const auto& e : effects) {
+      if (e.effect == "throttle_hard_iron") add += e.d_s * Interp(t, u, mt[i]) / 1000.0;
+      if (e.effect == "temperature_drift") add += e.d_s * (Interp(t, temp, mt[i]) - 25.0);
+      if (e.effect == "thermal_ramp") add += e.d_s * (1 - std::exp(-mt[i] / 30.0));
+    }
+    for (int a = 0; a < 3; ++a) log.MutableColumn(cx + a)[i] += add[a];
+  }
+  return log;
+}
+
+namespace {
+
+struct ClassStats {
+  int n = 0, top1 = 0, detected = 0, unexplained = 0, confident_wrong = 0, covered = 0, coverage_n = 0;
+  int any_compass_alarm = 0;
+  std::vector<double> shrink;
+  std::map<std::string, std::pair<int, int>> per_effect;  // effect → (top1, n)
+  double Rate(int k) const { return n > 0 ? static_cast<double>(k) / n : 0.0; }
+  double MedianShrink() const {
+    if (shrink.empty()) return 0.0;
+    std::vector<double> s = shrink;
+    std::nth_element(s.begin(), s.begin() + s.size() / 2, s.end());
+    return s[s.size() / 2];
+  }
+};
+
+const ChannelResult* Find(const GapReport& r, const std::string& ch) {
+  for (const auto& c : r.channels) {
+    if (c.channel == ch) return &c;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+Result<SelftestResult> RunSelftest(const SelftestOptions& o, void (*progress)(int, int)) {
+  if (o.trials < 1) return Status::BadInput("--trials: must be >= 1");
+  RngStream rng(o.seed, "gap_selftest");
+  const auto& effects = InjectableEffects();
+  const std::string ch_name = fmt::format("mag{}", kSelftestCompass + 1);
+  const char* classes[] = {"clean", "one_effect", "two_effects", "out_of_library"};
+  std::vector<double> threshold_grid = {0.002, 0.005, 0.01, 0.02, 0.05, 0.1};
+  const int threshold_runs = static_cast<int>(threshold_grid.size()) * o.threshold_trials;
+  const int total = 4 * o.trials + threshold_runs;
+  int done = 0;
+  uint64_t run_seed = o.seed * 100003;
+  std::map<std::string, ClassStats> stats;
+  for (const char* cls : classes) {
+    ClassStats& st = stats[cls];
+    for (int k = 0; k < o.trials; ++k) {
+      std::vector<Injection> inj;
+      const std::string c = cls;
+      auto draw = [&](size_t i) {
+        const EffectRange& e = effects[i];
+        double m = e.lo + (e.hi - e.lo) * rng.Uniform();
+        if (e.signed_magnitude && rng.Uniform() < 0.5) m = -m;
+        return Injection{e.effect, m};
+      };
+      if (c == "one_effect") {
+        inj.push_back(draw(static_cast<size_t>(k) % effects.size()));
+      } else if (c == "two_effects") {
+        const size_t a = static_cast<size_t>(rng.Uniform() * effects.size());
+        size_t b = static_cast<size_t>(rng.Uniform() * (effects.size() - 1));
+        if (b >= a) ++b;
+        inj.push_back(draw(a));
+        inj.push_back(draw(b));
+      } else if (c == "out_of_library") {
+        if (k % 2 == 0) inj.push_back({"current_exponent", 0.3 + 0.5 * rng.Uniform()});
+        else inj.push_back({"thermal_ramp", 2.0 + 4.0 * rng.Uniform()});
+      }
+      auto trial = MakeTrial(o, ++run_seed, inj, &rng);
+      if (!trial.ok()) return trial.status();
+      auto log = FlyTrial(&*trial, &rng);
+      if (!log.ok()) return log.status();
+      auto rep = Diagnose(*log, trial->configured, o.diagnose);
+      if (!rep.ok()) return rep.status();
+      const ChannelResult* r = Find(*rep, ch_name);
+      if (!r) return Status::Numerical("selftest: channel " + ch_name + " was not diagnosed");
+      ++st.n;
+      st.detected += r->gap_detected;
+      for (const auto& cr : rep->channels) {
+        if (cr.unit == "uT" && cr.gap_detected) {
+          ++st.any_compass_alarm;
+          break;
+        }
+      }
+      const bool hit = std::any_of(inj.begin(), inj.end(), [&](const Injection& i) { return i.effect == r->verdict; });
+      if (c == "one_effect" || c == "two_effects") {
+        st.top1 += hit;
+        auto& pe = st.per_effect[c == "one_effect" ? inj[0].effect : inj[0].effect + "+" + inj[1].effect];
+        pe.first += hit;
+        pe.second += 1;
+      }
+      if (c == "one_effect") {
+        st.shrink.push_back(r->heldout_shrink);
+        for (const auto& cand : r->candidates) {
+          if (cand.effect != inj[0].effect) continue;
+          const double tm = trial->true_magnitude[0];
+          ++st.coverage_n;
+          st.covered += tm >= cand.magnitude_ci95[0] && tm <= cand.magnitude_ci95[1];
+        }
+      }
+      if (c == "out_of_library") {
+        st.unexplained += r->verdict == "unexplained";
+        st.confident_wrong += r->verdict != "unexplained" && r->verdict != "ambiguous";
+      }
+      if (progress) progress(++done, total);
+    }
+  }
+  // Detection threshold of current_hard_iron: the smallest magnitude flagged in ≥ 90 % of trials
+  // (and at every larger magnitude of the grid).
+  std::vector<double> flagged_rate;
+  for (double m : threshold_grid) {
+    int flagged = 0;
+    for (int k = 0; k < o.threshold_trials; ++k) {
+      auto trial = MakeTrial(o, ++run_seed, {{"current_hard_iron", m}}, &rng);
+      if (!trial.ok()) return trial.status();
+      auto log = FlyTrial(&*trial, &rng);
+      if (!log.ok()) return log.status();
+      auto rep = Diagnose(*log, trial->configured, o.diagnose);
+      if (!rep.ok()) return rep.status();
+      const ChannelResult* r = Find(*rep, ch_name);
+      flagged += r && r->gap_detected;
+      if (progress) progress(++done, total);
+    }
+    flagged_rate.push_back(static_cast<double>(flagged) / o.threshold_trials);
+  }
+  double threshold = std::nan("");
+  for (size_t i = threshold_grid.size(); i-- > 0;) {
+    if (flagged_rate[i] >= 0.9) threshold = threshold_grid[i];
+    else break;
+  }
+
+  const ClassStats& clean = stats["clean"];
+  const ClassStats& one = stats["one_effect"];
+  const ClassStats& two = stats["two_effects"];
+  const ClassStats& ool = stats["out_of_library"];
+  const double single_top1 = one.Rate(one.top1);
+  const double overall_top1 = one.n + two.n > 0 ? static_cast<double>(one.top1 + two.top1) / (one.n + two.n) : 0.0;
+  const double false_alarm = clean.Rate(clean.detected);
+  const double unexplained = ool.Rate(ool.unexplained);
+  const double coverage = one.coverage_n > 0 ? static_cast<double>(one.covered) / one.coverage_n : 0.0;
+  const double median_shrink = one.MedianShrink();
+  nlohmann::json targets = {
+      {"single_top1_ge_0.90", single_top1 >= 0.9},        {"overall_top1_ge_0.70", overall_top1 >= 0.7},
+      {"false_alarm_le_0.05", false_alarm <= 0.05},       {"unexplained_ge_0.80", unexplained >= 0.8},
+      {"coverage_ge_0.90", coverage >= 0.9},              {"median_shrink_ge_0.50", median_shrink >= 0.5},
+      {"current_hard_iron_threshold_le_0.1uT_per_A", std::isfinite(threshold) && threshold <= 0.1}};
+  bool met = true;
+  for (const auto& [k, v] : targets.items()) met = met && v.get<bool>();
+
+  SelftestResult res;
+  res.targets_met = met;
+  nlohmann::json j;
+  j["schema"] = "hexsim.gap_selftest/1";
+  j["trials_per_class"] = o.trials;
+  j["seed"] = o.seed;
+  j["vehicle"] = o.vehicle;
+  j["mission"] = o.mission;
+  j["channel"] = ch_name;
+  j["classes"] = nlohmann::json::array();
+  for (const char* cls : classes) {
+    const ClassStats& s = stats[cls];
+    nlohmann::json cj = {{"class", cls},
+                         {"trials", s.n},
+                         {"gap_detected_rate", s.Rate(s.detected)},
+                         {"any_compass_alarm_rate", s.Rate(s.any_compass_alarm)}};
+    if (std::string(cls) == "one_effect" || std::string(cls) == "two_effects") {
+      cj["top1_rate"] = s.Rate(s.top1);
+      nlohmann::json pe = nlohmann::json::object();
+      for (const auto& [e, v] : s.per_effect) pe[e] = {{"top1", v.first}, {"trials", v.second}};
+      cj["per_effect"] = pe;
+    }
+    if (std::string(cls) == "one_effect") {
+      cj["coverage_95"] = coverage;
+      cj["median_heldout_shrink"] = median_shrink;
+    }
+    if (std::string(cls) == "clean") cj["false_alarm_rate"] = false_alarm;
+    if (std::string(cls) == "out_of_library") {
+      cj["unexplained_rate"] = unexplained;
+      cj["confident_wrong_rate"] = s.Rate(s.confident_wrong);
+    }
+    j["classes"].push_back(cj);
+  }
+  j["overall_top1_rate"] = overall_top1;
+  j["detection_threshold"] = {{"current_hard_iron",
+                               {{"uT_per_A", std::isfinite(threshold) ? nlohmann::json(threshold) : nlohmann::json(nullptr)},
+                                {"grid_uT_per_A", threshold_grid},
+                                {"flagged_rate", flagged_rate},
+                                {"trials_per_magnitude", o.threshold_trials}}}};
+  j["targets"] = targets;
+  j["targets_met"] = met;
+  res.json = j;
+  std::string t = fmt::format("gap selftest: {} trials per class, vehicle {}, mission {}, channel {}\n", o.trials, o.vehicle,
+                              o.mission, ch_name);
+  t += fmt::format("  clean            false alarms {:5.1f} %  (target <= 5 %; any compass {:.1f} %)\n", 100 * false_alarm,
+                   100 * clean.Rate(clean.any_compass_alarm));
+  t += fmt::format("  one effect       top-1 {:5.1f} %  (target >= 90 %), 95 % interval coverage {:5.1f} % (>= 90 %), "
+                   "median held-out shrink {:4.0f} % (>= 50 %)\n",
+                   100 * single_top1, 100 * coverage, 100 * median_shrink);
+  for (const auto& [e, v] : one.per_effect) t += fmt::format("      {:<20} {}/{}\n", e, v.first, v.second);
+  t += fmt::format("  two effects      top-1 {:5.1f} %; overall top-1 {:5.1f} % (target >= 70 %)\n", 100 * two.Rate(two.top1),
+                   100 * overall_top1);
+  t += fmt::format("  out of library   unexplained {:5.1f} % (target >= 80 %), confident wrong {:5.1f} %\n",
+                   100 * unexplained, 100 * ool.Rate(ool.confident_wrong));
+  t += "  current_hard_iron detection threshold: ";
+  t += std::isfinite(threshold) ? fmt::format("{:.3g} uT/A ({:.3g} mG/A)", threshold, 10 * threshold) : std::string("not reached");
+  t += " (target <= 0.1 uT/A); flagged:";
+  for (size_t i = 0; i < threshold_grid.size(); ++i) t += fmt::format(" {}:{:.0f}%", threshold_grid[i], 100 * flagged_rate[i]);
+  t += fmt::format("\n  targets {}\n", met ? "met" : "MISSED");
+  res.table = t;
+  return res;
+}
+
+}  // namespace hexsim::gap

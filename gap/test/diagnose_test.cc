@@ -1,0 +1,102 @@
+#include <cmath>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "hexsim/common/rng.h"
+#include "hexsim/gap/diagnose.h"
+#include "hexsim/gap/selftest.h"
+
+namespace hexsim::gap {
+namespace {
+
+const ChannelResult* Find(const GapReport& r, const std::string& ch) {
+  for (const auto& c : r.channels) {
+    if (c.channel == ch) return &c;
+  }
+  return nullptr;
+}
+
+bool NotDiagnosed(const GapReport& r, const std::string& ch) {
+  for (const auto& [c, why] : r.not_diagnosed) {
+    if (c == ch && !why.empty()) return true;
+  }
+  return false;
+}
+
+struct Flown {
+  Trial trial;
+  logs::FlightLog log;
+};
+
+Flown Fly(const std::vector<Injection>& inj, uint64_t seed) {
+  SelftestOptions o;
+  RngStream rng(seed, "test");
+  auto trial = MakeTrial(o, seed, inj, &rng);
+  EXPECT_TRUE(trial.ok()) << trial.status().message();
+  auto log = FlyTrial(&*trial, &rng);
+  EXPECT_TRUE(log.ok()) << log.status().message();
+  return {std::move(*trial), std::move(*log)};
+}
+
+TEST(GapDiagnose, GivenACleanSimulatedLogWhenDiagnosedThenTheExternalCompassShowsNoSignificantGap) {
+  Flown f = Fly({}, 11);
+  auto rep = Diagnose(f.log, f.trial.configured);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag = Find(*rep, "mag");
+  ASSERT_NE(mag, nullptr);
+  EXPECT_FALSE(mag->gap_detected) << Summary(*rep);
+  EXPECT_EQ(mag->verdict, "none");
+}
+
+TEST(GapDiagnose, GivenAWithheldCurrentHardIronWhenDiagnosedThenItIsAttributedAndItsMagnitudeIsInTheInterval) {
+  Flown f = Fly({{"current_hard_iron", 0.4}}, 12);
+  auto rep = Diagnose(f.log, f.trial.configured);
+  ASSERT_TRUE(rep.ok());
+  const ChannelResult* mag2 = Find(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr);
+  EXPECT_TRUE(mag2->gap_detected);
+  ASSERT_FALSE(mag2->candidates.empty());
+  EXPECT_EQ(mag2->candidates.front().effect, "current_hard_iron") << Summary(*rep);
+  const auto& c = mag2->candidates.front();
+  EXPECT_LE(c.magnitude_ci95[0], f.trial.true_magnitude[0]);
+  EXPECT_GE(c.magnitude_ci95[1], f.trial.true_magnitude[0]);
+  EXPECT_GE(mag2->heldout_shrink, 0.5);
+}
+
+TEST(GapDiagnose, GivenALogWithoutAttitudeWhenDiagnosedThenCompassesAreListedAsNotDiagnosedWithTheReason) {
+  Flown f = Fly({}, 13);
+  logs::FlightLog log;
+  for (const auto& name : f.log.columns()) {
+    if (name.rfind("q_", 0) != 0) log.AddColumn(name);
+  }
+  for (size_t i = 0; i < f.log.rows(); ++i) {
+    log.AppendRow();
+    for (const auto& name : log.columns()) log.Set(name, f.log.Column(name)[i]);
+  }
+  log.meta = f.log.meta;
+  auto rep = Diagnose(log, f.trial.configured);
+  ASSERT_TRUE(rep.ok());
+  EXPECT_TRUE(rep->channels.empty());
+  EXPECT_TRUE(NotDiagnosed(*rep, "mag"));
+  EXPECT_TRUE(NotDiagnosed(*rep, "mag2"));
+}
+
+TEST(GapDiagnose, GivenATooShortLogWhenDiagnosedThenNothingIsDiagnosedAndTheReasonIsGiven) {
+  Flown f = Fly({}, 14);
+  DiagnoseOptions o;
+  o.min_duration_s = 1e4;
+  auto rep = Diagnose(f.log, f.trial.configured, o);
+  ASSERT_TRUE(rep.ok());
+  EXPECT_TRUE(rep->channels.empty());
+  EXPECT_TRUE(NotDiagnosed(*rep, "mag"));
+}
+
+TEST(GapDiagnose, GivenAnEmptyLogWhenDiagnosedThenItIsBadInput) {
+  logs::FlightLog log;
+  vehicle::VehicleParams v;
+  EXPECT_FALSE(Diagnose(log, v).ok());
+}
+
+}  // namespace
+}  // namespace hexsim::gap
