@@ -9,6 +9,8 @@ void RegisterCommands(CLI::App& app, int* exit_code) {
   AddCalibrationCommands(app, exit_code);
   AddCompareCommand(app, exit_code);
   AddImportCommand(app, exit_code);
+  AddPlotCommand(app, exit_code);
+  AddToolCommands(app, exit_code);
 }
 
 }  // namespace hexsim::app

@@ -13,5 +13,7 @@ void AddBatchCommands(CLI::App& app, int* exit_code);
 void AddCalibrationCommands(CLI::App& app, int* exit_code);
 void AddCompareCommand(CLI::App& app, int* exit_code);
 void AddImportCommand(CLI::App& app, int* exit_code);
+void AddPlotCommand(CLI::App& app, int* exit_code);
+void AddToolCommands(CLI::App& app, int* exit_code);
 
 }  // namespace hexsim::app

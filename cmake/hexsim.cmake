@@ -26,6 +26,10 @@ function(hexsim_library name)
     $<INSTALL_INTERFACE:include>)
   target_link_libraries(hexsim_${name} PUBLIC ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
   hexsim_target_options(hexsim_${name})
+  # Installed as hexsim::<NAME> (cmake/hexsim_install.cmake writes the export and hexsimConfig.cmake).
+  set_target_properties(hexsim_${name} PROPERTIES EXPORT_NAME ${name})
+  install(TARGETS hexsim_${name} EXPORT hexsimTargets ARCHIVE DESTINATION lib LIBRARY DESTINATION lib)
+  install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/include/ DESTINATION include)
 endfunction()
 
 # hexsim_test(NAME SOURCES ... DEPS ...): a GoogleTest executable registered with CTest.

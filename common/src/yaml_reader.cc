@@ -46,11 +46,11 @@ Result<YAML::Node> YamlReader::LoadString(const std::string& text, const std::st
 }
 
 YamlReader::YamlReader(YAML::Node node, std::string file, std::string prefix)
-    : YamlReader(std::move(node), std::move(file), std::move(prefix), std::make_shared<Status>()) {}
+    : YamlReader(node, std::move(file), std::move(prefix), std::make_shared<Status>()) {}
 
 YamlReader::YamlReader(YAML::Node node, std::string file, std::string prefix,
                        std::shared_ptr<Status> error)
-    : node_(std::move(node)), file_(std::move(file)), prefix_(std::move(prefix)), error_(std::move(error)) {}
+    : node_(node), file_(std::move(file)), prefix_(std::move(prefix)), error_(std::move(error)) {}
 
 std::string YamlReader::Where(const std::string& key) const {
   int line = node_.Mark().line;

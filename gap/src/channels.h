@@ -39,6 +39,10 @@ struct ChannelData {
   std::vector<int> row;                // nearest log row (phase, regimes)
   std::vector<Candidate> candidates;   // families share `effect`
   std::vector<std::string> not_available;
+  // Known sample hold (IMU channels): the sensor sample the log row carries is up to one sensor
+  // period old, so a latency in [0, known_hold_max_s] is part of the configured model; the replay
+  // removes the fitted hold (known_hold_s) and the latency candidate measures only the excess.
+  double known_hold_s = 0.0, known_hold_max_s = 0.0;
 };
 
 // Builds every channel the log and the vehicle support; the rest go to not_diagnosed.

@@ -313,15 +313,19 @@ void ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, 
     temp_ok = tvar / static_cast<double>(n) > 0.01;  // needs > 0.1 °C of variation
   }
   if (temp_ok) {
-    // B = d·(T − T_cal) with T_cal unknown: a slope and an offset.
-    Candidate td = MakeCandidate("temperature_drift",
-                                 {"d_x_uT_per_C", "d_y_uT_per_C", "d_z_uT_per_C", "b_x_uT", "b_y_uT", "b_z_uT"},
-                                 {1, 1, 1, 1, 1, 1}, "uT/C", "imu_temp_C");
-    td.magnitude_params = 3;
+    // B = d·(T − T_ref), T_ref the board temperature at the start of the log (the sensor is taken as
+    // calibrated where the flight starts). No offset term: a constant field error is the separate
+    // hard_iron_offset candidate, so a drift cannot absorb the calibration's hard iron; where both
+    // are present the forward step selects the pair.
+    // T_ref: the median of the first 10 samples (a fraction of a second: robust to the temperature
+    // sensor's noise, short against the warm-up).
+    std::vector<double> first(temp.begin(), temp.begin() + static_cast<std::ptrdiff_t>(std::min<size_t>(10, n)));
+    std::nth_element(first.begin(), first.begin() + static_cast<std::ptrdiff_t>(first.size() / 2), first.end());
+    const double tref = first[first.size() / 2];
+    Candidate td = MakeCandidate("temperature_drift", {"d_x_uT_per_C", "d_y_uT_per_C", "d_z_uT_per_C"}, {1, 1, 1},
+                                 "uT/C", "imu_temp_C");
     for (size_t k = 0; k < n; ++k) {
-      Mat3X x(3, 6);
-      x << Eigen::Matrix3d::Identity() * (temp[k] - tmean), Eigen::Matrix3d::Identity();
-      td.X.push_back(x);
+      td.X.push_back(Diag3(temp[k] - tref));
       td.regressor.push_back(temp[k]);
     }
     ch.candidates.push_back(std::move(td));
@@ -383,6 +387,30 @@ void ReplayInertial(const logs::FlightLog& log, const vehicle::VehicleParams& v,
       ch.y.push_back(m - pred);
       ch.row.push_back(static_cast<int>(k));
       h.push_back(pred);
+    }
+    // The known sample hold: the row carries the latest IMU sample, taken up to one IMU period
+    // before the row (no per-sample time stamp in the log), and the attitude difference is centred
+    // on the row. Fit the latency, keep the part inside [0, period] as configured behaviour.
+    const double rate_hz = which == 0 ? v.sensors.gyro.rate_hz : v.sensors.accel.rate_hz;
+    if (rate_hz > 0 && ch.t.size() > 10) {
+      const std::vector<Vec3> dh = Derivative(ch.t, h);
+      Vec3 my = Vec3::Zero(), md = Vec3::Zero();
+      if (ch.bias_nuisance) {
+        for (size_t k = 0; k < ch.t.size(); ++k) {
+          my += ch.y[k];
+          md += dh[k];
+        }
+        my /= static_cast<double>(ch.t.size());
+        md /= static_cast<double>(ch.t.size());
+      }
+      double num = 0, den = 0;
+      for (size_t k = 0; k < ch.t.size(); ++k) {
+        num += (dh[k] - md).dot(ch.y[k] - my);
+        den += (dh[k] - md).squaredNorm();
+      }
+      ch.known_hold_max_s = 1.0 / rate_hz;
+      ch.known_hold_s = den > 0 ? std::clamp(-num / den, 0.0, ch.known_hold_max_s) : 0.0;
+      for (size_t k = 0; k < ch.t.size(); ++k) ch.y[k] += dh[k] * ch.known_hold_s;  // y − (−dh)·L0
     }
     if (!ch.bias_nuisance) {
       Candidate off = MakeCandidate("bias", {"b_x", "b_y", "b_z"}, {1, 1, 1}, ch.unit);

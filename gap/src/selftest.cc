@@ -176,6 +176,8 @@ struct ClassStats {
   int any_compass_alarm = 0;
   std::vector<double> shrink;
   std::map<std::string, std::pair<int, int>> per_effect;  // effect → (top1, n)
+  std::map<std::string, std::pair<int, int>> per_effect_coverage;  // effect → (covered, n)
+  std::map<std::string, int> verdicts;                             // verdict → count
   double Rate(int k) const { return n > 0 ? static_cast<double>(k) / n : 0.0; }
   double MedianShrink() const {
     if (shrink.empty()) return 0.0;
@@ -239,6 +241,7 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& o, void (*progress)(in
       if (!r) return Status::Numerical("selftest: channel " + ch_name + " was not diagnosed");
       ++st.n;
       st.detected += r->gap_detected;
+      ++st.verdicts[r->verdict];
       for (const auto& cr : rep->channels) {
         if (cr.unit == "uT" && cr.gap_detected) {
           ++st.any_compass_alarm;
@@ -257,8 +260,12 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& o, void (*progress)(in
         for (const auto& cand : r->candidates) {
           if (cand.effect != inj[0].effect) continue;
           const double tm = trial->true_magnitude[0];
+          const bool in = tm >= cand.magnitude_ci95[0] && tm <= cand.magnitude_ci95[1];
           ++st.coverage_n;
-          st.covered += tm >= cand.magnitude_ci95[0] && tm <= cand.magnitude_ci95[1];
+          st.covered += in;
+          auto& pc = st.per_effect_coverage[inj[0].effect];
+          pc.first += in;
+          pc.second += 1;
         }
       }
       if (c == "out_of_library") {
@@ -325,11 +332,13 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& o, void (*progress)(in
     nlohmann::json cj = {{"class", cls},
                          {"trials", s.n},
                          {"gap_detected_rate", s.Rate(s.detected)},
-                         {"any_compass_alarm_rate", s.Rate(s.any_compass_alarm)}};
+                         {"any_compass_alarm_rate", s.Rate(s.any_compass_alarm)},
+                         {"verdicts", s.verdicts}};
     if (std::string(cls) == "one_effect" || std::string(cls) == "two_effects") {
       cj["top1_rate"] = s.Rate(s.top1);
       nlohmann::json pe = nlohmann::json::object();
       for (const auto& [e, v] : s.per_effect) pe[e] = {{"top1", v.first}, {"trials", v.second}};
+      for (const auto& [e, v] : s.per_effect_coverage) pe[e]["covered"] = v.first, pe[e]["coverage_trials"] = v.second;
       cj["per_effect"] = pe;
     }
     if (std::string(cls) == "one_effect") {
@@ -359,9 +368,18 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& o, void (*progress)(in
   t += fmt::format("  one effect       top-1 {:5.1f} %  (target >= 90 %), 95 % interval coverage {:5.1f} % (>= 90 %), "
                    "median held-out shrink {:4.0f} % (>= 50 %)\n",
                    100 * single_top1, 100 * coverage, 100 * median_shrink);
-  for (const auto& [e, v] : one.per_effect) t += fmt::format("      {:<20} {}/{}\n", e, v.first, v.second);
+  for (const auto& [e, v] : one.per_effect) {
+    const auto it = one.per_effect_coverage.find(e);
+    const auto cov = it == one.per_effect_coverage.end() ? std::pair<int, int>{0, 0} : it->second;
+    t += fmt::format("      {:<20} top-1 {}/{}  interval covers truth {}/{}\n", e, v.first, v.second, cov.first, cov.second);
+  }
   t += fmt::format("  two effects      top-1 {:5.1f} %; overall top-1 {:5.1f} % (target >= 70 %)\n", 100 * two.Rate(two.top1),
                    100 * overall_top1);
+  for (const char* cls : classes) {
+    t += fmt::format("      verdicts {:<15}", cls);
+    for (const auto& [v, k] : stats[cls].verdicts) t += fmt::format(" {}:{}", v, k);
+    t += "\n";
+  }
   t += fmt::format("  out of library   unexplained {:5.1f} % (target >= 80 %), confident wrong {:5.1f} %\n",
                    100 * unexplained, 100 * ool.Rate(ool.confident_wrong));
   t += "  current_hard_iron detection threshold: ";

@@ -48,3 +48,50 @@ inline double LjungBoxP(const std::vector<double>& x, int h) {
 }
 
 }  // namespace hexsim::gap::internal
+
+namespace hexsim::gap::internal {
+
+// Regularised incomplete beta I_x(a, b) (continued fraction, modified Lentz).
+inline double IncompleteBeta(double a, double b, double x) {
+  if (!(x > 0)) return 0.0;
+  if (!(x < 1)) return 1.0;
+  auto cf = [](double a_, double b_, double x_) {
+    constexpr double kTiny = 1e-300;
+    double c = 1.0, d = 1.0 - (a_ + b_) * x_ / (a_ + 1.0);
+    if (std::fabs(d) < kTiny) d = kTiny;
+    d = 1.0 / d;
+    double h = d;
+    for (int m = 1; m <= 300; ++m) {
+      const double m2 = 2.0 * m;
+      double aa = m * (b_ - m) * x_ / ((a_ - 1.0 + m2) * (a_ + m2));
+      d = 1.0 + aa * d;
+      if (std::fabs(d) < kTiny) d = kTiny;
+      c = 1.0 + aa / c;
+      if (std::fabs(c) < kTiny) c = kTiny;
+      d = 1.0 / d;
+      h *= d * c;
+      aa = -(a_ + m) * (a_ + b_ + m) * x_ / ((a_ + m2) * (a_ + 1.0 + m2));
+      d = 1.0 + aa * d;
+      if (std::fabs(d) < kTiny) d = kTiny;
+      c = 1.0 + aa / c;
+      if (std::fabs(c) < kTiny) c = kTiny;
+      d = 1.0 / d;
+      const double del = d * c;
+      h *= del;
+      if (std::fabs(del - 1.0) < 1e-12) break;
+    }
+    return h;
+  };
+  const double lbeta = std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b);
+  const double front = std::exp(lbeta + a * std::log(x) + b * std::log1p(-x));
+  if (x < (a + 1.0) / (a + b + 2.0)) return front * cf(a, b, x) / a;
+  return 1.0 - front * cf(b, a, 1.0 - x) / b;
+}
+
+// Upper tail of Fisher's F with (d1, d2) degrees of freedom.
+inline double FSf(double f, double d1, double d2) {
+  if (!(f > 0)) return 1.0;
+  return IncompleteBeta(d2 / 2.0, d1 / 2.0, d2 / (d2 + d1 * f));
+}
+
+}  // namespace hexsim::gap::internal

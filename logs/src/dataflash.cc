@@ -1,5 +1,6 @@
 #include "hexsim/logs/dataflash.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -45,20 +46,28 @@ std::string FixedString(const uint8_t* p, size_t n) {
   return std::string(reinterpret_cast<const char*>(p), len);
 }
 
-std::vector<std::string> SplitLabels(const std::string& s) {
+// The fixed-size text field at p as a view, trailing NULs removed (no allocation).
+std::string_view FixedView(const uint8_t* p, size_t n) {
+  size_t len = 0;
+  while (len < n && p[len] != 0) ++len;
+  return {reinterpret_cast<const char*>(p), len};
+}
+
+std::vector<std::string> SplitLabels(std::string_view s) {
   std::vector<std::string> out;
+  out.reserve(static_cast<size_t>(std::count(s.begin(), s.end(), ',')) + 1);
   size_t start = 0;
   while (start <= s.size()) {
     const size_t comma = s.find(',', start);
-    const size_t end = comma == std::string::npos ? s.size() : comma;
-    out.push_back(s.substr(start, end - start));
-    if (comma == std::string::npos) break;
+    const size_t end = comma == std::string_view::npos ? s.size() : comma;
+    out.emplace_back(s.substr(start, end - start));
+    if (comma == std::string_view::npos) break;
     start = comma + 1;
   }
   return out;
 }
 
-bool PrintableName(const std::string& s) {
+bool PrintableName(std::string_view s) {
   if (s.empty()) return false;
   for (char c : s) {
     if (!((c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_')) return false;
@@ -139,13 +148,19 @@ bool IsCharScaled(char c) { return DataFlashFormatCharScale(c) != 1.0; }
 }  // namespace
 
 int DataFlashFormat::FieldIndex(std::string_view label) const {
+  // Length and first char first: most labels differ there, and a memcmp per label is the hot spot
+  // of the importer (and costly under the sanitizers).
   for (size_t i = 0; i < labels.size(); ++i) {
-    if (labels[i] == label) return static_cast<int>(i);
+    const std::string& l = labels[i];
+    if (l.size() == label.size() && (l.empty() || l[0] == label[0]) && std::string_view(l) == label) {
+      return static_cast<int>(i);
+    }
   }
   return -1;
 }
 
-double DataFlashMessage::GetIndex(size_t i) const {
+double DataFlashMessage::GetIndex(size_t field) const {
+  const size_t i = field;
   if (i >= format_->format.size()) return kNaN;
   const uint8_t* p = payload_ + format_->offsets[i];
   const char c = format_->format[i];
@@ -173,8 +188,11 @@ double DataFlashMessage::Get(std::string_view label) const {
 
 int64_t DataFlashMessage::GetRawInt(std::string_view label) const {
   const int idx = format_->FieldIndex(label);
-  if (idx < 0) return 0;
-  const size_t i = static_cast<size_t>(idx);
+  return idx < 0 ? 0 : RawIntAt(static_cast<size_t>(idx));
+}
+
+int64_t DataFlashMessage::RawIntAt(size_t field) const {
+  const size_t i = field;
   const uint8_t* p = payload_ + format_->offsets[i];
   switch (format_->format[i]) {
     case 'b': return Load<int8_t>(p);
@@ -199,8 +217,8 @@ std::string DataFlashMessage::GetString(std::string_view label) const {
 }
 
 double DataFlashMessage::BootTime_s() const {
-  if (Has("TimeUS")) return static_cast<double>(GetRawInt("TimeUS")) * 1e-6;
-  if (Has("TimeMS")) return static_cast<double>(GetRawInt("TimeMS")) * 1e-3;
+  if (format_->time_us_field >= 0) return static_cast<double>(RawIntAt(static_cast<size_t>(format_->time_us_field))) * 1e-6;
+  if (format_->time_ms_field >= 0) return static_cast<double>(RawIntAt(static_cast<size_t>(format_->time_ms_field))) * 1e-3;
   return kNaN;
 }
 
@@ -242,12 +260,13 @@ void DataFlashReader::HandleFmt(const uint8_t* payload) {
   DataFlashFormat fmt;
   fmt.type = type;
   fmt.length = length;
-  fmt.name = FixedString(payload + 2, 4);
-  fmt.format = FixedString(payload + 6, 16);
-  const std::string columns = FixedString(payload + 22, 64);
+  fmt.name = FixedView(payload + 2, 4);
+  fmt.format = FixedView(payload + 6, 16);
+  const std::string_view columns = FixedView(payload + 22, 64);
   if (!columns.empty()) fmt.labels = SplitLabels(columns);  // STRT-like messages have no fields
   size_t offset = 0;
   bool ok = PrintableName(fmt.name) && fmt.labels.size() == fmt.format.size();
+  fmt.offsets.reserve(fmt.format.size());
   for (char c : fmt.format) {
     const size_t size = DataFlashFormatCharSize(c);
     if (size == 0) ok = false;
@@ -268,6 +287,12 @@ void DataFlashReader::HandleFmt(const uint8_t* payload) {
   }
   fmt.multipliers.assign(fmt.format.size(), 1.0);
   fmt.units.assign(fmt.format.size(), "");
+  fmt.time_us_field = fmt.FieldIndex("TimeUS");
+  fmt.time_ms_field = fmt.FieldIndex("TimeMS");
+  unit_kind_[type] = fmt.name == "FMTU"   ? UnitKind::kFmtu
+                     : fmt.name == "MULT" ? UnitKind::kMult
+                     : fmt.name == "UNIT" ? UnitKind::kUnit
+                                          : UnitKind::kNone;
   const bool has_fmtu = fmtu_.count(type) > 0;
   if (!has_fmtu) ApplyScaleTable(&fmt);
   formats_[type] = std::make_unique<DataFlashFormat>(std::move(fmt));
@@ -300,7 +325,8 @@ void DataFlashReader::HandleUnitMessage(const DataFlashFormat& fmt, const uint8_
   DataFlashMessage m;
   m.format_ = &fmt;
   m.payload_ = payload;
-  if (fmt.name == "FMTU") {
+  const UnitKind kind = unit_kind_[fmt.type];
+  if (kind == UnitKind::kFmtu) {
     const int64_t type = m.GetRawInt("FmtType");
     if (type < 0 || type > 255 || type == kDataFlashFmtType) return;
     fmtu_[static_cast<uint8_t>(type)] = {m.GetString("UnitIds"), m.GetString("MultIds")};
@@ -310,12 +336,12 @@ void DataFlashReader::HandleUnitMessage(const DataFlashFormat& fmt, const uint8_
       target->units.assign(target->format.size(), "");
       ApplyUnits(target);
     }
-  } else if (fmt.name == "MULT") {
+  } else if (kind == UnitKind::kMult) {
     const int64_t id = m.GetRawInt("Id");
     const double mult = m.Get("Mult");
     if (id < 0 || id > 255) return;
     mult_by_id_[static_cast<uint8_t>(id)] = mult;
-  } else if (fmt.name == "UNIT") {
+  } else if (kind == UnitKind::kUnit) {
     const int64_t id = m.GetRawInt("Id");
     if (id < 0 || id > 255) return;
     unit_by_id_[static_cast<uint8_t>(id)] = m.GetString("Label");
@@ -381,7 +407,7 @@ bool DataFlashReader::Next(DataFlashMessage* message) {
     pos_ = end;
     if (type == kDataFlashFmtType) {
       HandleFmt(payload);
-    } else if (fmt.name == "FMTU" || fmt.name == "MULT" || fmt.name == "UNIT") {
+    } else if (unit_kind_[type] != UnitKind::kNone) {
       HandleUnitMessage(fmt, payload);
     }
     message->format_ = formats_[type].get();

@@ -20,6 +20,10 @@ constexpr double kMaxMagDt_s = 0.2;
 // The accelerometer tilt correction is used only while |f| is within this fraction of g.
 constexpr double kAccelTrustBand = 0.2;
 constexpr double kMinHeadingCosPitch2 = 1e-4;
+// The kinematic acceleration reference: GPS velocity differences, low-passed with this time
+// constant, forgotten when GPS stops for longer than kAccelRefTimeout_s.
+constexpr double kAccelRefTau_s = 0.3;
+constexpr double kAccelRefTimeout_s = 1.0;
 // A speed no multirotor reaches: beyond it the estimate has diverged.
 constexpr double kMaxSpeed_mps = 1000.0;
 
@@ -41,6 +45,8 @@ class Complementary final : public Estimator {
     have_time_ = false;
     aligning_ = !initial.healthy;
     gps_rejections_in_row_ = 0;
+    have_gps_v_ = have_a_ref_ = false;
+    a_ref_N_.setZero();
     aligner_.Clear();
     buffer_.Clear();
     stats_ = EstimatorStats();
@@ -70,12 +76,17 @@ class Complementary final : public Estimator {
     }
     const double dt = std::min(s.t_s - t_, kMaxImuDt_s);
     const Eigen::Matrix3d R = q_.toRotationMatrix();
-    // Tilt error in N: φ = d_meas × e_D, d_meas = R·(−f/|f|) (rotates the estimate towards gravity).
+    // Tilt error in N: φ = d_meas × d_ref with d_meas = R·f/|f| and d_ref the direction of the
+    // specific force expected from the kinematic acceleration, f_ref = a_ref − g (a_ref from GPS;
+    // zero without it). Taking f_ref = −g while the vehicle accelerates tilts the estimate by a/g.
     Eigen::Vector3d corr_B = Eigen::Vector3d::Zero();
     const double f_norm = s.accel_B_mps2.norm();
-    if (std::abs(f_norm - kGravity_mps2) < kAccelTrustBand * kGravity_mps2) {
-      const Eigen::Vector3d d_meas_N = R * (-s.accel_B_mps2 / f_norm);
-      const Eigen::Vector3d phi_N = d_meas_N.cross(Eigen::Vector3d::UnitZ());
+    const bool have_ref = have_a_ref_ && s.t_s - a_ref_t_ < kAccelRefTimeout_s;
+    const Eigen::Vector3d f_ref_N =
+        (have_ref ? a_ref_N_ : Eigen::Vector3d::Zero()) - Eigen::Vector3d(0, 0, kGravity_mps2);
+    if (f_norm > 0 && std::abs(f_norm - f_ref_N.norm()) < kAccelTrustBand * kGravity_mps2) {
+      const Eigen::Vector3d d_meas_N = R * (s.accel_B_mps2 / f_norm);
+      const Eigen::Vector3d phi_N = d_meas_N.cross(f_ref_N.normalized());
       corr_B = R.transpose() * phi_N;
     }
     const Eigen::Vector3d w = s.gyro_B_radps - bg_ + prm_.comp_tilt_gain_radps * corr_B;
@@ -149,6 +160,18 @@ class Complementary final : public Estimator {
       ++stats_.gps_vel.rejected_invalid;
       return;
     }
+    // Kinematic acceleration reference from successive GPS velocities (low-passed).
+    if (have_gps_v_ && s.t_s > gps_v_t_) {
+      const double dt = s.t_s - gps_v_t_;
+      const Eigen::Vector3d a = (s.v_N_mps - gps_v_) / dt;
+      if (!have_a_ref_ || s.t_s - a_ref_t_ > kAccelRefTimeout_s) a_ref_N_ = a;
+      else a_ref_N_ += std::min(1.0, dt / kAccelRefTau_s) * (a - a_ref_N_);
+      a_ref_t_ = s.t_s;
+      have_a_ref_ = true;
+    }
+    gps_v_ = s.v_N_mps;
+    gps_v_t_ = s.t_s;
+    have_gps_v_ = true;
     const Eigen::Vector3d e_p = s.p_N_m - p_then;
     const Eigen::Vector3d e_v = s.v_N_mps - v_then;
     const double gate_p = prm_.gps_gate_sigma * std::hypot(prm_.gps_pos_std_m, prm_.comp_pos_std_m);
@@ -255,6 +278,12 @@ class Complementary final : public Estimator {
   bool have_time_ = false;
   bool aligning_ = false;
   int gps_rejections_in_row_ = 0;
+  Eigen::Vector3d gps_v_ = Eigen::Vector3d::Zero();  // last GPS velocity and its time
+  double gps_v_t_ = 0;
+  bool have_gps_v_ = false;
+  Eigen::Vector3d a_ref_N_ = Eigen::Vector3d::Zero();  // low-passed kinematic acceleration
+  double a_ref_t_ = 0;
+  bool have_a_ref_ = false;
   internal::StaticAligner aligner_;
   internal::StateBuffer buffer_;
   EstimatorStats stats_;

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <string>
 
 #include <Eigen/Core>
@@ -59,6 +58,8 @@ class Eskf final : public Estimator {
     cov_count_ = 0;
     stats_ = EstimatorStats();
     health_ = Status::Ok();
+    last_gps_fused_t_ = t_;
+    last_mag_fused_t_ = t_;
     InitCovariance();
   }
 
@@ -138,26 +139,51 @@ class Eskf final : public Estimator {
         y[i] = s.mag_B_uT(i) - h(i);
         r[i] = prm_.mag_std_uT * prm_.mag_std_uT;
       }
-      FuseGroup(3, H, y, r, prm_.mag_gate_sigma, &stats_.mag, s.t_s, "mag");
+      double ratio = 0;
+      const bool fused = FuseGroup(3, H, y, r, prm_.mag_gate_sigma, s.t_s, "mag", &ratio);
+      Count(&stats_.mag, fused, Eigen::Vector3d(y[0], y[1], y[2]), ratio);
+      if (fused) {
+        last_mag_fused_t_ = s.t_s;
+      } else if (s.t_s - last_mag_fused_t_ > prm_.mag_yaw_reset_timeout_s) {
+        const Eigen::Vector3d euler = EulerFromQuat(q_);
+        const double psi_meas =
+            TiltCompensatedHeadingRad(s.mag_B_uT, euler.x(), euler.y()) + DeclinationRad(prm_.earth);
+        ResetYaw(WrapPi(psi_meas - euler.z()), prm_.mag_heading_std_rad * prm_.mag_heading_std_rad);
+        last_mag_fused_t_ = s.t_s;
+      }
       return;
     }
-    // Heading: ψ = atan2(r1, r0) with r = R·e_x; ∂ψ/∂δθ = [−r0 r2, −r1 r2, r0² + r1²]/(r0² + r1²).
+    // Heading. The compass is levelled with the *estimated* roll/pitch, so with R_true = (I + [δθ]×)R
+    // the levelled field is Rz(ψ̂)ᵀ(I − [δθ]×)B_N and the innovation ψ_meas − ψ̂ is
+    //   y = δθ_D − B_D (B_N δθ_N + B_E δθ_E) / B_H²
+    // (a tilt error leaks into the heading through the vertical field, ×tan(inclination)).
     const Eigen::Vector3d r0 = R.col(0);
-    const double d = r0.x() * r0.x() + r0.y() * r0.y();
-    if (d < kMaxHeadingCosPitch2) {
+    if (r0.x() * r0.x() + r0.y() * r0.y() < kMaxHeadingCosPitch2) {
       ++stats_.mag.rejected_invalid;
       return;
     }
     const Eigen::Vector3d euler = EulerFromQuat(q_);
     const double psi_meas =
         TiltCompensatedHeadingRad(s.mag_B_uT, euler.x(), euler.y()) + DeclinationRad(prm_.earth);
+    const Eigen::Vector3d& B = prm_.earth.B_N_uT;
+    const double bh2 = B.x() * B.x() + B.y() * B.y();
     Row15 H = Row15::Zero();
-    H(kTh + 0) = -r0.x() * r0.z() / d;
-    H(kTh + 1) = -r0.y() * r0.z() / d;
+    H(kTh + 0) = -B.z() * B.x() / bh2;
+    H(kTh + 1) = -B.z() * B.y() / bh2;
     H(kTh + 2) = 1.0;
     double y = WrapPi(psi_meas - euler.z());
     double r = prm_.mag_heading_std_rad * prm_.mag_heading_std_rad;
-    FuseGroup(1, &H, &y, &r, prm_.mag_gate_sigma, &stats_.mag, s.t_s, "mag heading");
+    double ratio = 0;
+    const bool fused = FuseGroup(1, &H, &y, &r, prm_.mag_gate_sigma, s.t_s, "mag heading", &ratio);
+    Count(&stats_.mag, fused, Eigen::Vector3d(y, 0, 0), ratio);
+    if (fused) {
+      last_mag_fused_t_ = s.t_s;
+    } else if (s.t_s - last_mag_fused_t_ > prm_.mag_yaw_reset_timeout_s) {
+      // The compass has disagreed for too long: the yaw, not the compass, is lost (a disturbed
+      // compass rarely stays beyond the gate this long). Reset the yaw to it.
+      ResetYaw(y, r);
+      last_mag_fused_t_ = s.t_s;
+    }
   }
 
   void FuseGps(const GpsSample& s) override {
@@ -175,25 +201,43 @@ class Eskf final : public Estimator {
       ++stats_.gps_vel.rejected_invalid;
       return;
     }
+    // Position: horizontal and vertical gated apart (as EKF2), so a vertical GPS/baro disagreement
+    // never locks the horizontal position out.
+    const Eigen::Vector3d y_p = s.p_N_m - p_then;
+    const double r_p = prm_.gps_pos_std_m * prm_.gps_pos_std_m;
     Row15 H[3];
     double y[3], r[3];
     for (int i = 0; i < 3; ++i) {
       H[i].setZero();
       H[i](kP + i) = 1.0;
-      y[i] = s.p_N_m(i) - p_then(i);
-      r[i] = prm_.gps_pos_std_m * prm_.gps_pos_std_m;
+      y[i] = y_p(i);
+      r[i] = r_p;
     }
-    FuseGroup(3, H, y, r, prm_.gps_gate_sigma, &stats_.gps_pos, s.t_s, "gps position");
+    double ratio_h = 0, ratio_v = 0;
+    const bool fused_h = FuseGroup(2, H, y, r, prm_.gps_gate_sigma, s.t_s, "gps position", &ratio_h);
     if (!health_.ok()) return;
+    const bool fused_v = FuseGroup(1, &H[2], &y[2], &r[2], prm_.gps_gate_sigma, s.t_s, "gps height", &ratio_v);
+    if (!health_.ok()) return;
+    Count(&stats_.gps_pos, fused_h && fused_v, y_p, std::max(ratio_h, ratio_v));  // partly gated counts as gated
+    if (fused_h) {
+      last_gps_fused_t_ = t_valid;
+    } else if (t_valid - last_gps_fused_t_ > prm_.gps_reset_timeout_s) {
+      ResetToGps(s, p_then, v_then);
+      last_gps_fused_t_ = t_valid;
+      return;
+    }
     // The position update moved the history too: take the velocity innovation after it.
     if (!buffer_.Lookup(t_valid, t_, p_, v_, &p_then, &v_then)) return;
+    const Eigen::Vector3d y_v = s.v_N_mps - v_then;
     for (int i = 0; i < 3; ++i) {
       H[i].setZero();
       H[i](kV + i) = 1.0;
-      y[i] = s.v_N_mps(i) - v_then(i);
+      y[i] = y_v(i);
       r[i] = prm_.gps_vel_std_mps * prm_.gps_vel_std_mps;
     }
-    FuseGroup(3, H, y, r, prm_.gps_gate_sigma, &stats_.gps_vel, s.t_s, "gps velocity");
+    double ratio = 0;
+    const bool fused = FuseGroup(3, H, y, r, prm_.gps_gate_sigma, s.t_s, "gps velocity", &ratio);
+    Count(&stats_.gps_vel, fused, y_v, ratio);
   }
 
   void FuseBaro(const BaroSample& s) override {
@@ -207,7 +251,9 @@ class Eskf final : public Estimator {
     H(kP + 2) = -1.0;  // alt = −p_D
     double y = s.alt_m - (-p_.z());
     double r = prm_.baro_std_m * prm_.baro_std_m;
-    FuseGroup(1, &H, &y, &r, prm_.baro_gate_sigma, &stats_.baro, s.t_s, "baro");
+    double ratio = 0;
+    const bool fused = FuseGroup(1, &H, &y, &r, prm_.baro_gate_sigma, s.t_s, "baro", &ratio);
+    Count(&stats_.baro, fused, Eigen::Vector3d(y, 0, 0), ratio);
   }
 
   NavEstimate Estimate() const override {
@@ -227,6 +273,23 @@ class Eskf final : public Estimator {
   EstimatorStats Stats() const override { return stats_; }
 
  private:
+  // EKF2-style reset: horizontal position and velocity jump to the GPS sample (the offset found at
+  // its time of validity is applied to the current state and the history); their covariance
+  // becomes the GPS noise, uncorrelated with the rest.
+  void ResetToGps(const GpsSample& s, const Eigen::Vector3d& p_then, const Eigen::Vector3d& v_then) {
+    const Eigen::Vector3d dp(s.p_N_m.x() - p_then.x(), s.p_N_m.y() - p_then.y(), 0.0);
+    const Eigen::Vector3d dv = s.v_N_mps - v_then;
+    p_ += dp;
+    v_ += dv;
+    buffer_.Shift(dp, dv);
+    const double r_p = prm_.gps_pos_std_m * prm_.gps_pos_std_m;
+    const double r_v = prm_.gps_vel_std_mps * prm_.gps_vel_std_mps;
+    for (int i = 0; i < 3; ++i) ResetVariance(kV + i, r_v);
+    for (int i = 0; i < 2; ++i) ResetVariance(kP + i, r_p);
+    ++stats_.gps_pos.resets;
+    ++stats_.gps_vel.resets;
+  }
+
   void InitCovariance() {
     Vec15 d;
     const double tilt = prm_.init_tilt_std_rad, yaw = prm_.init_yaw_std_rad;
@@ -242,6 +305,8 @@ class Eskf final : public Estimator {
     q_ = aligner_.Attitude(prm_.earth);
     bg_ = aligner_.GyroBias();
     aligning_ = false;
+    last_gps_fused_t_ = t_;
+    last_mag_fused_t_ = t_;
     InitCovariance();
     buffer_.Clear();
     buffer_.Push(t_, p_, v_);
@@ -271,24 +336,17 @@ class Eskf final : public Estimator {
   }
 
   // Gates the group (every |y_i| ≤ gate·√S_ii), then fuses its components one by one (Joseph form),
-  // then injects the accumulated error state into the nominal state and resets it.
-  void FuseGroup(int n, const Row15* H, const double* y, const double* r, double gate_sigma,
-                 SensorStats* st, double t_s, const char* what) {
+  // then injects the accumulated error state into the nominal state and resets it. Returns whether
+  // the group was fused; *test_ratio is the largest |y_i| / (gate·√S_ii).
+  bool FuseGroup(int n, const Row15* H, const double* y, const double* r, double gate_sigma, double t_s,
+                 const char* what, double* test_ratio) {
     double worst = 0;
-    st->last_innovation.setZero();
     for (int i = 0; i < n; ++i) {
       const double S = (H[i] * P_ * H[i].transpose())(0, 0) + r[i];
       worst = std::max(worst, std::abs(y[i]) / (gate_sigma * std::sqrt(S)));
-      st->last_innovation(i) = y[i];
     }
-    st->last_test_ratio = worst;
-    if (std::getenv("NAVDBG") && (worst > 1.0 || std::fmod(t_s, 2.0) < 0.013)) {
-      std::fprintf(stderr, "%8.3f %-14s ratio %6.2f y=[%8.3f %8.3f %8.3f] sqrtS0 %.3f | bg %.4f %.4f %.4f ba %.3f %.3f %.3f Pyaw %.4f\n", t_s, what, worst, y[0], n > 1 ? y[1] : 0.0, n > 2 ? y[2] : 0.0, std::sqrt((H[0] * P_ * H[0].transpose())(0, 0) + r[0]), bg_.x(), bg_.y(), bg_.z(), ba_.x(), ba_.y(), ba_.z(), std::sqrt(P_(2,2)));
-    }
-    if (!(worst <= 1.0)) {
-      ++st->rejected_gate;
-      return;
-    }
+    *test_ratio = worst;
+    if (!(worst <= 1.0)) return false;
     Vec15 dx = Vec15::Zero();
     Mat15 P = P_;
     for (int i = 0; i < n; ++i) {
@@ -304,9 +362,10 @@ class Eskf final : public Estimator {
     if (!CheckVector(dx, "error state", t_s, where.c_str()) ||
         !CheckCovariance(P, t_s, where.c_str()) ||
         !CheckSpeed(v_ + dx.segment<3>(kV), t_s, where.c_str())) {
-      return;
+      return false;
     }
-    // Injection: q ← exp(δθ)⊗q (δθ in N), additive for the rest; reset Jacobian G_θθ = I − [δθ/2]×.
+    // Injection: q ← exp(δθ)⊗q (δθ in N), additive for the rest. Reset of a *global* (N-frame)
+    // attitude error: exp(δθ⁺) = exp(δθ)⊗exp(−δθ̂) ⇒ G_θθ = I + [δθ̂/2]× (I − [δθ̂/2]× is the local one).
     const Eigen::Vector3d dth = dx.segment<3>(kTh);
     q_ = (QuatExp(dth) * q_).normalized();
     v_ += dx.segment<3>(kV);
@@ -315,9 +374,30 @@ class Eskf final : public Estimator {
     ba_ += dx.segment<3>(kBa);
     buffer_.Shift(dx.segment<3>(kP), dx.segment<3>(kV));
     Mat15 G = Mat15::Identity();
-    G.block<3, 3>(kTh, kTh) -= Skew(0.5 * dth);
+    G.block<3, 3>(kTh, kTh) += Skew(0.5 * dth);
     P_ = G * P * G.transpose();
-    ++st->fused;
+    return true;
+  }
+
+  // Records one measurement's outcome in its stats.
+  static void Count(SensorStats* st, bool fused, const Eigen::Vector3d& innovation, double ratio) {
+    st->last_innovation = innovation;
+    st->last_test_ratio = ratio;
+    if (fused) ++st->fused; else ++st->rejected_gate;
+  }
+
+  // Zeroes the cross-covariances of error-state index i and sets its variance (a state reset).
+  void ResetVariance(int i, double variance) {
+    P_.row(i).setZero();
+    P_.col(i).setZero();
+    P_(i, i) = variance;
+  }
+
+  // EKF2-style yaw reset: rotates the attitude about N down by the heading innovation.
+  void ResetYaw(double dpsi_rad, double variance) {
+    q_ = (QuatExp(Eigen::Vector3d(0, 0, dpsi_rad)) * q_).normalized();
+    ResetVariance(kTh + 2, variance);
+    ++stats_.mag.resets;
   }
 
   template <class V>
@@ -367,6 +447,8 @@ class Eskf final : public Estimator {
   internal::StateBuffer buffer_;
   double cov_dt_ = 0;
   int cov_count_ = 0;
+  double last_gps_fused_t_ = 0;  // time of validity of the last fused horizontal GPS position
+  double last_mag_fused_t_ = 0;
   EstimatorStats stats_;
   Status health_;
 };

@@ -45,6 +45,8 @@ Status ValidateNavParams(const NavParams& p) {
       {"init_accel_bias_std_mps2", p.init_accel_bias_std_mps2},
       {"align_time_s", p.align_time_s},
       {"comp_pos_std_m", p.comp_pos_std_m},
+      {"gps_reset_timeout_s", p.gps_reset_timeout_s},
+      {"mag_yaw_reset_timeout_s", p.mag_yaw_reset_timeout_s},
       {"comp_vel_std_mps", p.comp_vel_std_mps},
   };
   for (const Check& c : positive) {
@@ -112,6 +114,8 @@ Status ParseNavParams(YamlReader& r, NavParams* p) {
   r.Opt("gps_gate_sigma", &p->gps_gate_sigma, Positive());
   r.Opt("baro_gate_sigma", &p->baro_gate_sigma, Positive());
   r.Opt("gps_delay_s", &p->gps_delay_s, InRange(0.0, 1.0));
+  r.Opt("gps_reset_timeout_s", &p->gps_reset_timeout_s, Positive());
+  r.Opt("mag_yaw_reset_timeout_s", &p->mag_yaw_reset_timeout_s, Positive());
   r.Opt("init_tilt_std_rad", &p->init_tilt_std_rad, Positive());
   r.Opt("init_yaw_std_rad", &p->init_yaw_std_rad, Positive());
   r.Opt("init_vel_std_mps", &p->init_vel_std_mps, Positive());

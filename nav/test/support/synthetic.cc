@@ -140,7 +140,7 @@ void RunScenario(Estimator* est, const Trajectory& traj, const SensorConfig& cfg
       Pending g;
       g.arrival_s = t + cfg.gps_delay_s;
       g.sample.t_s = cfg.gps_stamp_on_arrival ? g.arrival_s : t;
-      g.sample.p_N_m = x.p_N_m + rng->Normal3(cfg.gps_pos_std_m);
+      g.sample.p_N_m = x.p_N_m + cfg.gps_bias_N_m + rng->Normal3(cfg.gps_pos_std_m);
       g.sample.v_N_mps = x.v_N_mps + rng->Normal3(cfg.gps_vel_std_mps);
       if (gps_index == cfg.gps_outlier_index) g.sample.p_N_m += cfg.gps_outlier_offset_N_m;
       ++gps_index;

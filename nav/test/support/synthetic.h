@@ -53,6 +53,7 @@ struct SensorConfig {
   double mag_noise_uT = 0.0;
   Eigen::Vector3d mag_disturbance_B_uT = Eigen::Vector3d::Zero();  // constant, body frame
   double gps_pos_std_m = 0.0;
+  Eigen::Vector3d gps_bias_N_m = Eigen::Vector3d::Zero();  // constant receiver bias
   double gps_vel_std_mps = 0.0;
   double gps_delay_s = 0.0;        // arrival = validity + delay
   bool gps_stamp_on_arrival = false;  // t_s = arrival time instead of validity time

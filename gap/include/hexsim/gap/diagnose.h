@@ -10,6 +10,14 @@
 // are profiled over a grid); per time block the normal equations are accumulated once, so blocked
 // cross-validation, the block bootstrap (attribution probability) and cluster-robust 95 % intervals
 // are cheap. How much: held-out shrink 1 − RMS_after/RMS_before (RMS about zero).
+// Gap exists: some candidate's parameters are non-zero by a cluster-robust (over time blocks) Wald
+// test, Hotelling T² → F(p, G − p), Bonferroni over families; that candidate lowers the held-out
+// residual; and the residual mean square exceeds the first-difference noise floor. The residual's
+// whiteness (Ljung–Box) is reported only: the unresolvable part of the configured models (current
+// logged at the row rate, compass sampled between rows) is coloured noise a real log has too.
+// IMU channels: a latency within one IMU period is the known sample hold (no per-sample time stamp
+// in the log) and is removed in the replay; the latency candidate reports the total.
+// temperature_drift is d·(T − T_start) with no offset of its own (hard_iron_offset is separate).
 #pragma once
 
 #include <string>
@@ -43,7 +51,7 @@ struct CandidateResult {
   std::string effect;
   double probability = 0.0;          // block-bootstrap attribution probability
   double heldout_shrink = 0.0;       // 1 − RMS_after/RMS_before on held-out blocks, alone
-  double p_value = 1.0;              // F test against no effect
+  double p_value = 1.0;              // cluster-robust Wald test against no effect (family-corrected)
   double bic = 0.0;
   double magnitude = 0.0;            // one scalar figure (e.g. |d| µT/A), its unit in magnitude_unit
   double magnitude_ci95[2] = {0.0, 0.0};
@@ -59,6 +67,7 @@ struct ChannelResult {
   int samples = 0;
   double rms_before = 0.0;
   double noise_rms = 0.0;            // high-frequency (first-difference) noise estimate
+  double noise_floor_ratio = 0.0;    // residual mean square / noise floor (1: nothing above the floor)
   bool gap_detected = false;
   double p_value = 1.0;
   double ljung_box_p = 1.0;

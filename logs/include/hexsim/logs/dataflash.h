@@ -45,6 +45,9 @@ struct DataFlashFormat {
   // the decoded value is then in `units[i]` (empty when unknown).
   std::vector<double> multipliers;
   std::vector<std::string> units;
+  // Index of the TimeUS / TimeMS field, or -1 (set when the format is read: BootTime_s is per message).
+  int time_us_field = -1;
+  int time_ms_field = -1;
 
   // Field index by label, or -1.
   int FieldIndex(std::string_view label) const;
@@ -84,6 +87,7 @@ class DataFlashMessage {
 
  private:
   friend class DataFlashReader;
+  int64_t RawIntAt(size_t field) const;
   const DataFlashFormat* format_ = nullptr;
   const uint8_t* payload_ = nullptr;  // format_->length - 3 bytes
   size_t file_offset_ = 0;
@@ -115,6 +119,9 @@ class DataFlashReader {
   size_t pos_ = 0;
   DataFlashDamage damage_;
   std::array<std::unique_ptr<DataFlashFormat>, 256> formats_;  // by type; null = undefined
+  // Which types are FMTU/MULT/UNIT (decided once per FMT, not by name compares per message).
+  enum class UnitKind : uint8_t { kNone, kFmtu, kMult, kUnit };
+  std::array<UnitKind, 256> unit_kind_{};
   // FMTU/MULT/UNIT data (newer logs), filled only when the log has them.
   std::map<uint8_t, double> mult_by_id_;
   std::map<uint8_t, std::string> unit_by_id_;

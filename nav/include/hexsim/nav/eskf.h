@@ -7,7 +7,12 @@
 // with the summed dt (1 = every sample; fixed-size 15×15, no heap in the loop).
 // Updates are sequential scalar updates in Joseph form with symmetry enforcement; each measurement
 // group is gated first: every component must satisfy |y_i| ≤ gate_sigma·√S_ii, else the whole group
-// is rejected and counted.
+// is rejected and counted. GPS horizontal position, GPS height and GPS velocity are separate groups.
+// Recovery (EKF2-style): no horizontal GPS fused for gps_reset_timeout_s → horizontal position and
+// velocity reset to GPS; no compass fused for mag_yaw_reset_timeout_s → yaw reset to the compass
+// (both counted in SensorStats::resets).
+// Heading Jacobian: the compass is levelled with the estimated tilt, so the innovation is
+// y = δθ_D − B_D(B_N δθ_N + B_E δθ_E)/B_H² (a tilt error leaks in ×tan(inclination)).
 // Compass: heading mode (ψ from the tilt-compensated field with the estimated roll/pitch, plus the
 // reference declination) or 3-axis mode (h = R_NBᵀ B_N; fused as a heading while the yaw std
 // exceeds 5°, because a large yaw error makes the 3-axis linearisation poor).

@@ -64,6 +64,9 @@ struct SensorStats {
   int64_t rejected_invalid = 0;    // non-finite sample, or older than the state buffer
   Eigen::Vector3d last_innovation = Eigen::Vector3d::Zero();  // heading mode: (Δψ_rad, 0, 0)
   double last_test_ratio = 0;      // largest |innovation| / gate over the components (≤ 1 passes)
+  // State resets to this sensor after it was gated out too long (GPS: position/velocity reset;
+  // compass: yaw reset), as EKF2 does, so a lost estimate recovers instead of locking the sensor out.
+  int64_t resets = 0;
 };
 struct EstimatorStats {
   int64_t imu_samples = 0;
@@ -79,8 +82,8 @@ struct NavParams {
   // IMU noise (continuous-time densities) and bias random walks.
   double gyro_noise_radps_rthz = 2.0e-4;      // ≈ 0.011 °/s/√Hz
   double accel_noise_mps2_rthz = 2.0e-3;      // ≈ 200 µg/√Hz
-  double gyro_bias_rw_radps2_rthz = 2.0e-5;   // rad/s per √s
-  double accel_bias_rw_mps3_rthz = 2.0e-4;    // m/s² per √s
+  double gyro_bias_rw_radps2_rthz = 5.0e-5;   // rad/s per √s
+  double accel_bias_rw_mps3_rthz = 1.0e-3;    // m/s² per √s (EKF2's ACC_B_NOISE is 3e-3)
   // Measurement noise.
   MagMode mag_mode = MagMode::kHeading;
   double mag_heading_std_rad = 0.03;          // heading mode
@@ -92,6 +95,11 @@ struct NavParams {
   double mag_gate_sigma = 5.0;
   double gps_gate_sigma = 5.0;
   double baro_gate_sigma = 5.0;
+  // ESKF recovery (EKF2-style): while GPS samples keep arriving but none passed the horizontal
+  // position gate for this long, position and velocity are reset to GPS; while compass samples keep
+  // arriving but none passed the heading gate for this long, the yaw is reset to the compass.
+  double gps_reset_timeout_s = 5.0;
+  double mag_yaw_reset_timeout_s = 5.0;
   // Added to a GPS sample's t_s for receivers that stamp on arrival: t_valid = t_s - gps_delay_s.
   double gps_delay_s = 0.0;
   // Initial standard deviations (used by Reset and at the end of static alignment).

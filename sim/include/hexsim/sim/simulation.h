@@ -14,7 +14,9 @@
 #include "hexsim/logs/flight_log.h"
 #include "hexsim/magnetics/compensator.h"
 #include "hexsim/nav/estimator.h"
+#include "hexsim/sim/rigid_body.h"
 #include "hexsim/sim/world.h"
+#include "hexsim/vehicle/sensors.h"
 #include "hexsim/vehicle/vehicle_params.h"
 
 namespace hexsim::sim {
@@ -61,7 +63,85 @@ struct RunOutput {
 // Validates cross-file consistency (e.g. the date against the field model) before anything runs.
 Status ValidateRunSetup(const RunSetup& setup);
 
-// Flies the mission. Deterministic: same setup → same log, byte for byte.
+// Flies the mission. Deterministic: same setup → same log, byte for byte. A thin wrapper:
+// Simulation::Create(setup) → RunToEnd() → Finish().
 RunOutput RunMission(const RunSetup& setup);
+
+// The closed loop as a steppable object, for controller development and response tools:
+//
+//   auto sim = Simulation::Create(setup).value();
+//   sim->SetController(std::make_unique<MyController>(sim->control_model()));
+//   while (sim->Step()) { ... sim->true_state() ... }
+//   RunOutput out = sim->Finish();
+//
+// One Step() is one physics step (SimOptions::physics_dt_s): sensors sample, the autopilot runs on
+// each fresh IMU sample (estimator ← compensated compass, sequencer, setpoint hook, controller,
+// mixer), a log row is written at the log rate, then ODE advances. The hot path does not allocate
+// (apart from log rows and the estimator's own work).
+class Simulation {
+ public:
+  // Called after the mission sequencer, before the controller, on every autopilot tick: may rewrite
+  // the setpoint (e.g. a step or a chirp on one loop). `nav` is what the controller will read.
+  using SetpointHook = std::function<void(double t_s, const control::NavState& nav, control::Setpoint* setpoint)>;
+  // Called after the controller, before the mixer: may rewrite its output (actuator-point injection).
+  using OutputHook = std::function<void(double t_s, const control::NavState& nav, control::ControlOutput* output)>;
+
+  // Validates (ValidateRunSetup) and builds everything; the vehicle rests on the ground at t = 0.
+  static Result<std::unique_ptr<Simulation>> Create(const RunSetup& setup);
+  ~Simulation();
+  Simulation(const Simulation&) = delete;
+  Simulation& operator=(const Simulation&) = delete;
+
+  // --- Plug-ins (any time; take effect at the next autopilot tick) ---------------------------
+  // Replaces the built-in CascadedController. nullptr restores a fresh built-in one.
+  void SetController(std::unique_ptr<control::Controller> controller);
+  // Replaces the estimator (the run's "estimator" name becomes estimator->name()); it is Reset()
+  // with a static-alignment request at the vehicle's current position. nullptr: fly on truth.
+  void SetEstimator(std::unique_ptr<nav::Estimator> estimator);
+  // Compass-1 compensation before the estimator; nullptr = raw reading.
+  void SetCompensator(std::shared_ptr<const magnetics::Compensator> compensator);
+  void SetSetpointHook(SetpointHook hook);
+  void SetOutputHook(OutputHook hook);
+
+  // --- Disturbances ----------------------------------------------------------------------------
+  // Sets the mean wind (NED, m/s) from now on, e.g. a gust step; turbulence stays as configured.
+  void SetWindMean(const Eigen::Vector3d& wind_N_mps);
+  // Adds (positive) or releases (negative) payload mass at the vehicle's payload attachment point.
+  void ChangePayload(double delta_kg);
+  // An extra force (NED, N) applied to the body at every step until changed (zero to stop).
+  void SetExternalForce(const Eigen::Vector3d& force_N_N);
+
+  // --- Stepping --------------------------------------------------------------------------------
+  // One physics step. false when the run is over (mission done and settled, duration reached, or
+  // diverged); further calls do nothing.
+  bool Step();
+  void RunToEnd();
+  // Summary and log meta; the Simulation is spent afterwards (only accessors remain valid).
+  RunOutput Finish();
+
+  // --- State -----------------------------------------------------------------------------------
+  double time_s() const;
+  bool finished() const;
+  const BodyState& true_state() const;
+  const vehicle::SensorReadings& sensors() const;
+  // The estimator's estimate (the truth when flying on truth).
+  const nav::NavEstimate& estimate() const;
+  // What the controller read, was asked and commanded at the last autopilot tick.
+  const control::NavState& nav_state() const;
+  const control::Setpoint& setpoint() const;
+  const control::ControlOutput& control_output() const;
+  const magnetics::Currents& currents() const;
+  const std::vector<double>& motor_commands() const;
+  double payload_kg() const;
+  const control::VehicleModelForControl& control_model() const;
+  const RunSetup& setup() const;
+  // The built-in controller (null when replaced), for its debug() values.
+  const control::CascadedController* builtin_controller() const;
+
+ private:
+  struct Impl;
+  explicit Simulation(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace hexsim::sim

@@ -1,0 +1,207 @@
+// Attribution of each withheld compass effect, clean logs, out-of-library effects, and the
+// statistics helpers the gap test relies on.
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "../src/stats.h"
+#include "hexsim/common/rng.h"
+#include "hexsim/gap/diagnose.h"
+#include "hexsim/gap/selftest.h"
+
+namespace hexsim::gap {
+namespace {
+
+const ChannelResult* Find(const GapReport& r, const std::string& ch) {
+  for (const auto& c : r.channels) {
+    if (c.channel == ch) return &c;
+  }
+  return nullptr;
+}
+
+const CandidateResult* Candidate(const ChannelResult& c, const std::string& effect) {
+  for (const auto& k : c.candidates) {
+    if (k.effect == effect) return &k;
+  }
+  return nullptr;
+}
+
+struct Flown {
+  Trial trial;
+  logs::FlightLog log;
+};
+
+Flown Fly(const std::vector<Injection>& inj, uint64_t seed) {
+  SelftestOptions o;
+  RngStream rng(seed, "effects_test");
+  auto trial = MakeTrial(o, seed, inj, &rng);
+  EXPECT_TRUE(trial.ok()) << trial.status().message();
+  auto log = FlyTrial(&*trial, &rng);
+  EXPECT_TRUE(log.ok()) << log.status().message();
+  return {std::move(*trial), std::move(*log)};
+}
+
+const std::string kInjected = "mag2";  // kSelftestCompass
+
+// ---- statistics helpers ---------------------------------------------------------------------------
+
+TEST(GapStats, GivenTwoNumeratorDegreesOfFreedomWhenTheFTailIsEvaluatedThenItMatchesTheClosedForm) {
+  // F(2, d2): P(F > f) = (1 + 2f/d2)^(−d2/2) exactly.
+  for (double d2 : {3.0, 11.0, 17.0, 60.0}) {
+    for (double f : {0.1, 1.0, 3.5, 12.0}) {
+      EXPECT_NEAR(internal::FSf(f, 2, d2), std::pow(1 + 2 * f / d2, -d2 / 2), 1e-9) << f << " " << d2;
+    }
+  }
+}
+
+TEST(GapStats, GivenOneNumeratorDegreeOfFreedomWhenTheFTailIsAtTheSquaredT975ThenItIsFivePercent) {
+  // F(1, df) = t(df)²; the Cornish–Fisher t quantile is accurate to ~1e-3 for df ≥ 10.
+  for (double df : {10.0, 19.0, 40.0}) {
+    const double t = internal::StudentT975(df);
+    EXPECT_NEAR(internal::FSf(t * t, 1, df), 0.05, 2e-3) << df;
+  }
+}
+
+// ---- clean logs -----------------------------------------------------------------------------------
+
+class CleanLog : public ::testing::TestWithParam<uint64_t> {};
+
+TEST_P(CleanLog, GivenACleanSimulatedLogWhenDiagnosedThenNoChannelShowsASignificantGap) {
+  Flown f = Fly({}, GetParam());
+  auto rep = Diagnose(f.log, f.trial.configured);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  for (const char* ch : {"mag", "mag2", "mag3", "gyro", "accel"}) {
+    const ChannelResult* c = Find(*rep, ch);
+    ASSERT_NE(c, nullptr) << ch;
+    EXPECT_FALSE(c->gap_detected) << ch << "\n" << Summary(*rep);
+    EXPECT_EQ(c->verdict, "none") << ch;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Seeds, CleanLog, ::testing::Values(201, 202, 203));
+
+TEST(GapDiagnose, GivenACleanLogWhenTheImuIsReplayedThenTheKnownSampleHoldIsWithinOneImuPeriod) {
+  Flown f = Fly({}, 204);
+  auto rep = Diagnose(f.log, f.trial.configured);
+  ASSERT_TRUE(rep.ok());
+  const ChannelResult* gyro = Find(*rep, "gyro");
+  ASSERT_NE(gyro, nullptr);
+  const CandidateResult* lat = Candidate(*gyro, "latency");
+  ASSERT_NE(lat, nullptr);
+  const double period = 1.0 / f.trial.configured.sensors.gyro.rate_hz;
+  const double hold = lat->params.value("known_sample_hold_s", -1.0);
+  EXPECT_GE(hold, 0.0);
+  EXPECT_LE(hold, period);
+  EXPECT_LE(lat->magnitude_ci95[0], period);  // total latency consistent with the hold alone
+}
+
+// ---- each in-library effect alone ------------------------------------------------------------------
+
+struct EffectCase {
+  const char* effect;
+  double magnitude;
+  uint64_t seed;
+};
+
+void PrintTo(const EffectCase& c, std::ostream* os) { *os << c.effect << "_" << c.magnitude; }
+
+class SingleEffect : public ::testing::TestWithParam<EffectCase> {};
+
+TEST_P(SingleEffect, GivenOneWithheldCompassEffectWhenDiagnosedThenItIsAttributedAndItsMagnitudeIsInItsInterval) {
+  const EffectCase& c = GetParam();
+  Flown f = Fly({{c.effect, c.magnitude}}, c.seed);
+  auto rep = Diagnose(f.log, f.trial.configured);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = Find(*rep, kInjected);
+  ASSERT_NE(mag2, nullptr);
+  EXPECT_TRUE(mag2->gap_detected) << Summary(*rep);
+  EXPECT_EQ(mag2->verdict, c.effect) << Summary(*rep);
+  const CandidateResult* k = Candidate(*mag2, c.effect);
+  ASSERT_NE(k, nullptr);
+  EXPECT_TRUE(k->selected);
+  const double truth = std::fabs(f.trial.true_magnitude[0]);
+  const double m_lo = k->magnitude_unit == "1" ? std::fabs(k->magnitude_ci95[0]) : k->magnitude_ci95[0];
+  const double m_hi = k->magnitude_unit == "1" ? std::fabs(k->magnitude_ci95[1]) : k->magnitude_ci95[1];
+  EXPECT_LE(std::min(m_lo, m_hi), truth) << k->magnitude << " " << k->magnitude_unit;
+  EXPECT_GE(std::max(m_lo, m_hi), truth) << k->magnitude << " " << k->magnitude_unit;
+  EXPECT_GE(mag2->heldout_shrink, 1 - std::sqrt(0.5));
+  // The other compasses are untouched.
+  const ChannelResult* mag = Find(*rep, "mag");
+  ASSERT_NE(mag, nullptr);
+  if (std::string(c.effect) != "local_anomaly") {
+    EXPECT_FALSE(mag->gap_detected) << Summary(*rep);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    CompassEffects, SingleEffect,
+    ::testing::Values(EffectCase{"current_hard_iron", 0.3, 301}, EffectCase{"current_soft_iron", 0.004, 302},
+                      EffectCase{"misalignment", 3.0, 303}, EffectCase{"scale_error", 0.04, 304},
+                      EffectCase{"local_anomaly", 2.5, 305}, EffectCase{"current_lag", 0.3, 306},
+                      EffectCase{"hard_iron_offset", 3.0, 307}, EffectCase{"throttle_hard_iron", 25.0, 308},
+                      EffectCase{"temperature_drift", 0.1, 309}),
+    [](const ::testing::TestParamInfo<EffectCase>& i) { return std::string(i.param.effect); });
+
+// ---- sensitivity -----------------------------------------------------------------------------------
+
+TEST(GapDiagnose, GivenAOneMilliGaussPerAmpCurrentHardIronWhenDiagnosedThenTheGapIsFlagged) {
+  // 0.1 µT/A is the contract's upper bound on the detection threshold (CONTRACTS.md).
+  for (uint64_t seed : {401, 402}) {
+    Flown f = Fly({{"current_hard_iron", 0.1}}, seed);
+    auto rep = Diagnose(f.log, f.trial.configured);
+    ASSERT_TRUE(rep.ok());
+    const ChannelResult* mag2 = Find(*rep, kInjected);
+    ASSERT_NE(mag2, nullptr);
+    EXPECT_TRUE(mag2->gap_detected) << Summary(*rep);
+  }
+}
+
+// ---- temperature drift against a constant offset -----------------------------------------------------
+
+TEST(GapDiagnose, GivenATemperatureDriftAndAHardIronOffsetWhenDiagnosedThenTheDriftDoesNotAbsorbTheOffset) {
+  Flown f = Fly({{"temperature_drift", 0.1}, {"hard_iron_offset", 4.0}}, 501);
+  auto rep = Diagnose(f.log, f.trial.configured);
+  ASSERT_TRUE(rep.ok());
+  const ChannelResult* mag2 = Find(*rep, kInjected);
+  ASSERT_NE(mag2, nullptr);
+  const CandidateResult* td = Candidate(*mag2, "temperature_drift");
+  const CandidateResult* hi = Candidate(*mag2, "hard_iron_offset");
+  ASSERT_NE(td, nullptr);
+  ASSERT_NE(hi, nullptr);
+  EXPECT_TRUE(td->selected) << Summary(*rep);
+  EXPECT_TRUE(hi->selected) << Summary(*rep);
+  // The drift has no offset parameters of its own.
+  EXPECT_FALSE(td->params.contains("b_x_uT"));
+  // The offset is the larger part of the residual here; the drift alone cannot explain it.
+  EXPECT_GT(hi->heldout_shrink, td->heldout_shrink);
+}
+
+// ---- out of library ----------------------------------------------------------------------------------
+
+struct OutCase {
+  const char* effect;
+  double magnitude;
+  uint64_t seed;
+};
+
+class OutOfLibrary : public ::testing::TestWithParam<OutCase> {};
+
+TEST_P(OutOfLibrary, GivenAnEffectOutsideTheLibraryWhenDiagnosedThenItIsNotAConfidentWrongAnswer) {
+  const OutCase& c = GetParam();
+  Flown f = Fly({{c.effect, c.magnitude}}, c.seed);
+  auto rep = Diagnose(f.log, f.trial.configured);
+  ASSERT_TRUE(rep.ok());
+  const ChannelResult* mag2 = Find(*rep, kInjected);
+  ASSERT_NE(mag2, nullptr);
+  EXPECT_TRUE(mag2->gap_detected) << Summary(*rep);
+  EXPECT_TRUE(mag2->verdict == "unexplained" || mag2->verdict == "ambiguous") << Summary(*rep);
+}
+
+INSTANTIATE_TEST_SUITE_P(Effects, OutOfLibrary,
+                         ::testing::Values(OutCase{"current_exponent", 0.5, 601}, OutCase{"thermal_ramp", 4.0, 602}),
+                         [](const ::testing::TestParamInfo<OutCase>& i) { return std::string(i.param.effect); });
+
+}  // namespace
+}  // namespace hexsim::gap
