@@ -25,6 +25,9 @@ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPI
   { cat "$build/configure.log"; exit 1; }
 ninja -C "$build" -j"${HEXSIM_FUZZ_JOBS:-2}" fuzz_dataflash fuzz_flightlog_csv
 
+# A smaller ASan quarantine (default 256 MB) keeps reused memory hot: fresh pages for every freed
+# buffer cost ~15% of a run in page faults. Use-after-free within the last 64 MB is still caught.
+export ASAN_OPTIONS=${ASAN_OPTIONS:-quarantine_size_mb=64}
 mkdir -p "$build/artifacts"
 for target in dataflash flightlog_csv; do
   scratch=$(mktemp -d)

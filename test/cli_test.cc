@@ -8,6 +8,8 @@
 #include <sstream>
 #include <string>
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 namespace {
@@ -21,7 +23,7 @@ struct CmdResult {
 };
 
 CmdResult Hexsim(const std::string& args) {
-  const fs::path dir = fs::temp_directory_path() / "hexsim_cli_test";
+  const fs::path dir = fs::temp_directory_path() / ("hexsim_cli_test_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   const std::string err_file = (dir / "stderr.txt").string(), out_file = (dir / "stdout.txt").string();
   const std::string cmd = std::string(HEXSIM_BINARY) + " " + args + " >" + out_file + " 2>" + err_file;
@@ -38,7 +40,7 @@ CmdResult Hexsim(const std::string& args) {
 }
 
 fs::path TempDir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / ("hexsim_cli_" + name);
+  const fs::path p = fs::temp_directory_path() / ("hexsim_cli_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(p);
   fs::create_directories(p);
   return p;

@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -29,7 +31,7 @@ struct CmdResult {
 };
 
 fs::path TempDir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / ("hexsim_report_" + name);
+  const fs::path p = fs::temp_directory_path() / ("hexsim_report_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(p);
   fs::create_directories(p);
   return p;

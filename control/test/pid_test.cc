@@ -67,5 +67,23 @@ TEST(PidTest, GivenFirstOrderPlantWithConstantDisturbance_WhenPiControlled_ThenS
   EXPECT_NEAR(pid.integrator(), d, 1e-2);
 }
 
+TEST(PidTest, GivenAnAbsurdGain_WhenKpTimesErrorOverflows_ThenTheOutputIsTheFiniteLimitAndTheIntegratorStaysFinite) {
+  // Numerical health: a gain of 1e300 on a 1e10 error overflows kp·e to +inf; the output must still
+  // be the (finite) output limit and the integrator must not pick up the infinity.
+  PidGains g;
+  g.kp = 1e300;
+  g.ki = 1e300;
+  g.output_limit = 3.0;
+  g.integrator_limit = 1.0;
+  Pid pid(g);
+  for (double error : {1e10, -1e10, 1e10}) {
+    const double u = pid.Update(error, 0.0, 0.01);
+    ASSERT_TRUE(std::isfinite(u));
+    EXPECT_EQ(u, std::copysign(g.output_limit, error));
+    EXPECT_TRUE(pid.saturated());
+    EXPECT_LE(std::fabs(pid.integrator()), g.integrator_limit);
+  }
+}
+
 }  // namespace
 }  // namespace hexsim::control

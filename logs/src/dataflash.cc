@@ -126,9 +126,10 @@ constexpr ScaleEntry kScaleTable[] = {
     {"IMU*", "Temp", 0, 1.0, "degC"},
 };
 
-bool NameMatches(const char* pattern, const std::string& name) {
-  const size_t n = std::strlen(pattern);
-  if (n > 0 && pattern[n - 1] == '*') return name.compare(0, n - 1, pattern, n - 1) == 0;
+bool NameMatches(std::string_view pattern, std::string_view name) {
+  // First char first: a FMT is checked against every entry, and most names differ there.
+  if (pattern.empty() || name.empty() || pattern[0] != name[0]) return false;
+  if (pattern.back() == '*') return name.substr(0, pattern.size() - 1) == pattern.substr(0, pattern.size() - 1);
   return name == pattern;
 }
 

@@ -209,6 +209,10 @@ void ReadBattery(YamlReader& r, BatteryParams* b) {
 Result<VehicleParams> ParseVehicle(const YAML::Node& root, const std::string& file) {
   VehicleParams p;
   YamlReader r(root, file);
+  // A vehicle file may carry its tuned gains: `control:` and `nav:` are read by
+  // control::ParseControllerParams and nav::ParseNavParams (see sim::LoadRunSetup).
+  r.Ignore("control");
+  r.Ignore("nav");
   r.Req("name", &p.name);
   r.Req("mass_kg", &p.mass_kg, Positive());
   ReadInertia(r, &p.inertia_kgm2);

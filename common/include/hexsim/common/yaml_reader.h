@@ -75,6 +75,9 @@ class YamlReader {
   void ForEach(const std::string& key, const std::function<void(YamlReader&, size_t)>& fn,
                bool required = false);
 
+  // Accepts `key` without reading it (a section another parser reads from the same document).
+  void Ignore(const std::string& key) { used_.insert(key); }
+
   // Records an error about `key` (the first error wins).
   void Fail(const std::string& key, const std::string& what);
   // Records an error about this map as a whole.

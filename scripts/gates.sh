@@ -1,0 +1,138 @@
+#!/usr/bin/env bash
+# hexsim's quality gates (issue 11), run by .ci/run after the README's test command (scripts/test.sh).
+# Each stage has its own build directory beside the sources; the first failing stage stops the run.
+#
+#   1+2  sanitize   gcc, -Werror (HEXSIM_WERROR) + ASan/UBSan (HEXSIM_SANITIZE) in ONE build, then every
+#                   ctest test under the sanitizers (any report aborts the test)     build-gates-asan/
+#   3    tidy       clang-tidy 14 with the checked-in .clang-tidy over every project .cc: zero findings
+#                   (configure only: it needs compile_commands.json, not objects)     build-gates-tidy/
+#   4    fuzz       fuzz/fuzz.sh: each libFuzzer target -runs=100000 -max_len=65536  build-gates-fuzz/
+#   5    determinism  `hexsim run square ... --seed 3` with the release binary (build/, made by
+#                   scripts/test.sh) and the sanitizer binary: log.csv byte for byte
+#
+# Usage: scripts/gates.sh [STAGE...]     (default: all stages; e.g. `scripts/gates.sh tidy fuzz`)
+# Environment: HEXSIM_GATES_JOBS (default: nproc), HEXSIM_TIDY_FILES (a regex restricting the .cc files
+# clang-tidy checks; default: all).
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$root"
+jobs=${HEXSIM_GATES_JOBS:-$(nproc)}
+stages=("$@")
+((${#stages[@]})) || stages=(sanitize tidy fuzz determinism)
+
+# Tools, installed the way scripts/setup.sh does it: only what is missing.
+packages=(clang clang-tidy libclang-rt-14-dev lld ccache ninja-build cmake)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  echo "gates: installing ${missing[*]}" >&2
+  SUDO=""
+  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+
+launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+t_all=$SECONDS
+stage_start=0
+begin() {
+  stage_start=$SECONDS
+  printf '\n==================== gates: %s ====================\n' "$1"
+  echo "load: $(cut -d' ' -f1-3 /proc/loadavg)  ($(nproc) cores)"
+}
+end() { echo "---- gates: $1 passed in $((SECONDS - stage_start)) s"; }
+fail() {
+  echo "---- gates: $1 FAILED after $((SECONDS - stage_start)) s" >&2
+  exit 1
+}
+
+asan_dir=$root/build-gates-asan
+stage_sanitize() {
+  begin "sanitize: -Werror + ASan/UBSan build, every test under the sanitizers"
+  # -O1 keeps the sanitized tests fast; -g1 (line tables) is enough for symbolised reports.
+  mkdir -p "$asan_dir"
+  cmake -S . -B "$asan_dir" -G Ninja -DCMAKE_BUILD_TYPE=Debug \
+    -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" -DCMAKE_C_FLAGS_DEBUG="-O1 -g1" \
+    -DHEXSIM_SANITIZE=ON -DHEXSIM_WERROR=ON -DHEXSIM_BUILD_BENCH=ON "${launcher[@]}" \
+    > "$asan_dir/configure.log" 2>&1 || { cat "$asan_dir/configure.log"; fail sanitize; }
+  cmake --build "$asan_dir" -j"$jobs" || fail "sanitize (build: a warning under -Werror or a compile error)"
+  echo "build: $((SECONDS - stage_start)) s"
+  # Leaks inside third-party libraries (Mesa/llvmpipe) only: scripts/lsan.supp never names hexsim code.
+  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1 \
+  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  LSAN_OPTIONS=suppressions=$root/scripts/lsan.supp:print_suppressions=0 \
+    ctest --test-dir "$asan_dir" -j"$jobs" --output-on-failure --timeout 900 || fail sanitize
+  end sanitize
+}
+
+tidy_dir=$root/build-gates-tidy
+stage_tidy() {
+  begin "clang-tidy: .clang-tidy over every project .cc, zero findings"
+  mkdir -p "$tidy_dir"
+  cmake -S . -B "$tidy_dir" -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
+    -DCMAKE_BUILD_TYPE=Debug -DHEXSIM_BUILD_FUZZ=ON -DHEXSIM_BUILD_BENCH=ON \
+    > "$tidy_dir/configure.log" 2>&1 || { cat "$tidy_dir/configure.log"; fail tidy; }
+  # The project's own sources only (not generated files in the build dir), each file once.
+  local folders='(common|magnetics|vehicle|nav|control|logs|sim|batch|gap|render|apps|fuzz|bench|test|examples)'
+  python3 - "$tidy_dir/compile_commands.json" "$root" "$folders" "${HEXSIM_TIDY_FILES:-.}" > "$tidy_dir/files.txt" <<'EOF'
+import json, re, sys
+db, root, folders, only = sys.argv[1:5]
+files = sorted({e["file"] for e in json.load(open(db))})
+pat = re.compile(re.escape(root) + "/" + folders + "/")
+print("\n".join(f for f in files if pat.match(f) and re.search(only, f)))
+EOF
+  echo "$(wc -l < "$tidy_dir/files.txt") files, -j$jobs"
+  rm -rf "$tidy_dir/out" && mkdir -p "$tidy_dir/out"
+  # shellcheck disable=SC2016
+  # sh -c SCRIPT DIR FILE: $0 = the build dir, $1 = the file (xargs appends it).
+  xargs -a "$tidy_dir/files.txt" -P"$jobs" -n1 sh -c \
+    'clang-tidy -p "$0" --quiet "$1" > "$0/out/$(echo "$1" | tr / _).log" 2>&1 || true' "$tidy_dir"
+  local findings
+  findings=$(cat "$tidy_dir"/out/*.log | grep -E '^[^ ]+:[0-9]+:[0-9]+: (warning|error):' | sort -u || true)
+  if [ -n "$findings" ]; then
+    echo "$findings"
+    echo "clang-tidy: $(echo "$findings" | wc -l) findings (full output: $tidy_dir/out/)" >&2
+    fail tidy
+  fi
+  end tidy
+}
+
+stage_fuzz() {
+  begin "fuzz: each target -runs=100000 -max_len=65536 from the seed corpus"
+  HEXSIM_FUZZ_BUILD_DIR=$root/build-gates-fuzz HEXSIM_FUZZ_JOBS=$jobs bash fuzz/fuzz.sh || fail fuzz
+  end fuzz
+}
+
+stage_determinism() {
+  begin "determinism: release vs sanitizer build, same seed -> same log.csv"
+  local release=$root/build/apps/hexsim sanitized=$asan_dir/apps/hexsim
+  [ -x "$release" ] || { echo "no $release: run scripts/test.sh first" >&2; fail determinism; }
+  [ -x "$sanitized" ] || { echo "no $sanitized: run the sanitize stage first" >&2; fail determinism; }
+  local out
+  out=$(mktemp -d)
+  local args=(run square --vehicle default_hex --estimator truth --seed 3 --duration 20)
+  "$release" "${args[@]}" --out "$out/release" > "$out/release.txt" 2>&1 || { cat "$out/release.txt"; fail determinism; }
+  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+  LSAN_OPTIONS=suppressions=$root/scripts/lsan.supp \
+    "$sanitized" "${args[@]}" --out "$out/sanitized" > "$out/sanitized.txt" 2>&1 ||
+    { cat "$out/sanitized.txt"; fail determinism; }
+  if ! cmp "$out/release/log.csv" "$out/sanitized/log.csv"; then
+    diff <(head -c 2000000 "$out/release/log.csv") <(head -c 2000000 "$out/sanitized/log.csv") | head -20
+    echo "log.csv differs between the release and the sanitizer build (kept in $out)" >&2
+    fail determinism
+  fi
+  echo "log.csv identical ($(wc -l < "$out/release/log.csv") lines, $(stat -c %s "$out/release/log.csv") bytes)"
+  rm -rf "$out"
+  end determinism
+}
+
+for s in "${stages[@]}"; do
+  case $s in
+    sanitize|tidy|fuzz|determinism) "stage_$s" ;;
+    *) echo "gates: unknown stage '$s' (sanitize tidy fuzz determinism)" >&2; exit 2 ;;
+  esac
+done
+echo
+echo "gates: all passed (${stages[*]}) in $((SECONDS - t_all)) s"
