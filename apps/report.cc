@@ -24,6 +24,7 @@
 #include "hexsim/magnetics/heading_error.h"
 #include "hexsim/magnetics/line_fit.h"
 #include "hexsim/render/figures.h"
+#include "hexsim/render/html.h"
 #include "hexsim/render/paper_figures.h"
 #include "hexsim/render/plot.h"
 #include "hexsim/sim/run_config.h"
@@ -62,17 +63,7 @@ std::optional<double> PaperValue(const std::string& method, double control_u) {
   return std::nullopt;
 }
 
-std::string Escape(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    if (c == '<') o += "&lt;";
-    else if (c == '>') o += "&gt;";
-    else if (c == '&') o += "&amp;";
-    else if (c == '"') o += "&quot;";
-    else o += c;
-  }
-  return o;
-}
+std::string Escape(const std::string& s) { return render::HtmlEscape(s); }
 
 // A file-name-safe form of a calibration name (it may be a calib.yaml path).
 std::string Slug(const std::string& s) {

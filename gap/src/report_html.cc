@@ -6,21 +6,13 @@
 
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/render/figures.h"
+#include "hexsim/render/html.h"
 #include "hexsim/render/plot.h"
 
 namespace hexsim::gap {
 namespace {
 
-std::string Escape(const std::string& s) {
-  std::string o;
-  for (char c : s) {
-    if (c == '<') o += "&lt;";
-    else if (c == '>') o += "&gt;";
-    else if (c == '&') o += "&amp;";
-    else o += c;
-  }
-  return o;
-}
+std::string Escape(const std::string& s) { return render::HtmlEscape(s); }
 
 std::vector<double> Norms(const std::vector<Eigen::Vector3d>& v) {
   std::vector<double> n;
