@@ -52,7 +52,6 @@ Status CompareCommand(CompareArgs a) {
   auto base = sim::LoadRunSetup(a.request);
   if (!base.ok()) return base.status();
   for (const auto& c : cals) {
-    sim::RunSetup probe = *base;
     if (c != "none") {
       const auto names = magnetics::CompensatorNames();
       if (std::find(names.begin(), names.end(), c) == names.end() && c.find(".yaml") == std::string::npos) {
@@ -131,13 +130,11 @@ Status CompareCommand(CompareArgs a) {
     he["control_u"] = opt.control_u;
     he["rows"] = nlohmann::json::array();
     for (const auto& c : cals) {
-      std::shared_ptr<const magnetics::Compensator> comp = magnetics::MakeNoneCompensator();
-      if (c != "none") {
-        sim::RunSetup s = *base;
-        auto learnt = LearnOnTurntable(c, s);
-        if (!learnt.ok()) return learnt.status();
-        comp = *learnt;
-      }
+      // The same calibration the first seed flew with (a method learnt on the turntable, or a file).
+      sim::RunSetup s = *base;
+      HEXSIM_RETURN_IF_ERROR(AttachCalibration(c, &s));
+      std::shared_ptr<const magnetics::Compensator> comp =
+          s.compensator ? s.compensator : std::shared_ptr<const magnetics::Compensator>(magnetics::MakeNoneCompensator());
       auto eval = magnetics::EvaluateHeadingError(*comp, turn, magnetics::HeadingErrorOptions{});
       if (!eval.ok()) return eval.status();
       std::vector<double> mx, rms, cur;
