@@ -371,18 +371,26 @@ double DirectionCoverage(const std::vector<Vector3d>& v, int bins) {
   return static_cast<double>(std::count(hit.begin(), hit.end(), true)) / bins;
 }
 
+// Common start of every fit: count, validate, centre and scale. False (with f->status set) when
+// the samples cannot be fitted.
+static bool PrepareFit(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, EllipsoidFit* f, Vector3d* mean,
+                       double* scale) {
+  f->num_samples = static_cast<int>(H.size());
+  f->status = CheckSamples(H, o);
+  if (!f->status.ok()) return false;
+  CentreAndScale(H, mean, scale);
+  if (!(*scale > 0.0)) {
+    f->status = Status::BadInput("all samples are identical");
+    return false;
+  }
+  return true;
+}
+
 EllipsoidFit FitEllipsoid(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o) {
   EllipsoidFit f;
-  f.num_samples = static_cast<int>(H.size());
-  f.status = CheckSamples(H, o);
-  if (!f.status.ok()) return f;
   Vector3d mean;
   double scale = 0.0;
-  CentreAndScale(H, &mean, &scale);
-  if (!(scale > 0.0)) {
-    f.status = Status::BadInput("all samples are identical");
-    return f;
-  }
+  if (!PrepareFit(H, o, &f, &mean, &scale)) return f;
   const double spread = SpreadRatio(H, mean);
   if (spread < o.planarity_tolerance) {
     f.status = Status::BadInput(fmt::format(
@@ -428,16 +436,9 @@ EllipsoidFit FitEllipsoid(const std::vector<Vector3d>& H, const EllipsoidFitOpti
 
 EllipsoidFit FitSphere(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o) {
   EllipsoidFit f;
-  f.num_samples = static_cast<int>(H.size());
-  f.status = CheckSamples(H, o);
-  if (!f.status.ok()) return f;
   Vector3d mean;
   double scale = 0.0;
-  CentreAndScale(H, &mean, &scale);
-  if (!(scale > 0.0)) {
-    f.status = Status::BadInput("all samples are identical");
-    return f;
-  }
+  if (!PrepareFit(H, o, &f, &mean, &scale)) return f;
   // ‖x‖² = 2 cᵀx + (r² − ‖c‖²), on centred, scaled data.
   const Eigen::Index n = static_cast<Eigen::Index>(H.size());
   Eigen::MatrixXd A(n, 4);
