@@ -8,6 +8,9 @@
 # Build dir: build-fuzz beside the sources (HEXSIM_FUZZ_BUILD_DIR overrides). Seeds come from
 # fuzz/corpus/<target> (cut from the real log by fuzz/make_corpus.sh) and are only read; new inputs
 # go to a scratch corpus, crashes to build-fuzz/artifacts/. Exit status: non-zero on any finding.
+# The mutation seed is fixed (HEXSIM_FUZZ_SEED, default 1) so that a CI run is repeatable: the same
+# sources explore the same inputs. Set HEXSIM_FUZZ_SEED=0 for a fresh random seed on long runs, and
+# keep every crash that one finds in fuzz/corpus/<target> as a regression seed.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${HEXSIM_FUZZ_BUILD_DIR:-$root/build-fuzz}
@@ -34,7 +37,7 @@ for target in dataflash flightlog_csv; do
   log="$build/fuzz_$target.log"
   echo "fuzz_$target: ${limit[*]} -max_len=65536"
   if ! "$build/fuzz/fuzz_$target" "$scratch" "$root/fuzz/corpus/$target" -max_len=65536 "${limit[@]}" \
-      -print_final_stats=1 -artifact_prefix="$build/artifacts/${target}-" > "$log" 2>&1; then
+      -seed="${HEXSIM_FUZZ_SEED:-1}" -print_final_stats=1 -artifact_prefix="$build/artifacts/${target}-" > "$log" 2>&1; then
     tail -60 "$log"
     rm -rf "$scratch"
     echo "fuzz_$target: FAILED (log: $log)" >&2

@@ -109,6 +109,13 @@ Result<FlightLog> ParseFlightLogCsv(const std::string& text, const std::string& 
       for (const auto& c : cells) {
         const std::string col(c);
         if (col.empty()) return Status::BadInput(fmt::format("{}:{}: header: empty column name", name, line_no));
+        for (const char ch : col) {
+          const auto byte = static_cast<unsigned char>(ch);
+          if (byte < 0x20 || byte == 0x7f) {
+            return Status::BadInput(fmt::format("{}:{}: header: column name has control character 0x{:02x}", name,
+                                                line_no, static_cast<unsigned>(byte)));
+          }
+        }
         if (log.Has(col)) return Status::BadInput(fmt::format("{}:{}: {}: duplicate column", name, line_no, col));
         log.AddColumn(col);
       }
