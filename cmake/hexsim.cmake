@@ -26,6 +26,14 @@ function(hexsim_library name)
     $<INSTALL_INTERFACE:include>)
   target_link_libraries(hexsim_${name} PUBLIC ${ARG_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
   hexsim_target_options(hexsim_${name})
+  if(HEXSIM_SANITIZE)
+    # The archives hold instrumented code: whoever links them, also through the installed package
+    # (the examples), needs the sanitizer runtimes, and must compile with the same flag: Eigen's
+    # aligned allocator changes with __SANITIZE_ADDRESS__ (Memory.h), so a matrix freed by code
+    # built without it crashes in ASan's free.
+    target_compile_options(hexsim_${name} INTERFACE -fsanitize=address,undefined)
+    target_link_options(hexsim_${name} INTERFACE -fsanitize=address,undefined)
+  endif()
   # Installed as hexsim::<NAME> (cmake/hexsim_install.cmake writes the export and hexsimConfig.cmake).
   set_target_properties(hexsim_${name} PROPERTIES EXPORT_NAME ${name})
   install(TARGETS hexsim_${name} EXPORT hexsimTargets ARCHIVE DESTINATION lib LIBRARY DESTINATION lib)
@@ -70,7 +78,7 @@ function(hexsim_folder name)
   hexsim_library(${name} SOURCES ${srcs} DEPS ${deps} PRIVATE_DEPS ${ARG_PRIVATE_DEPS})
   file(GLOB tests CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/test/*_test.cc)
   file(GLOB test_support CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/test/support/*.cc)
-  if(tests)
+  if(tests AND HEXSIM_BUILD_TESTS)
     hexsim_test(${name}_test SOURCES ${tests} ${test_support} DEPS hexsim::${name} ${ARG_TEST_DEPS})
     target_include_directories(${name}_test PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/test)
   endif()

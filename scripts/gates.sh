@@ -7,8 +7,9 @@
 #   3    tidy       clang-tidy 14 with the checked-in .clang-tidy over every project .cc: zero findings
 #                   (configure only: it needs compile_commands.json, not objects)     build-gates-tidy/
 #   4    fuzz       fuzz/fuzz.sh: each libFuzzer target -runs=100000 -max_len=65536  build-gates-fuzz/
-#   5    determinism  `hexsim run square ... --seed 3` with the release binary (build/, made by
-#                   scripts/test.sh) and the sanitizer binary: log.csv byte for byte
+#   5    determinism  the same runs (truth loop; paper_hex with turntable, fits, adaptive compensator
+#                   and ESKF) with the release binary (build/, -O3, made by scripts/test.sh) and the
+#                   sanitizer binary (-O1 + ASan/UBSan): log.csv byte for byte
 #
 # Usage: scripts/gates.sh [STAGE...]     (default: all stages; e.g. `scripts/gates.sh tidy fuzz`)
 # Environment: HEXSIM_GATES_JOBS (default: nproc), HEXSIM_TIDY_FILES (a regex restricting the .cc files
@@ -112,18 +113,29 @@ stage_determinism() {
   [ -x "$sanitized" ] || { echo "no $sanitized: run the sanitize stage first" >&2; fail determinism; }
   local out
   out=$(mktemp -d)
-  local args=(run square --vehicle default_hex --estimator truth --seed 3 --duration 20)
-  "$release" "${args[@]}" --out "$out/release" > "$out/release.txt" 2>&1 || { cat "$out/release.txt"; fail determinism; }
-  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-  LSAN_OPTIONS=suppressions=$root/scripts/lsan.supp \
-    "$sanitized" "${args[@]}" --out "$out/sanitized" > "$out/sanitized.txt" 2>&1 ||
-    { cat "$out/sanitized.txt"; fail determinism; }
-  if ! cmp "$out/release/log.csv" "$out/sanitized/log.csv"; then
-    diff <(head -c 2000000 "$out/release/log.csv") <(head -c 2000000 "$out/sanitized/log.csv") | head -20
-    echo "log.csv differs between the release and the sanitizer build (kept in $out)" >&2
-    fail determinism
-  fi
-  echo "log.csv identical ($(wc -l < "$out/release/log.csv") lines, $(stat -c %s "$out/release/log.csv") bytes)"
+  # Two runs: the truth-state loop (physics, powertrain, sensors, controller), and the paper's case
+  # end to end (simulated turntable, ellipsoid + TLS fits, adaptive compensator, ESKF on the loop).
+  local -a cases=(
+    "truth|run square --vehicle default_hex --estimator truth --seed 3 --duration 20"
+    "adaptive_eskf|run climb_cruise_square --vehicle paper_hex --world changchun --calibration adaptive --seed 3 --duration 40"
+  )
+  local c name args
+  for c in "${cases[@]}"; do
+    name=${c%%|*}
+    read -r -a args <<< "${c#*|}"
+    "$release" "${args[@]}" --out "$out/$name.release" > "$out/$name.release.txt" 2>&1 ||
+      { cat "$out/$name.release.txt"; fail determinism; }
+    ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+    LSAN_OPTIONS=suppressions=$root/scripts/lsan.supp \
+      "$sanitized" "${args[@]}" --out "$out/$name.sanitized" > "$out/$name.sanitized.txt" 2>&1 ||
+      { cat "$out/$name.sanitized.txt"; fail determinism; }
+    if ! cmp "$out/$name.release/log.csv" "$out/$name.sanitized/log.csv"; then
+      diff <(head -c 2000000 "$out/$name.release/log.csv") <(head -c 2000000 "$out/$name.sanitized/log.csv") | head -20
+      echo "$name: log.csv differs between the release and the sanitizer build (kept in $out)" >&2
+      fail determinism
+    fi
+    echo "$name: log.csv identical ($(wc -l < "$out/$name.release/log.csv") lines, $(stat -c %s "$out/$name.release/log.csv") bytes)"
+  done
   rm -rf "$out"
   end determinism
 }
