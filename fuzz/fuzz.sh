@@ -2,7 +2,7 @@
 # Builds and runs hexsim's libFuzzer targets (clang + libclang-rt dev package).
 #
 #   fuzz/fuzz.sh                # CI: each target -runs=100000 with -max_len=65536
-#   fuzz/fuzz.sh 600            # each target for 600 s (a long run: do it before releases)
+#   fuzz/fuzz.sh 600            # each target for 600 s on every worker (a long run: before releases)
 #   fuzz/fuzz.sh -runs=1000000  # any libFuzzer limit flag
 #
 # Build dir: build-fuzz beside the sources (HEXSIM_FUZZ_BUILD_DIR overrides). Seeds come from
@@ -32,19 +32,40 @@ ninja -C "$build" -j"${HEXSIM_FUZZ_JOBS:-2}" fuzz_dataflash fuzz_flightlog_csv
 # buffer cost ~15% of a run in page faults. Use-after-free within the last 64 MB is still caught.
 export ASAN_OPTIONS=${ASAN_OPTIONS:-quarantine_size_mb=64}
 mkdir -p "$build/artifacts"
+# Each target is fuzzed by HEXSIM_FUZZ_JOBS independent workers (default: the build's job count),
+# each with its own mutation seed (seed, seed+1, ...) and scratch corpus; a -runs=N budget is split
+# between them so the target still gets N executions in all, in 1/jobs of the wall time.
+workers=${HEXSIM_FUZZ_WORKERS:-${HEXSIM_FUZZ_JOBS:-2}}
+seed=${HEXSIM_FUZZ_SEED:-1}
 for target in dataflash flightlog_csv; do
-  scratch=$(mktemp -d)
-  log="$build/fuzz_$target.log"
-  echo "fuzz_$target: ${limit[*]} -max_len=65536"
-  if ! "$build/fuzz/fuzz_$target" "$scratch" "$root/fuzz/corpus/$target" -max_len=65536 "${limit[@]}" \
-      -seed="${HEXSIM_FUZZ_SEED:-1}" -print_final_stats=1 -artifact_prefix="$build/artifacts/${target}-" > "$log" 2>&1; then
-    tail -60 "$log"
-    rm -rf "$scratch"
-    echo "fuzz_$target: FAILED (log: $log)" >&2
+  wlimit=("${limit[@]}")
+  if [[ ${limit[0]} =~ ^-runs=([0-9]+)$ ]]; then
+    wlimit=(-runs=$(( (BASH_REMATCH[1] + workers - 1) / workers )))
+  fi
+  echo "fuzz_$target: ${limit[*]} -max_len=65536 ($workers workers, ${wlimit[*]} each)"
+  t0=$SECONDS
+  pids=()
+  scratch=()
+  for ((w = 0; w < workers; ++w)); do
+    scratch[w]=$(mktemp -d)
+    wseed=$seed
+    [ "$seed" = 0 ] || wseed=$((seed + w))
+    "$build/fuzz/fuzz_$target" "${scratch[w]}" "$root/fuzz/corpus/$target" -max_len=65536 "${wlimit[@]}" \
+      -seed="$wseed" -print_final_stats=1 -artifact_prefix="$build/artifacts/${target}-" \
+      > "$build/fuzz_$target.$w.log" 2>&1 &
+    pids[w]=$!
+  done
+  failed=()
+  for ((w = 0; w < workers; ++w)); do
+    wait "${pids[w]}" || failed+=("$w")
+    rm -rf "${scratch[w]}"
+  done
+  if ((${#failed[@]})); then
+    for w in "${failed[@]}"; do tail -60 "$build/fuzz_$target.$w.log"; done
+    echo "fuzz_$target: FAILED (logs: $build/fuzz_$target.{${failed[*]// /,}}.log)" >&2
     exit 1
   fi
-  rm -rf "$scratch"
-  runs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log")
-  secs=$(sed -n 's/^Done [0-9]* runs in \([0-9]*\) second.*/\1/p' "$log")
-  echo "fuzz_$target: $runs executions in ${secs:-?} s ($(( runs / (secs > 0 ? secs : 1) )) exec/s)"
+  runs=$(cat "$build/fuzz_$target".*.log | awk '/^stat::number_of_executed_units:/ { n += $2 } END { print n + 0 }')
+  secs=$((SECONDS - t0))
+  echo "fuzz_$target: $runs executions in $secs s ($(( runs / (secs > 0 ? secs : 1) )) exec/s over $workers workers)"
 done
