@@ -194,10 +194,10 @@ Status WriteReportPlots(const std::vector<batch::GroupReport>& groups, const std
   fig.title = "hexsim batch report: mean and 95% CI per group";
   fig.rows = 2;
   fig.cols = 2;
-  fig.panels.push_back(MetricPlot(groups, "cross_track_rms_m", "cross-track error RMS [m]"));
-  fig.panels.push_back(MetricPlot(groups, "yaw_error_rms_deg", "yaw error RMS [deg]"));
-  fig.panels.push_back(MetricPlot(groups, "energy_Wh", "energy [Wh]"));
-  fig.panels.push_back(MetricPlot(groups, "current_mean_A", "mean battery current [A]"));
+  fig.panels.emplace_back(MetricPlot(groups, "cross_track_rms_m", "cross-track error RMS [m]"));
+  fig.panels.emplace_back(MetricPlot(groups, "yaw_error_rms_deg", "yaw error RMS [deg]"));
+  fig.panels.emplace_back(MetricPlot(groups, "energy_Wh", "energy [Wh]"));
+  fig.panels.emplace_back(MetricPlot(groups, "current_mean_A", "mean battery current [A]"));
   auto image = render::Render(fig, 1400, 1000);
   if (!image.ok()) return image.status();
   return render::WritePng(*image, path);

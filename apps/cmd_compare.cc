@@ -96,6 +96,7 @@ Status CompareCommand(CompareArgs a) {
   const int n_threads = std::max(1, std::min<int>(a.jobs > 0 ? a.jobs : static_cast<int>(std::thread::hardware_concurrency()),
                                                   static_cast<int>(jobs.size())));
   std::vector<std::thread> threads;
+  threads.reserve(static_cast<size_t>(n_threads));
   for (int t = 0; t < n_threads; ++t) threads.emplace_back(worker);
   for (auto& t : threads) t.join();
   for (const auto& j : jobs) HEXSIM_RETURN_IF_ERROR(j.status);

@@ -29,6 +29,7 @@ struct PlotArgs {
 std::vector<std::string> LogNames(const std::vector<std::string>& paths) {
   namespace fs = std::filesystem;
   std::vector<std::string> names;
+  names.reserve(paths.size());
   for (const auto& p : paths) names.push_back(fs::path(p).stem().string());
   auto unique = [&] {
     for (size_t i = 0; i < names.size(); ++i) {

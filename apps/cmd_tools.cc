@@ -291,7 +291,7 @@ Result<Eigen::Vector3d> ParseVec3(const std::string& text, const std::string& wh
       v[i] = std::stod(item, &used);
       if (used != item.size() || !std::isfinite(v[i])) throw std::invalid_argument(item);
     } catch (const std::exception&) {
-      return Status::BadInput(what + ": '" + item + "' is not a number");
+      return Status::BadInput(fmt::format("{}: '{}' is not a number", what, item));
     }
     ++i;
   }

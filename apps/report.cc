@@ -182,6 +182,7 @@ Status EllipsoidFigures(const std::vector<magnetics::MagSample>& ground, FigureS
   const magnetics::SvdLineFit line = magnetics::FitLineSvd(centres);
   if (!line.status.ok()) return line.status.WithContext("report: centre line");
   std::vector<render::Point3> c3;
+  c3.reserve(centres.size());
   for (const auto& c : centres) c3.push_back(ToPoint(c));
   const double shift_uT = (centres.back() - centres.front()).norm();
   return sink->Add(
@@ -400,13 +401,13 @@ Status FlightFigures(const json& c, const std::vector<FlownRun>& runs, FigureSin
                                              {{"current", first.log.Column("t_s"), first.log.Column("current_A"),
                                                render::Colour{0.13f, 0.13f, 0.13f, 1.0f}}},
                                              false);
-    f.panels.push_back(cur);
+    f.panels.emplace_back(cur);
     if (f.rows == 2) {
       std::get<render::Plot2D>(f.panels[0]).x_label.clear();
-      f.panels.push_back(render::TimeOverlay("", "control amount (0…1000)",
-                                             {{"control_u", first.log.Column("t_s"), first.log.Column("control_u"),
-                                               render::PaletteColour(0)}},
-                                             false));
+      f.panels.emplace_back(render::TimeOverlay("", "control amount (0…1000)",
+                                                {{"control_u", first.log.Column("t_s"), first.log.Column("control_u"),
+                                                  render::PaletteColour(0)}},
+                                                false));
     }
     HEXSIM_RETURN_IF_ERROR(sink->Add(
         render::Render(f, render::kFigureWidth_px, 380 * f.rows + 50),
@@ -431,7 +432,7 @@ figcaption{color:#444;font-size:.93em;margin-top:.3em}figcaption b{color:#222}.n
 std::string HeadingTable(const json& he) {
   const auto controls = he.at("control_u").get<std::vector<double>>();
   std::string h = "<div class=\"wrap\"><table id=\"heading-error\">\n<tr><th class=\"name\" rowspan=\"2\">method</th>";
-  for (size_t k = 0; k < controls.size(); ++k) h += fmt::format("<th colspan=\"3\">control {:g}</th>", controls[k]);
+  for (const double control : controls) h += fmt::format("<th colspan=\"3\">control {:g}</th>", control);
   h += "</tr>\n<tr>";
   for (size_t k = 0; k < controls.size(); ++k) h += "<th>max (°)</th><th>RMS (°)</th><th>paper max (°)</th>";
   h += "</tr>\n";

@@ -4,6 +4,8 @@
 #include <cstdlib>
 #include <sstream>
 
+#include <fmt/format.h>
+
 #include "hexsim/common/paths.h"
 #include "hexsim/common/yaml_reader.h"
 
@@ -48,7 +50,7 @@ Result<std::vector<double>> ParseNumberList(const std::string& text, const std::
     char* end = nullptr;
     const double v = std::strtod(item.c_str(), &end);
     if (end == item.c_str() || *end != '\0' || !std::isfinite(v)) {
-      return Status::BadInput(flag + ": '" + item + "' is not a number");
+      return Status::BadInput(fmt::format("{}: '{}' is not a number", flag, item));
     }
     out.push_back(v);
   }

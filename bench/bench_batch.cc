@@ -30,7 +30,7 @@ void BM_BatchPool(benchmark::State& state) {
   for (int i = 0; i < kRuns; ++i) {
     hexsim::batch::RunPoint p;
     p.estimator = "eskf";
-    p.seed = static_cast<uint64_t>(i + 1);
+    p.seed = static_cast<uint64_t>(i) + 1;
     p.duration_s = run_s;
     points.push_back(p);
   }

@@ -22,7 +22,7 @@ std::vector<Vector3d> EllipsoidSamples(int n) {
     const double z = 1.0 - 2.0 * (i + 0.5) / n;  // Fibonacci sphere
     const double phi = i * 2.399963229728653;
     const Vector3d u(std::sqrt(1 - z * z) * std::cos(phi), std::sqrt(1 - z * z) * std::sin(phi), z);
-    out.push_back(K * (50.0 * u) + beta + rng.Normal3(0.3));
+    out.emplace_back(K * (50.0 * u) + beta + rng.Normal3(0.3));
   }
   return out;
 }
@@ -32,7 +32,8 @@ std::vector<Vector3d> LinePoints(int n) {
   hexsim::RngStream rng(2, "bench.line");
   const Vector3d p0(10, -5, 20), dir = Vector3d(0.3, -0.5, 0.8).normalized();
   std::vector<Vector3d> out;
-  for (int i = 0; i < n; ++i) out.push_back(p0 + (3.0 * i) * dir + rng.Normal3(0.2));
+  out.reserve(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) out.emplace_back(p0 + (3.0 * i) * dir + rng.Normal3(0.2));
   return out;
 }
 

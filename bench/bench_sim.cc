@@ -69,14 +69,14 @@ void BM_PhysicsStep(benchmark::State& state) {
   hexsim::sim::RigidBodyWorld body(bp, start, ground);
   auto pt = hexsim::vehicle::InitialPowertrainState(*vp);
   const std::vector<double> commands(vp->rotors.size(), 0.55);
-  constexpr double dt = 0.001;
+  constexpr double kDt_s = 0.001;
   for (auto _ : state) {
     const auto s = body.State();
-    const auto power = hexsim::vehicle::StepPowertrain(*vp, commands, dt, &pt);
+    const auto power = hexsim::vehicle::StepPowertrain(*vp, commands, kDt_s, &pt);
     const auto w = hexsim::vehicle::RotorWrench(*vp, pt.omega_radps, s.w_B_radps);
     body.AddForce_B(w.force_B_N);
     body.AddTorque_B(w.torque_B_Nm);
-    body.Step(dt);
+    body.Step(kDt_s);
     benchmark::DoNotOptimize(power.battery_A);
     if (body.State().p_N_m.norm() > 1e4) body.SetState(start);  // keep it in range on long runs
   }

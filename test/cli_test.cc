@@ -40,7 +40,7 @@ CmdResult Hexsim(const std::string& args) {
 }
 
 fs::path TempDir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / ("hexsim_cli_" + name + "_" + std::to_string(::getpid()));
+  fs::path p = fs::temp_directory_path() / ("hexsim_cli_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(p);
   fs::create_directories(p);
   return p;

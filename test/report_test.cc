@@ -30,7 +30,7 @@ struct CmdResult {
 };
 
 fs::path TempDir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / ("hexsim_report_" + name + "_" + std::to_string(::getpid()));
+  fs::path p = fs::temp_directory_path() / ("hexsim_report_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(p);
   fs::create_directories(p);
   return p;
@@ -142,7 +142,7 @@ TEST_F(CompareReport, GivenSmallCompareWhenItFinishesThenReportHtmlLinksOnlyExis
     EXPECT_TRUE(srcs.count(f)) << f << " missing from report.html";
   }
   // Every figure has a caption, and the page needs no server: inline CSS, no scripts, no remote links.
-  EXPECT_EQ(std::count(srcs.begin(), srcs.end(), std::string()), 0);
+  EXPECT_EQ(srcs.count(std::string()), 0u);
   size_t n_captions = 0;
   for (size_t at = html.find("<figcaption>"); at != std::string::npos; at = html.find("<figcaption>", at + 1)) {
     ++n_captions;

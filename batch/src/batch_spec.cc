@@ -162,6 +162,7 @@ Status ReadRandom(const std::string& file, const YAML::Node& n, BatchSpec* spec)
       return BadAt(file, d, field, "expected exactly one of {uniform: [lo, hi]}, {normal: [mean, std]}, {choice: [...]}");
     }
     const std::string kind = d.begin()->first.as<std::string>();
+    const std::string field_kind = fmt::format("{}.{}", field, kind);
     const YAML::Node args = d.begin()->second;
     if (kind == "choice") {
       p.kind = RandomParam::Kind::kChoice;
@@ -169,10 +170,10 @@ Status ReadRandom(const std::string& file, const YAML::Node& n, BatchSpec* spec)
       for (const auto& c : args) p.choices.push_back(CanonicalValue(YamlToJson(c)));
     } else if (kind == "uniform" || kind == "normal") {
       if (!args.IsSequence() || args.size() != 2) {
-        return BadAt(file, args, field + "." + kind, kind == "uniform" ? "expected [lo, hi]" : "expected [mean, std]");
+        return BadAt(file, args, field_kind, kind == "uniform" ? "expected [lo, hi]" : "expected [mean, std]");
       }
-      HEXSIM_RETURN_IF_ERROR(ReadNumber(file, args[0], field + "." + kind + "[0]", &p.a));
-      HEXSIM_RETURN_IF_ERROR(ReadNumber(file, args[1], field + "." + kind + "[1]", &p.b));
+      HEXSIM_RETURN_IF_ERROR(ReadNumber(file, args[0], field_kind + "[0]", &p.a));
+      HEXSIM_RETURN_IF_ERROR(ReadNumber(file, args[1], field_kind + "[1]", &p.b));
       if (kind == "uniform") {
         p.kind = RandomParam::Kind::kUniform;
         if (!(p.b > p.a)) return BadAt(file, args, field + ".uniform", "expected lo < hi");
@@ -181,7 +182,7 @@ Status ReadRandom(const std::string& file, const YAML::Node& n, BatchSpec* spec)
         if (!(p.b >= 0)) return BadAt(file, args, field + ".normal", "std must be ≥ 0");
       }
     } else {
-      return BadAt(file, d.begin()->first, field + "." + kind, "unknown distribution (uniform, normal, choice)");
+      return BadAt(file, d.begin()->first, field_kind, "unknown distribution (uniform, normal, choice)");
     }
     spec->random.push_back(std::move(p));
   }
@@ -221,7 +222,7 @@ json YamlToJson(const YAML::Node& node) {
     return out;
   }
   if (!node.IsScalar()) return json(nullptr);
-  const std::string s = node.Scalar();
+  const std::string& s = node.Scalar();
   double d = 0;
   if (node.Tag() != "!" && ParseDouble(s, &d)) return CanonicalValue(json(d));
   if (node.Tag() != "!" && (s == "true" || s == "false")) return json(s == "true");
@@ -291,9 +292,9 @@ Result<BatchSpec> ParseBatch(const YAML::Node& root, const std::string& file) {
   for (auto& c : spec.calibrations) {  // a calib.yaml path is taken relative to the batch file
     std::error_code ec;
     const bool looks_like_file = c.find('/') != std::string::npos || c.find(".yaml") != std::string::npos;
-    if (looks_like_file && !std::filesystem::exists(c, ec) && std::filesystem::exists(DirName(file) + "/" + c, ec)) {
-      c = DirName(file) + "/" + c;
-    }
+    if (!looks_like_file || std::filesystem::exists(c, ec)) continue;
+    std::string beside_file = fmt::format("{}/{}", DirName(file), c);
+    if (std::filesystem::exists(beside_file, ec)) c = std::move(beside_file);
   }
   HEXSIM_RETURN_IF_ERROR(ReadNames(file, root, "estimators", "", &spec.estimators));
   for (size_t i = 0; i < spec.estimators.size(); ++i) {

@@ -1,10 +1,11 @@
 #include "hexsim/batch/pool.h"
 
-#include <signal.h>
+#include <signal.h>  // NOLINT(modernize-deprecated-headers): POSIX header for kill(); <csignal> does not declare it
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <deque>
 #include <filesystem>
@@ -160,7 +161,7 @@ Progress::Progress(std::FILE* out, bool tty, size_t total, size_t already_done)
 
 std::string Progress::FormatDuration(double seconds) {
   if (!(seconds >= 0) || seconds > 1e8) return "--:--";
-  const long s = static_cast<long>(seconds + 0.5);
+  const long s = std::lround(seconds);
   if (s >= 3600) return fmt::format("{}:{:02d}:{:02d}", s / 3600, (s / 60) % 60, s % 60);
   return fmt::format("{}:{:02d}", s / 60, s % 60);
 }

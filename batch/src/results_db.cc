@@ -51,8 +51,8 @@ std::string CreateTableSql() {
 std::vector<std::string> Columns() {
   std::vector<std::string> c = {"run_id", "params_json", "mission", "vehicle", "world", "calibration",
                                 "estimator", "seed", "status", "reason"};
-  for (const auto& m : MetricColumns()) c.push_back(m.column);
-  for (const char* n : {"waypoints_json", "summary_json", "wall_s", "host", "version", "finished_at"}) c.push_back(n);
+  for (const auto& m : MetricColumns()) c.emplace_back(m.column);
+  for (const char* n : {"waypoints_json", "summary_json", "wall_s", "host", "version", "finished_at"}) c.emplace_back(n);
   return c;
 }
 

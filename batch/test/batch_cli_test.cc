@@ -1,6 +1,6 @@
 // End-to-end: the `hexsim batch`, `batch-merge` and `batch-report` commands on short real missions.
 #include <fcntl.h>
-#include <signal.h>
+#include <signal.h>  // NOLINT(modernize-deprecated-headers): POSIX header for kill(); <csignal> does not declare it
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -9,6 +9,7 @@
 #include <set>
 #include <thread>
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include "hexsim/batch/batch_spec.h"
@@ -46,7 +47,7 @@ TEST(BatchCommand, GivenTheSameBatchRunTwiceAndWithOneOrTwoJobsThenTheResultTabl
   EXPECT_EQ(ta, ComparableTable(dir + "/c/results.sqlite"));
   // Each run left its summary, and the runs really flew: 3 s each, seeds differ.
   for (const auto& id : ExpectedIds(DataFile("tiny.yaml"))) {
-    EXPECT_TRUE(fs::exists(dir + "/a/runs/" + id + "/summary.json")) << id;
+    EXPECT_TRUE(fs::exists(fmt::format("{}/a/runs/{}/summary.json", dir, id))) << id;
   }
   auto rows = ResultsDb::Open(dir + "/a/results.sqlite", false)->ReadAll();
   std::set<double> energies;
@@ -118,7 +119,7 @@ TEST(BatchCommand, GivenShardsRunSeparatelyWhenMergedThenTheTableEqualsTheWholeB
   std::string shard_dirs;
   for (int i = 0; i < 3; ++i) {
     const std::string sd = dir + "/shard_" + std::to_string(i);
-    const auto r = Hexsim("batch " + batch + " --jobs 1 --shard " + std::to_string(i) + "/3 --out " + sd, dir);
+    const auto r = Hexsim(fmt::format("batch {} --jobs 1 --shard {}/3 --out {}", batch, i, sd), dir);
     ASSERT_EQ(r.exit_code, 0) << r.err;
     shard_dirs += " " + sd;
   }
@@ -147,7 +148,7 @@ TEST(BatchCommand, GivenBadBatchFilesWhenRunThenExitIs2WithOneLineNamingTheField
   };
   for (const auto& [yaml, expected] : cases) {
     testing::WriteText(dir + "/bad.yaml", yaml);
-    const auto r = Hexsim("batch " + dir + "/bad.yaml --out " + dir + "/out", dir);
+    const auto r = Hexsim(fmt::format("batch {0}/bad.yaml --out {0}/out", dir), dir);
     EXPECT_EQ(r.exit_code, 2) << yaml << r.err;
     EXPECT_EQ(r.err.rfind("hexsim: ", 0), 0u) << r.err;
     EXPECT_NE(r.err.find(expected), std::string::npos) << r.err;

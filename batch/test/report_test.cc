@@ -24,6 +24,7 @@ TEST(ComputeStats, GivenNormalSamplesWhenTheIntervalIsComputedThenItCoversTheTru
   int covered = 0;
   for (int t = 0; t < kTrials; ++t) {
     std::vector<double> v;
+    v.reserve(5);
     for (int i = 0; i < 5; ++i) v.push_back(rng.Normal(kMean, kStd));
     const MetricStats s = ComputeStats(v);
     ASSERT_TRUE(s.ci95_lo && s.ci95_hi && s.std);

@@ -66,7 +66,7 @@ inline std::vector<std::string> ComparableTable(const std::string& db_path) {
   auto rows = db->ReadAll();
   EXPECT_TRUE(rows.ok());
   std::vector<std::string> out;
-  for (auto r : *rows) {
+  for (const auto& r : *rows) {
     std::string line = r.run_id + "|" + r.params_json + "|" + r.mission + "|" + r.vehicle + "|" + r.world + "|" +
                        r.calibration + "|" + r.estimator + "|" + std::to_string(r.seed) + "|" + r.status + "|" +
                        r.reason + "|" + r.waypoints_json + "|" + r.summary_json + "|" + r.version;

@@ -44,8 +44,8 @@ void CascadedController::Reset() {
   debug_ = CascadeDebug();
 }
 
-ControlOutput CascadedController::Update(const NavState& state, const Setpoint& sp, double dt_s) {
-  if (sp.idle) {
+ControlOutput CascadedController::Update(const NavState& state, const Setpoint& setpoint, double dt_s) {
+  if (setpoint.idle) {
     Reset();
     return ControlOutput();
   }
@@ -53,9 +53,9 @@ ControlOutput CascadedController::Update(const NavState& state, const Setpoint& 
   const double m = vehicle_.mass_kg;
 
   // Position P → velocity setpoint, v_sp = v_ff + Kp·(p_sp − p), limited.
-  Vector3d v_sp = sp.v_ff_N_mps;
-  if (sp.position_valid) {
-    const Vector3d e_p = sp.p_N_m - state.p_N_m;
+  Vector3d v_sp = setpoint.v_ff_N_mps;
+  if (setpoint.position_valid) {
+    const Vector3d e_p = setpoint.p_N_m - state.p_N_m;
     v_sp += Vector3d(P.pos_xy_kp * e_p.x(), P.pos_xy_kp * e_p.y(), P.pos_z_kp * e_p.z());
   }
   const double v_xy = v_sp.head<2>().norm();
@@ -64,7 +64,7 @@ ControlOutput CascadedController::Update(const NavState& state, const Setpoint& 
 
   // Velocity PID → acceleration setpoint.
   Vector3d a_sp;
-  for (int i = 0; i < 3; ++i) a_sp[i] = vel_[i].Update(v_sp[i], state.v_N_mps[i], dt_s, sp.a_ff_N_mps2[i]);
+  for (int i = 0; i < 3; ++i) a_sp[i] = vel_[i].Update(v_sp[i], state.v_N_mps[i], dt_s, setpoint.a_ff_N_mps2[i]);
 
   // Thrust vector F = m·(a − g), g = +g·e_D; keep its vertical part first, then limit tilt and size.
   Vector3d F_N = m * (a_sp - Vector3d(0.0, 0.0, kGravity_mps2));
@@ -80,7 +80,7 @@ ControlOutput CascadedController::Update(const NavState& state, const Setpoint& 
   if (debug_.tilt_limited) F_h *= F_h_max / F_h.norm();
   F_N = Vector3d(F_h.x(), F_h.y(), -F_up);
 
-  const Quaterniond q_sp = AttitudeFromThrustAndYaw(F_N, sp.yaw_rad);
+  const Quaterniond q_sp = AttitudeFromThrustAndYaw(F_N, setpoint.yaw_rad);
   // Collective: the thrust vector projected on the current body -z axis (less thrust while the
   // attitude is still far from the setpoint).
   const Vector3d z_B_N = state.q_NB.toRotationMatrix().col(2);
@@ -88,7 +88,7 @@ ControlOutput CascadedController::Update(const NavState& state, const Setpoint& 
 
   debug_.v_sp_N_mps = v_sp;
   debug_.a_sp_N_mps2 = a_sp;
-  return UpdateAttitude(state, q_sp, thrust_N, sp.yaw_rate_ff_radps, dt_s);
+  return UpdateAttitude(state, q_sp, thrust_N, setpoint.yaw_rate_ff_radps, dt_s);
 }
 
 ControlOutput CascadedController::UpdateAttitude(const NavState& state, const Quaterniond& q_sp_NB,

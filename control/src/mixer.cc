@@ -50,16 +50,19 @@ Result<Mixer> Mixer::Create(const std::vector<RotorGeometry>& rotors) {
 
 namespace {
 
-// Interval [lo, hi] of c such that 0 <= base + c·d <= max for every rotor (d_i may be any sign).
-void FeasibleShift(const VectorXd& base, const VectorXd& d, double max, double* lo, double* hi) {
+// Interval [lo, hi] of c such that 0 <= base_i + c·d_i <= max for every rotor (d_i may be any sign);
+// base_i = scale·rp_i. Element by element, so the mixer allocates no temporaries per call.
+void FeasibleShift(double scale, const Eigen::Ref<const VectorXd>& rp, const Eigen::Ref<const VectorXd>& d,
+                   double max, double* lo, double* hi) {
   *lo = -std::numeric_limits<double>::infinity();
   *hi = std::numeric_limits<double>::infinity();
-  for (Eigen::Index i = 0; i < base.size(); ++i) {
+  for (Eigen::Index i = 0; i < rp.size(); ++i) {
+    const double base = scale * rp(i);
     if (std::abs(d(i)) < 1e-12) {
-      if (base(i) < -1e-9 || base(i) > max + 1e-9) *lo = std::numeric_limits<double>::infinity();
+      if (base < -1e-9 || base > max + 1e-9) *lo = std::numeric_limits<double>::infinity();
       continue;
     }
-    const double a = -base(i) / d(i), b = (max - base(i)) / d(i);
+    const double a = -base / d(i), b = (max - base) / d(i);
     *lo = std::max(*lo, std::min(a, b));
     *hi = std::min(*hi, std::max(a, b));
   }
@@ -68,46 +71,61 @@ void FeasibleShift(const VectorXd& base, const VectorXd& d, double max, double* 
 }  // namespace
 
 MixResult Mixer::Mix(double thrust_N, const Vector3d& torque_B_Nm, double max_rotor_thrust_N) const {
-  HEXSIM_CHECK(max_rotor_thrust_N > 0.0);
-  const VectorXd d = A_pinv_.col(0);  // rotor thrusts per newton of collective
-  const VectorXd rp = A_pinv_.col(1) * torque_B_Nm.x() + A_pinv_.col(2) * torque_B_Nm.y();
-  const VectorXd yaw = A_pinv_.col(3) * torque_B_Nm.z();
-  const double max = max_rotor_thrust_N;
   MixResult out;
+  Mix(thrust_N, torque_B_Nm, max_rotor_thrust_N, &out);
+  return out;
+}
+
+void Mixer::Mix(double thrust_N, const Vector3d& torque_B_Nm, double max_rotor_thrust_N, MixResult* out_ptr) const {
+  HEXSIM_CHECK(max_rotor_thrust_N > 0.0);
+  HEXSIM_CHECK(out_ptr != nullptr);
+  MixResult& out = *out_ptr;
+  const auto d = A_pinv_.col(0);  // rotor thrusts per newton of collective
+  // The roll/pitch part rp and the yaw part are formed per rotor below (no temporaries). The
+  // rotor thrusts are built in out.thrust_N, whose storage a caller may keep across calls.
+  const auto rp_i = [&](Eigen::Index i) {
+    return A_pinv_(i, 1) * torque_B_Nm.x() + A_pinv_(i, 2) * torque_B_Nm.y();
+  };
+  const auto yaw_i = [&](Eigen::Index i) { return A_pinv_(i, 3) * torque_B_Nm.z(); };
+  const Eigen::Index n = A_pinv_.rows();
+  const double max = max_rotor_thrust_N;
+  VectorXd& t = out.thrust_N;
+  t.resize(n);
+  for (Eigen::Index i = 0; i < n; ++i) t(i) = rp_i(i);
+  const VectorXd& rp = t;  // holds rp until step 2 overwrites it
 
   // 1. Roll/pitch first: the collective c may move anywhere that keeps rp + c·d in bounds. If no c
   //    fits, scale roll/pitch down by the largest factor for which one does (bisection; the feasible
   //    set in the factor is an interval containing 0).
   double lo = 0.0, hi = 0.0, k = 1.0;
-  FeasibleShift(rp, d, max, &lo, &hi);
+  FeasibleShift(1.0, rp, d, max, &lo, &hi);
   if (lo > hi) {
     double k_ok = 0.0, k_bad = 1.0;
     for (int it = 0; it < 50; ++it) {
       const double km = 0.5 * (k_ok + k_bad);
-      FeasibleShift(km * rp, d, max, &lo, &hi);
+      FeasibleShift(km, rp, d, max, &lo, &hi);
       (lo <= hi ? k_ok : k_bad) = km;
     }
     k = k_ok;
-    FeasibleShift(k * rp, d, max, &lo, &hi);
+    FeasibleShift(k, rp, d, max, &lo, &hi);
   }
   out.roll_pitch_scale = k;
   // 2. Collective: as requested, shifted into the interval that keeps roll/pitch.
   const double c = std::clamp(thrust_N, lo, hi);
-  VectorXd t = k * rp + c * d;
+  for (Eigen::Index i = 0; i < n; ++i) t(i) = k * t(i) + c * d(i);  // t = k·rp + c·d
   // 3. Yaw last: the largest fraction μ in [0, 1] of the yaw part that keeps every rotor in bounds.
   double mu = 1.0;
-  for (Eigen::Index i = 0; i < t.size(); ++i) {
-    if (yaw(i) > 1e-12) mu = std::min(mu, (max - t(i)) / yaw(i));
-    if (yaw(i) < -1e-12) mu = std::min(mu, -t(i) / yaw(i));
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double yaw = yaw_i(i);
+    if (yaw > 1e-12) mu = std::min(mu, (max - t(i)) / yaw);
+    if (yaw < -1e-12) mu = std::min(mu, -t(i) / yaw);
   }
   mu = std::max(mu, 0.0);
   out.yaw_scale = mu;
-  t += mu * yaw;
-  out.thrust_N = t.cwiseMax(0.0).cwiseMin(max);
-  out.achieved = A_ * out.thrust_N;
+  for (Eigen::Index i = 0; i < n; ++i) t(i) = std::min(std::max(t(i) + mu * yaw_i(i), 0.0), max);
+  out.achieved.noalias() = A_ * t;
   const double tol = 1e-9 * std::max(1.0, max);
   out.saturated = k < 1.0 || std::abs(c - thrust_N) > tol || mu < 1.0;
-  return out;
 }
 
 double ControlAmount(const VectorXd& rotor_commands) {

@@ -43,6 +43,11 @@ struct ChannelData {
   // period old, so a latency in [0, known_hold_max_s] is part of the configured model; the replay
   // removes the fitted hold (known_hold_s) and the latency candidate measures only the excess.
   double known_hold_s = 0.0, known_hold_max_s = 0.0;
+  // "Explained" measured on the residual above the noise floor: an effect confined to some flight
+  // phases (ground effect near the ground, a motor lag during throttle changes) removes most of the
+  // structured residual but little of the whole one (noise included).
+  bool explain_above_noise = false;
+  std::string note;  // appended to the channel's explanation (e.g. fitted nuisance parameters)
 };
 
 // Builds every channel the log and the vehicle support; the rest go to not_diagnosed.
@@ -56,5 +61,10 @@ struct ReplayResult {
 };
 
 ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, const DiagnoseOptions& options);
+// The open-loop dynamics channel ("dynamics": accelerometer against the specific force predicted
+// from motor commands, bus voltage, attitude and velocity); appends it or a not_diagnosed line.
+double HoverRotorTimeConstant_s(const vehicle::VehicleParams& vehicle);
+void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, const DiagnoseOptions& options,
+                    ReplayResult* out);
 
 }  // namespace hexsim::gap::internal

@@ -22,7 +22,8 @@ using internal::Vec3;
 
 namespace {
 
-const char* const kEffectsNotBuilt[] = {"rotor_drag", "ground_effect", "battery_sag", "motor_time_constant", "wind"};
+// Every effect of the library has a candidate now; per-motor current hard iron does not.
+const char* const kEffectsNotBuilt[] = {"per_motor_current_hard_iron"};
 
 // Per-block normal equations of one candidate: A = Σ XᵀX, g = Σ Xᵀy, s = Σ yᵀy, n = 3·samples.
 struct Block {
@@ -256,6 +257,27 @@ double NoiseVariance(const std::vector<double>& t, const std::vector<Vec3>& e) {
   return m > 0 ? s / (6.0 * static_cast<double>(m)) : 0.0;
 }
 
+// The floor of a replay whose unresolvable part is not white (the dynamics channel: commands
+// between log rows): per-component variance of the residual minus its centred moving average over
+// window_s, corrected for the average's own share of white noise (1 − 1/m, m samples per window).
+double HighPassVariance(const std::vector<double>& t, const std::vector<Vec3>& e, double window_s) {
+  const size_t n = e.size();
+  if (n < 3) return 0.0;
+  size_t a = 0, b = 0;
+  Vec3 sum = Vec3::Zero();
+  double s = 0, m_sum = 0;
+  for (size_t k = 0; k < n; ++k) {
+    while (b < n && t[b] <= t[k] + window_s / 2) sum += e[b++];
+    while (a < b && t[a] < t[k] - window_s / 2) sum -= e[a++];
+    const double m = static_cast<double>(std::max<size_t>(1, b - a));
+    s += (e[k] - sum / m).squaredNorm();
+    m_sum += m;
+  }
+  const double m_mean = m_sum / static_cast<double>(n);
+  if (!(m_mean > 1.5)) return 0.0;
+  return s / (3.0 * static_cast<double>(n)) / (1.0 - 1.0 / m_mean);
+}
+
 double MeanSquare(const std::vector<Vec3>& e) {
   double s = 0;
   for (const auto& v : e) s += v.squaredNorm();
@@ -272,6 +294,12 @@ std::string SeparatingManoeuvre(const std::string& a, const std::string& b) {
     return "a slow 360 deg yaw turn at constant high current: a soft-iron change varies with heading, a hard iron does not";
   if (is("hard_iron_offset", "local_anomaly"))
     return "yaw turns and large pitch/roll, or the same pattern at another site: an anomaly is fixed in NED, a hard iron in the body";
+  if (is("battery_sag", "thrust_scale"))
+    return "climbs and descents over a wide throttle range, or a long hover as the battery drains: a voltage sag grows "
+           "with current x dT/dV (faster than the thrust), a k_T or mass error stays proportional to the thrust";
+  if (is("wind", "rotor_drag"))
+    return "hover facing several headings and fly the same legs both ways: wind drag is fixed in NED, rotor drag "
+           "follows the air speed and the rotor speed";
   if (is("latency", "current_lag"))
     return "fast yaw turns at constant throttle (latency shows) against throttle steps at constant attitude (current lag shows)";
   if (is("misalignment", "local_anomaly") || is("misalignment", "hard_iron_offset") || is("misalignment", "scale_error"))
@@ -319,27 +347,27 @@ nlohmann::json Where(const ChannelData& ch, const std::vector<Vec3>& y, const lo
   std::vector<std::pair<std::string, std::vector<double>>> regs;
   if (log.Has("current_A")) {
     const auto& c = log.Column("current_A");
-    regs.push_back({"current", column_at_rows("current_A", [&](size_t i) { return c[i]; })});
+    regs.emplace_back("current", column_at_rows("current_A", [&](size_t i) { return c[i]; }));
   }
   if (log.Has("control_u")) {
     const auto& c = log.Column("control_u");
-    regs.push_back({"throttle", column_at_rows("control_u", [&](size_t i) { return c[i]; })});
+    regs.emplace_back("throttle", column_at_rows("control_u", [&](size_t i) { return c[i]; }));
   }
   if (log.Has("vel_N_mps") && log.Has("vel_E_mps")) {
     const auto& vn = log.Column("vel_N_mps");
     const auto& ve = log.Column("vel_E_mps");
-    regs.push_back({"speed", column_at_rows("speed", [&](size_t i) { return std::hypot(vn[i], ve[i]); })});
+    regs.emplace_back("speed", column_at_rows("speed", [&](size_t i) { return std::hypot(vn[i], ve[i]); }));
   }
   if (log.Has("q_w")) {
     const auto& qw = log.Column("q_w");
     const auto& qx = log.Column("q_x");
     const auto& qy = log.Column("q_y");
     const auto& qz = log.Column("q_z");
-    regs.push_back({"tilt", column_at_rows("tilt", [&](size_t i) {
-                      // cos(tilt) = R_NB(2,2) = 1 − 2(qx² + qy²)
-                      return std::acos(std::clamp(1 - 2 * (qx[i] * qx[i] + qy[i] * qy[i]), -1.0, 1.0)) * 57.29577951308232 +
-                             0 * qw[i] * qz[i];
-                    })});
+    regs.emplace_back("tilt", column_at_rows("tilt", [&](size_t i) {
+                        // cos(tilt) = R_NB(2,2) = 1 − 2(qx² + qy²)
+                        return std::acos(std::clamp(1 - 2 * (qx[i] * qx[i] + qy[i] * qy[i]), -1.0, 1.0)) * 57.29577951308232 +
+                               0 * qw[i] * qz[i];
+                      }));
   }
   nlohmann::json regime = nlohmann::json::object();
   std::string conc;
@@ -478,7 +506,13 @@ ChannelResult Analyze(const ChannelData& ch, const logs::FlightLog& log, const s
   res.rms_before = std::sqrt(MeanSquare(ch.y));
   res.t_s = ch.t;
   res.residual_before = an.y();
-  res.noise_rms = std::sqrt(NoiseVariance(ch.t, an.y()));
+  // Channels whose effects are phase-confined and low-frequency (dynamics) take their floor from
+  // the residual above ~4 Hz, which holds the replay's own unresolvable part.
+  constexpr double kFloorWindow_s = 0.25;
+  auto floor_variance = [&](const std::vector<Vec3>& e) {
+    return ch.explain_above_noise ? HighPassVariance(ch.t, e, kFloorWindow_s) : NoiseVariance(ch.t, e);
+  };
+  res.noise_rms = std::sqrt(floor_variance(an.y()));
 
   // Evaluate every candidate; per effect family keep the member with the smallest in-sample SSE.
   std::vector<Evaluated> all;
@@ -557,6 +591,16 @@ ChannelResult Analyze(const ChannelData& ch, const logs::FlightLog& log, const s
       r.ci95["latency_s"] = {r.magnitude_ci95[0], r.magnitude_ci95[1]};
       r.params["known_sample_hold_s"] = ch.known_hold_s;
     }
+    if (r.effect == "ground_effect") {
+      // The linear parameter is a = R²; report the effective radius R (monotone: interval maps).
+      const double a = r.params.value("radius_sq_m2", 0.0);
+      r.magnitude = std::sqrt(std::max(0.0, a));
+      r.magnitude_ci95[0] = std::sqrt(std::max(0.0, r.magnitude_ci95[0]));
+      r.magnitude_ci95[1] = std::sqrt(std::max(0.0, r.magnitude_ci95[1]));
+      r.magnitude_unit = "m";
+      r.params["radius_m"] = r.magnitude;
+      r.ci95["radius_m"] = {r.magnitude_ci95[0], r.magnitude_ci95[1]};
+    }
     res.candidates.push_back(std::move(r));
   }
   std::vector<size_t> order(F);
@@ -571,7 +615,7 @@ ChannelResult Analyze(const ChannelData& ch, const logs::FlightLog& log, const s
   // the high-frequency noise floor. The residual's whiteness (Ljung–Box) is reported, not used: the
   // configured models leave a coloured but unstructured residual (the current is logged at the row
   // rate, the compass samples between rows), which is part of the noise floor a real log has too.
-  const double noise_var = NoiseVariance(ch.t, an.y());
+  const double noise_var = floor_variance(an.y());
   const double ms_before = MeanSquare(an.y());
   res.noise_floor_ratio = noise_var > 0 ? ms_before / noise_var : 0.0;
   const double floor_margin = 1.0 + 6.0 / std::sqrt(std::max(1.0, an.total_n()));
@@ -581,7 +625,16 @@ ChannelResult Analyze(const ChannelData& ch, const logs::FlightLog& log, const s
     const Evaluated& e = all[fam_best[f]];
     const double pf = std::min(1.0, e.wald_p * static_cast<double>(family[fam_names[f]].size()));
     res.candidates[f].p_value = pf;
-    if (res.candidates[f].heldout_shrink > 0) p_cand = std::min(p_cand, pf * static_cast<double>(F));
+    bool lowers = res.candidates[f].heldout_shrink > 0;
+    if (ch.explain_above_noise) {
+      // Material: removes at least kMinMaterialShare of the held-out residual above the noise floor
+      // (the replay's own unresolvable part, e.g. commands between log rows, is not a gap).
+      constexpr double kMinMaterialShare = 0.1;
+      const double ms0 = an.base_sse() / an.total_n();
+      const double excess = ms0 - noise_var;
+      lowers = excess > 0 && (ms0 - e.cv_sse / an.total_n()) / excess >= kMinMaterialShare;
+    }
+    if (lowers) p_cand = std::min(p_cand, pf * static_cast<double>(F));
   }
   double p_lb = 1.0;
   constexpr int kLjungBoxLags = 20;
@@ -648,11 +701,22 @@ ChannelResult Analyze(const ChannelData& ch, const logs::FlightLog& log, const s
     const std::string top = fam_names[b1];
     res.chosen_regressor_name = e1.cand->regressor_name;
     res.chosen_regressor = e1.cand->regressor;
-    if (res.candidates[b1].heldout_shrink < o.explain_shrink) {
+    // Share of the residual explained: of the whole mean square (1 − (1 − shrink)²), or, for
+    // channels whose effects are phase-confined, of the part above the noise floor.
+    bool explained = res.candidates[b1].heldout_shrink >= o.explain_shrink;
+    if (ch.explain_above_noise) {
+      const double ms0 = an.base_sse() / an.total_n();
+      const double ms_cv = e1.cv_sse / an.total_n();
+      const double excess = ms0 - noise_var;
+      const double target = 1.0 - (1.0 - o.explain_shrink) * (1.0 - o.explain_shrink);  // 0.5 by default
+      explained = excess > 0 && (ms0 - ms_cv) / excess >= target;
+    }
+    if (!explained) {
       res.verdict = "unexplained";
-      res.explanation = fmt::format("no candidate removes half the held-out residual mean square (best: {}, shrink {:.0f} %)",
-                                    top, 100 * res.candidates[b1].heldout_shrink);
-    } else if (ratio > o.adequacy_ratio) {
+      res.explanation = fmt::format("no candidate removes half the held-out residual mean square{} (best: {}, shrink {:.0f} %)",
+                                    ch.explain_above_noise ? " above the noise floor" : "", top,
+                                    100 * res.candidates[b1].heldout_shrink);
+    } else if (!ch.explain_above_noise && ratio > o.adequacy_ratio) {
       res.verdict = "unexplained";
       res.explanation = fmt::format("best partial explanation {}{} (held-out shrink {:.0f} %) leaves a structured residual "
                                     "{:.1f}x the noise power: the cause is not in the library in this form",
@@ -739,7 +803,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
   if (!log.Has("t_s")) return Status::BadInput("log: t_s: column missing");
   GapReport rep;
   rep.log_name = log.meta.value("source", std::string("log"));
-  for (const char* e : kEffectsNotBuilt) rep.effects_not_built.push_back(e);
+  for (const char* e : kEffectsNotBuilt) rep.effects_not_built.emplace_back(e);
   const auto& t = log.Column("t_s");
   const double duration = t.back() - t.front();
   const std::vector<std::string> phases = ClassifyPhases(log);
@@ -757,15 +821,16 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
   RngStream rng(options.seed, "gap_bootstrap");
   for (const ChannelData& ch : rr.channels) {
     if (!(duration >= options.min_duration_s)) {
-      rep.not_diagnosed.push_back({ch.name, fmt::format("log too short: {:.1f} s, needs {:.0f} s", duration, options.min_duration_s)});
+      rep.not_diagnosed.emplace_back(ch.name, fmt::format("log too short: {:.1f} s, needs {:.0f} s", duration, options.min_duration_s));
       continue;
     }
     if (static_cast<int>(ch.t.size()) < options.min_samples) {
-      rep.not_diagnosed.push_back({ch.name, fmt::format("too few samples: {}, needs {}", ch.t.size(), options.min_samples)});
+      rep.not_diagnosed.emplace_back(ch.name, fmt::format("too few samples: {}, needs {}", ch.t.size(), options.min_samples));
       continue;
     }
     ChannelResult r = Analyze(ch, log, phases, options, &rng);
     r.reference_contaminated = ch.name == rr.contaminated;
+    if (!ch.note.empty()) r.explanation += (r.explanation.empty() ? "" : "; ") + ch.note;
     if (r.reference_contaminated) {
       r.explanation += (r.explanation.empty() ? "" : "; ") +
                        std::string("the attitude reference fused this compass, so part of its error is absorbed into the "

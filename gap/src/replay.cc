@@ -111,9 +111,9 @@ void AddAxisCandidates(const std::vector<double>& t, const std::vector<Vec3>& h,
   Candidate lat = MakeCandidate("latency", {"latency_s"}, {1.0}, "s");
   const std::vector<Vec3> dh = Derivative(t, h);
   for (size_t k = 0; k < n; ++k) {
-    mis.X.push_back(-Skew(h[k]));  // φ × h = −[h]×·φ
-    sc.X.push_back(h[k]);
-    lat.X.push_back(-dh[k]);  // h(t − L) ≈ h(t) − L·dh/dt
+    mis.X.emplace_back(-Skew(h[k]));  // φ × h = −[h]×·φ
+    sc.X.emplace_back(h[k]);
+    lat.X.emplace_back(-dh[k]);  // h(t − L) ≈ h(t) − L·dh/dt
   }
   (void)unit;
   ch->candidates.push_back(std::move(mis));
@@ -212,11 +212,11 @@ void ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, 
     const Vec3 pred = magnetics::NoiselessCompassReading_uT(cp.error, wiring, cp.position_B_m, R_NB, B_N_uT, lagged);
     const Eigen::Matrix3d M = cp.error.R_SB * (cp.error.scale * (cp.error.soft_iron + lagged.battery_A * cp.error.soft_iron_per_A));
     ch.t.push_back(ts[k]);
-    ch.y.push_back(meas[k] - pred);
+    ch.y.emplace_back(meas[k] - pred);
     ch.row.push_back(rows[k]);
-    h.push_back(pred - cp.error.hard_iron_uT);
+    h.emplace_back(pred - cp.error.hard_iron_uT);
     Msens.push_back(M);
-    Rt.push_back(R_NB.transpose());
+    Rt.emplace_back(R_NB.transpose());
     I.push_back(cu.battery_A);
     u.push_back(thr);
     temp.push_back(in.temp ? Lerp(*in.temp, i, w) : std::nan(""));
@@ -228,7 +228,7 @@ void ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, 
   Candidate an = MakeCandidate("local_anomaly", {"anomaly_N_uT", "anomaly_E_uT", "anomaly_D_uT"}, {1, 1, 1}, "uT");
   for (size_t k = 0; k < n; ++k) {
     hi.X.push_back(Diag3(1.0));
-    an.X.push_back(Msens[k] * Rt[k]);
+    an.X.emplace_back(Msens[k] * Rt[k]);
   }
   if (!ch.bias_nuisance) ch.candidates.push_back(std::move(hi));
   ch.candidates.push_back(std::move(an));
@@ -275,16 +275,16 @@ void ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, 
               wiring, cp.position_B_m, magnetics::StepCurrentLag(lagged_wiring, currents[k], dt, &s_new));
           const Vec3 b = magnetics::CurrentDrivenField_uT(
               wiring, cp.position_B_m, magnetics::StepCurrentLag(wiring, currents[k], dt, &s_cfg));
-          cl.X.push_back(Msens[k] * (a - b));
+          cl.X.emplace_back(Msens[k] * (a - b));
           cl.regressor.push_back(I[k]);
         }
         ch.candidates.push_back(std::move(cl));
       }
     } else {
-      ch.not_available.push_back("current_lag (configured wiring field at this compass too small to show a lag)");
+      ch.not_available.emplace_back("current_lag (configured wiring field at this compass too small to show a lag)");
     }
   } else {
-    ch.not_available.push_back("current_hard_iron, current_soft_iron, current_lag (no current_A column)");
+    ch.not_available.emplace_back("current_hard_iron, current_soft_iron, current_lag (no current_A column)");
   }
   bool throttle_ok = has_throttle && n > 0;
   for (double x : u) throttle_ok = throttle_ok && std::isfinite(x);
@@ -298,7 +298,7 @@ void ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, 
     }
     ch.candidates.push_back(std::move(thi));
   } else {
-    ch.not_available.push_back("throttle_hard_iron (no control_u or motor_i_u)");
+    ch.not_available.emplace_back("throttle_hard_iron (no control_u or motor_i_u)");
   }
   bool temp_ok = in.temp != nullptr && n > 0;
   double tmean = 0;
@@ -330,7 +330,7 @@ void ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, 
     }
     ch.candidates.push_back(std::move(td));
   } else {
-    ch.not_available.push_back("temperature_drift (no imu_temp_C column with varying temperature)");
+    ch.not_available.emplace_back("temperature_drift (no imu_temp_C column with varying temperature)");
   }
   out->channels.push_back(std::move(ch));
 }
@@ -347,9 +347,9 @@ void ReplayInertial(const logs::FlightLog& log, const vehicle::VehicleParams& v,
   const bool has_vel = ColumnHasData(log, "vel_N_mps") && ColumnHasData(log, "vel_E_mps") &&
                        ColumnHasData(log, "vel_D_mps");
   constexpr double kMaxRowGap_s = 0.1;  // derivatives need rows at least this dense
-  if (!has_gyro) out->not_diagnosed.push_back({"gyro", "no gyro_*_radps columns"});
-  if (!has_accel) out->not_diagnosed.push_back({"accel", "no accel_*_mps2 columns"});
-  else if (!has_vel) out->not_diagnosed.push_back({"accel", "no vel_*_mps columns to differentiate"});
+  if (!has_gyro) out->not_diagnosed.emplace_back("gyro", "no gyro_*_radps columns");
+  if (!has_accel) out->not_diagnosed.emplace_back("accel", "no accel_*_mps2 columns");
+  else if (!has_vel) out->not_diagnosed.emplace_back("accel", "no vel_*_mps columns to differentiate");
   for (int which = 0; which < 2; ++which) {
     if (which == 0 && !has_gyro) continue;
     if (which == 1 && (!has_accel || !has_vel)) continue;
@@ -360,9 +360,9 @@ void ReplayInertial(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     ch.bias_nuisance = np.bias_std > 0 || np.bias_walk_per_sqrt_s > 0;
     const std::string pre = ch.name + "_";
     const std::string unit = which == 0 ? "_radps" : "_mps2";
-    const auto& sx = log.Column(pre + "x" + unit);
-    const auto& sy = log.Column(pre + "y" + unit);
-    const auto& sz = log.Column(pre + "z" + unit);
+    const auto& sx = log.Column(fmt::format("{}x{}", pre, unit));
+    const auto& sy = log.Column(fmt::format("{}y{}", pre, unit));
+    const auto& sz = log.Column(fmt::format("{}z{}", pre, unit));
     std::vector<Vec3> h;
     for (size_t k = 1; k + 1 < n; ++k) {
       const double dt = t[k + 1] - t[k - 1];
@@ -384,7 +384,7 @@ void ReplayInertial(const logs::FlightLog& log, const vehicle::VehicleParams& v,
         pred = qk.toRotationMatrix().transpose() * (a_N - Vec3(0, 0, kGravity_mps2));  // f_B = R_NBᵀ(a − g)
       }
       ch.t.push_back(t[k]);
-      ch.y.push_back(m - pred);
+      ch.y.emplace_back(m - pred);
       ch.row.push_back(static_cast<int>(k));
       h.push_back(pred);
     }
@@ -418,8 +418,10 @@ void ReplayInertial(const logs::FlightLog& log, const vehicle::VehicleParams& v,
       ch.candidates.push_back(std::move(off));
     }
     AddAxisCandidates(ch.t, h, ch.unit, &ch);
-    ch.not_available.push_back("rotor_drag, ground_effect, battery_sag, motor_time_constant, wind (need the open-loop "
-                               "dynamics replay, not built)");
+    if (which == 1) {
+      ch.not_available.emplace_back("rotor_drag, ground_effect, battery_sag, motor_time_constant, wind: see the "
+                                    "'dynamics' channel (specific force predicted from the motor outputs)");
+    }
     out->channels.push_back(std::move(ch));
   }
 }
@@ -456,10 +458,11 @@ ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     if (ColumnHasData(log, MagPrefix(c) + "_x_uT")) log_compasses.push_back(c);
   }
   if (!in.has_attitude) {
-    for (size_t c : log_compasses) out.not_diagnosed.push_back({MagPrefix(c), "no attitude (q_w..q_z): the compass cannot be predicted"});
-    out.not_diagnosed.push_back({"gyro", "no attitude (q_w..q_z) to differentiate"});
-    out.not_diagnosed.push_back({"accel", "no attitude (q_w..q_z) to rotate the acceleration"});
-    if (log_compasses.empty()) out.not_diagnosed.push_back({"mag", "no compass columns (mag_x_uT ...)"});
+    for (size_t c : log_compasses) out.not_diagnosed.emplace_back(MagPrefix(c), "no attitude (q_w..q_z): the compass cannot be predicted");
+    out.not_diagnosed.emplace_back("gyro", "no attitude (q_w..q_z) to differentiate");
+    out.not_diagnosed.emplace_back("accel", "no attitude (q_w..q_z) to rotate the acceleration");
+    out.not_diagnosed.emplace_back("dynamics", "no attitude (q_w..q_z) to rotate the velocity and the thrust");
+    if (log_compasses.empty()) out.not_diagnosed.emplace_back("mag", "no compass columns (mag_x_uT ...)");
     return out;
   }
   for (const char* c : qn) in.q.push_back(&log.Column(c));
@@ -476,7 +479,7 @@ ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& v,
   for (size_t m = 0; all_motor_u && m < v.rotors.size(); ++m) in.motor_u.push_back(&log.Column(fmt::format("motor_{}_u", m + 1)));
 
   if (log_compasses.empty()) {
-    out.not_diagnosed.push_back({"mag", "no compass columns (mag_x_uT ...)"});
+    out.not_diagnosed.emplace_back("mag", "no compass columns (mag_x_uT ...)");
   } else {
     // Earth field at the log's place and date.
     const auto& meta = log.meta;
@@ -495,15 +498,15 @@ ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     }
     if (!field.ok()) {
       for (size_t c : log_compasses) {
-        out.not_diagnosed.push_back({MagPrefix(c), "no usable location/date_decimal_year in the meta file for the field model (" +
-                                                       field.status().message() + ")"});
+        out.not_diagnosed.emplace_back(MagPrefix(c), "no usable location/date_decimal_year in the meta file for the field model (" +
+                                                         field.status().message() + ")");
       }
     } else {
       out.field_model = field->model;
       out.earth_field_N_uT = field->B_N_uT;
       for (size_t c : log_compasses) {
         if (c >= v.compasses.size()) {
-          out.not_diagnosed.push_back({MagPrefix(c), fmt::format("the vehicle '{}' configures no compass {}", v.name, c + 1)});
+          out.not_diagnosed.emplace_back(MagPrefix(c), fmt::format("the vehicle '{}' configures no compass {}", v.name, c + 1));
           continue;
         }
         ReplayCompass(log, v, c, in, field->B_N_uT, &out);
@@ -511,6 +514,7 @@ ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     }
   }
   ReplayInertial(log, v, in, &out);
+  ReplayDynamics(log, v, options, &out);
   return out;
 }
 

@@ -16,6 +16,7 @@ std::string Escape(const std::string& s) { return render::HtmlEscape(s); }
 
 std::vector<double> Norms(const std::vector<Eigen::Vector3d>& v) {
   std::vector<double> n;
+  n.reserve(v.size());
   for (const auto& x : v) n.push_back(x.norm());
   return n;
 }
@@ -75,7 +76,7 @@ Status WriteGapHtml(const GapReport& r, const std::string& dir) {
       }
     }
     const std::string f1 = "gap_" + c.channel + "_time.png";
-    HEXSIM_RETURN_IF_ERROR(Png(p, dir + "/" + f1));
+    HEXSIM_RETURN_IF_ERROR(Png(p, fmt::format("{}/{}", dir, f1)));
     html += "<p><img src=\"" + f1 + "\"><br>Shading: ";
     for (int i = 0; i < 7; ++i) html += fmt::format("<span style=\"color:{}\">{}</span> ", kPhaseColours[i], kPhases[i]);
     html += "</p>";
@@ -97,7 +98,7 @@ Status WriteGapHtml(const GapReport& r, const std::string& dir) {
       q.series.push_back(sa);
     }
     const std::string f2 = "gap_" + c.channel + "_axes.png";
-    HEXSIM_RETURN_IF_ERROR(Png(q, dir + "/" + f2));
+    HEXSIM_RETURN_IF_ERROR(Png(q, fmt::format("{}/{}", dir, f2)));
     html += "<p><img src=\"" + f2 + "\"></p>";
     if (!c.chosen_regressor.empty() && c.chosen_regressor.size() == c.residual_before.size()) {
       render::Plot2D s;
@@ -112,7 +113,7 @@ Status WriteGapHtml(const GapReport& r, const std::string& dir) {
         s.series.push_back(se);
       }
       const std::string f3 = "gap_" + c.channel + "_regressor.png";
-      HEXSIM_RETURN_IF_ERROR(Png(s, dir + "/" + f3));
+      HEXSIM_RETURN_IF_ERROR(Png(s, fmt::format("{}/{}", dir, f3)));
       html += "<p><img src=\"" + f3 + "\"></p>";
     }
   }

@@ -40,8 +40,11 @@ magnetics::WireSegment SegmentWithField(const Eigen::Vector3d& p, const Eigen::V
 Eigen::Matrix3d SensorGain(const magnetics::CompassErrorParams& e) { return e.R_SB * e.scale * e.soft_iron; }
 
 bool IsLogLevel(const std::string& e) {
-  return e == "throttle_hard_iron" || e == "temperature_drift" || e == "thermal_ramp";
+  return e == "throttle_hard_iron" || e == "temperature_drift" || e == "thermal_ramp" || e == "battery_sag";
 }
+
+
+
 
 double Interp(const std::vector<double>& t, const std::vector<double>& v, double tq) {
   auto it = std::lower_bound(t.begin(), t.end(), tq);
@@ -58,6 +61,15 @@ struct LogEffect {
 };
 
 }  // namespace
+
+const std::vector<EffectRange>& InjectableDynamicsEffects() {
+  static const std::vector<EffectRange> kEffects = {
+      {"rotor_drag", 3e-5, 8e-5, false},          {"ground_effect", 0.2, 0.35, false},
+      {"battery_sag", 0.03, 0.08, false},         {"motor_time_constant", 0.03, 0.08, false},
+      {"wind", 2.0, 5.0, false},
+  };
+  return kEffects;
+}
 
 const std::vector<EffectRange>& InjectableEffects() {
   static const std::vector<EffectRange> kEffects = {
@@ -120,6 +132,20 @@ Result<Trial> MakeTrial(const SelftestOptions& o, uint64_t seed, const std::vect
       // Out of library: the whole wiring field ∝ I^(1+m), plus a stronger lead near the compass.
       v.wiring.segments.push_back(SegmentWithField(cp.position_B_m, M.inverse() * RandomUnit(rng) * 0.3, "withheld"));
       v.wiring.exponent = 1.0 + inj.magnitude;
+    } else if (inj.effect == "rotor_drag") {
+      v.aero.rotor_drag_N_per_radps_mps = inj.magnitude;
+    } else if (inj.effect == "ground_effect") {
+      v.aero.ground_effect_radius_m = inj.magnitude;
+    } else if (inj.effect == "motor_time_constant") {
+      // τ ∝ J at a given speed: scale every rotor's inertia so hover gains the extra τ.
+      const double factor = 1.0 + inj.magnitude / HoverRotorTimeConstant_s(v);
+      v.motor.inertia_kgm2 *= factor;
+      for (auto& r : v.rotors) r.inertia_kgm2 *= factor;
+    } else if (inj.effect == "wind") {
+      const double psi = 2.0 * kPi * rng->Uniform();
+      const Eigen::Vector3d w(inj.magnitude * std::cos(psi), inj.magnitude * std::sin(psi), 0.0);
+      trial.truth.world.wind.mean_N_mps = w;
+      if (trial.truth.mission.wind) trial.truth.mission.wind->mean_N_mps = w;
     } else if (!IsLogLevel(inj.effect)) {
       return Status::BadInput("selftest: unknown effect '" + inj.effect + "'");
     }
@@ -139,8 +165,14 @@ Result<logs::FlightLog> FlyTrial(Trial* trial, RngStream* rng) {
   const size_t n = log.rows();
   bool need_temp = false;
   std::vector<LogEffect> effects;
-  for (size_t k = 0; k < trial->injections.size(); ++k) {
-    const Injection& inj = trial->injections[k];
+  for (const Injection& inj : trial->injections) {
+    if (inj.effect == "battery_sag") {
+      // The voltage sensor sits upstream of a resistance ΔR: it reads ΔR·I more than the ESCs get.
+      const size_t cv = log.AddColumn("voltage_V");
+      const auto& I = log.Column("current_A");
+      for (size_t i = 0; i < n; ++i) log.MutableColumn(cv)[i] += inj.magnitude * I[i];
+      continue;
+    }
     if (!IsLogLevel(inj.effect)) continue;
     effects.push_back({inj.effect, RandomUnit(rng) * inj.magnitude});
     need_temp = need_temp || inj.effect == "temperature_drift";
@@ -174,6 +206,7 @@ namespace {
 struct ClassStats {
   int n = 0, top1 = 0, detected = 0, unexplained = 0, confident_wrong = 0, covered = 0, coverage_n = 0;
   int any_compass_alarm = 0;
+  int dynamics_alarm = 0, dynamics_n = 0;  // clean logs: gap flagged on the dynamics channel
   std::vector<double> shrink;
   std::map<std::string, std::pair<int, int>> per_effect;  // effect → (top1, n)
   std::map<std::string, std::pair<int, int>> per_effect_coverage;  // effect → (covered, n)
@@ -201,10 +234,12 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& o, void (*progress)(in
   RngStream rng(o.seed, "gap_selftest");
   const auto& effects = InjectableEffects();
   const std::string ch_name = fmt::format("mag{}", kSelftestCompass + 1);
-  const char* classes[] = {"clean", "one_effect", "two_effects", "out_of_library"};
+  const auto& dyn_effects = InjectableDynamicsEffects();
+  const char* classes[] = {"clean", "one_effect", "two_effects", "out_of_library", "dynamics_one_effect"};
+  constexpr int kClasses = 5;
   std::vector<double> threshold_grid = {0.002, 0.005, 0.01, 0.02, 0.05, 0.1};
   const int threshold_runs = static_cast<int>(threshold_grid.size()) * o.threshold_trials;
-  const int total = 4 * o.trials + threshold_runs;
+  const int total = kClasses * o.trials + threshold_runs;
   int done = 0;
   uint64_t run_seed = o.seed * 100003;
   std::map<std::string, ClassStats> stats;
@@ -221,6 +256,9 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& o, void (*progress)(in
       };
       if (c == "one_effect") {
         inj.push_back(draw(static_cast<size_t>(k) % effects.size()));
+      } else if (c == "dynamics_one_effect") {
+        const EffectRange& e = dyn_effects[static_cast<size_t>(k) % dyn_effects.size()];
+        inj.push_back({e.effect, e.lo + (e.hi - e.lo) * rng.Uniform()});
       } else if (c == "two_effects") {
         const size_t a = static_cast<size_t>(rng.Uniform() * effects.size());
         size_t b = static_cast<size_t>(rng.Uniform() * (effects.size() - 1));
@@ -237,8 +275,16 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& o, void (*progress)(in
       if (!log.ok()) return log.status();
       auto rep = Diagnose(*log, trial->configured, o.diagnose);
       if (!rep.ok()) return rep.status();
-      const ChannelResult* r = Find(*rep, ch_name);
-      if (!r) return Status::Numerical("selftest: channel " + ch_name + " was not diagnosed");
+      const bool dyn_class = c == "dynamics_one_effect";
+      const std::string cls_channel = dyn_class ? "dynamics" : ch_name;
+      const ChannelResult* r = Find(*rep, cls_channel);
+      if (!r) return Status::Numerical("selftest: channel " + cls_channel + " was not diagnosed");
+      if (c == "clean") {
+        if (const ChannelResult* d = Find(*rep, "dynamics")) {
+          ++st.dynamics_n;
+          st.dynamics_alarm += d->gap_detected;
+        }
+      }
       ++st.n;
       st.detected += r->gap_detected;
       ++st.verdicts[r->verdict];
@@ -249,13 +295,13 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& o, void (*progress)(in
         }
       }
       const bool hit = std::any_of(inj.begin(), inj.end(), [&](const Injection& i) { return i.effect == r->verdict; });
-      if (c == "one_effect" || c == "two_effects") {
+      if (c == "one_effect" || c == "two_effects" || dyn_class) {
         st.top1 += hit;
-        auto& pe = st.per_effect[c == "one_effect" ? inj[0].effect : inj[0].effect + "+" + inj[1].effect];
+        auto& pe = st.per_effect[c != "two_effects" ? inj[0].effect : inj[0].effect + "+" + inj[1].effect];
         pe.first += hit;
         pe.second += 1;
       }
-      if (c == "one_effect") {
+      if (c == "one_effect" || dyn_class) {
         st.shrink.push_back(r->heldout_shrink);
         for (const auto& cand : r->candidates) {
           if (cand.effect != inj[0].effect) continue;
@@ -303,6 +349,11 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& o, void (*progress)(in
   const ClassStats& one = stats["one_effect"];
   const ClassStats& two = stats["two_effects"];
   const ClassStats& ool = stats["out_of_library"];
+  const ClassStats& dyn = stats["dynamics_one_effect"];
+  const double dyn_top1 = dyn.Rate(dyn.top1);
+  const double dyn_coverage = dyn.coverage_n > 0 ? static_cast<double>(dyn.covered) / dyn.coverage_n : 0.0;
+  const double dyn_false_alarm =
+      clean.dynamics_n > 0 ? static_cast<double>(clean.dynamics_alarm) / clean.dynamics_n : 0.0;
   const double single_top1 = one.Rate(one.top1);
   const double overall_top1 = one.n + two.n > 0 ? static_cast<double>(one.top1 + two.top1) / (one.n + two.n) : 0.0;
   const double false_alarm = clean.Rate(clean.detected);
@@ -313,7 +364,10 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& o, void (*progress)(in
       {"single_top1_ge_0.90", single_top1 >= 0.9},        {"overall_top1_ge_0.70", overall_top1 >= 0.7},
       {"false_alarm_le_0.05", false_alarm <= 0.05},       {"unexplained_ge_0.80", unexplained >= 0.8},
       {"coverage_ge_0.90", coverage >= 0.9},              {"median_shrink_ge_0.50", median_shrink >= 0.5},
-      {"current_hard_iron_threshold_le_0.1uT_per_A", std::isfinite(threshold) && threshold <= 0.1}};
+      {"current_hard_iron_threshold_le_0.1uT_per_A", std::isfinite(threshold) && threshold <= 0.1},
+      {"dynamics_false_alarm_le_0.05", dyn_false_alarm <= 0.05},
+      {"dynamics_single_top1_ge_0.90", dyn_top1 >= 0.9},
+      {"dynamics_coverage_ge_0.90", dyn_coverage >= 0.9}};
   bool met = true;
   for (const auto& [k, v] : targets.items()) met = met && v.get<bool>();
 
@@ -334,18 +388,27 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& o, void (*progress)(in
                          {"gap_detected_rate", s.Rate(s.detected)},
                          {"any_compass_alarm_rate", s.Rate(s.any_compass_alarm)},
                          {"verdicts", s.verdicts}};
-    if (std::string(cls) == "one_effect" || std::string(cls) == "two_effects") {
+    const std::string cname = cls;
+    if (cname == "one_effect" || cname == "two_effects" || cname == "dynamics_one_effect") {
       cj["top1_rate"] = s.Rate(s.top1);
       nlohmann::json pe = nlohmann::json::object();
       for (const auto& [e, v] : s.per_effect) pe[e] = {{"top1", v.first}, {"trials", v.second}};
       for (const auto& [e, v] : s.per_effect_coverage) pe[e]["covered"] = v.first, pe[e]["coverage_trials"] = v.second;
       cj["per_effect"] = pe;
     }
-    if (std::string(cls) == "one_effect") {
+    if (cname == "one_effect") {
       cj["coverage_95"] = coverage;
       cj["median_heldout_shrink"] = median_shrink;
     }
-    if (std::string(cls) == "clean") cj["false_alarm_rate"] = false_alarm;
+    if (cname == "dynamics_one_effect") {
+      cj["channel"] = "dynamics";
+      cj["coverage_95"] = dyn_coverage;
+      cj["median_heldout_shrink"] = dyn.MedianShrink();
+    }
+    if (cname == "clean") {
+      cj["false_alarm_rate"] = false_alarm;
+      cj["dynamics_false_alarm_rate"] = dyn_false_alarm;
+    }
     if (std::string(cls) == "out_of_library") {
       cj["unexplained_rate"] = unexplained;
       cj["confident_wrong_rate"] = s.Rate(s.confident_wrong);
@@ -379,6 +442,14 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& o, void (*progress)(in
     t += fmt::format("      verdicts {:<15}", cls);
     for (const auto& [v, k] : stats[cls].verdicts) t += fmt::format(" {}:{}", v, k);
     t += "\n";
+  }
+  t += fmt::format("  dynamics channel false alarms on clean logs {:5.1f} % (target <= 5 %); one effect top-1 {:5.1f} %, "
+                   "95 % interval coverage {:5.1f} %, median held-out shrink {:4.0f} %\n",
+                   100 * dyn_false_alarm, 100 * dyn_top1, 100 * dyn_coverage, 100 * dyn.MedianShrink());
+  for (const auto& [e, v] : dyn.per_effect) {
+    const auto it = dyn.per_effect_coverage.find(e);
+    const auto cov = it == dyn.per_effect_coverage.end() ? std::pair<int, int>{0, 0} : it->second;
+    t += fmt::format("      {:<20} top-1 {}/{}  interval covers truth {}/{}\n", e, v.first, v.second, cov.first, cov.second);
   }
   t += fmt::format("  out of library   unexplained {:5.1f} % (target >= 80 %), confident wrong {:5.1f} %\n",
                    100 * unexplained, 100 * ool.Rate(ool.confident_wrong));

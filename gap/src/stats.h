@@ -29,7 +29,7 @@ inline double StudentT975(double df) {
 // Ljung–Box Q over lags 1..h of a zero-mean-tested series; returns the p-value (chi-square, h dof).
 inline double LjungBoxP(const std::vector<double>& x, int h) {
   const size_t n = x.size();
-  if (n < static_cast<size_t>(4 * h)) return 1.0;
+  if (n < 4 * static_cast<size_t>(h)) return 1.0;
   double mean = 0;
   for (double v : x) mean += v;
   mean /= static_cast<double>(n);

@@ -1,4 +1,5 @@
 // The vehicle configuration with the fitted effects added.
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -37,6 +38,47 @@ int CompassIndex(const std::string& channel) {
   return -1;
 }
 
+// The dynamics channel's fitted effects as vehicle keys (aero:, battery:, motor:, rotor_defaults:).
+void AddDynamicsEffects(const ChannelResult& ch, const vehicle::VehicleParams& v, YAML::Node* root,
+                        std::vector<std::string>* notes) {
+  if (ch.verdict == "none") return;
+  for (const CandidateResult& k : ch.candidates) {
+    if (!k.selected) continue;
+    const nlohmann::json& p = k.params;
+    if (k.effect == "rotor_drag") {
+      (*root)["aero"]["rotor_drag_N_per_radps_mps"] =
+          v.aero.rotor_drag_N_per_radps_mps + p.value("rotor_drag_N_per_radps_mps", 0.0);
+    } else if (k.effect == "ground_effect") {
+      (*root)["aero"]["ground_effect_radius_m"] = p.value("radius_m", 0.0);
+    } else if (k.effect == "battery_sag") {
+      const double dR = p.value("delta_R_ohm", 0.0);
+      (*root)["battery"]["internal_resistance_ohm"] = std::max(0.0, v.battery.internal_resistance_ohm + dR);
+      notes->push_back(fmt::format("dynamics: battery_sag {:.4f} ohm added to battery.internal_resistance_ohm (the ESCs "
+                                   "see that much less voltage per ampere than the thrust model assumed)",
+                                   dR));
+    } else if (k.effect == "motor_time_constant" && !v.rotors.empty()) {
+      // τ ∝ J at a given rotor speed: scale the motor inertia so hover gains the fitted extra τ.
+      const double tau = HoverRotorTimeConstant_s(v);
+      if (!(tau > 0)) continue;
+      const double factor = std::max(0.1, 1.0 + p.value("tau_extra_s", 0.0) / tau);
+      (*root)["motor"]["inertia_kgm2"] = v.motor.inertia_kgm2 * factor;
+      notes->push_back(fmt::format("dynamics: motor_time_constant +{:.3f} s at hover: motor.inertia_kgm2 x {:.3f} (rotors "
+                                   "with their own inertia_kgm2 are not changed)",
+                                   p.value("tau_extra_s", 0.0), factor));
+    } else if (k.effect == "thrust_scale") {
+      const double s = 1.0 + p.value("thrust_scale_minus_1", 0.0);
+      if ((*root)["rotor_defaults"] && (*root)["rotor_defaults"]["k_T_Nprps2"]) {
+        (*root)["rotor_defaults"]["k_T_Nprps2"] = (*root)["rotor_defaults"]["k_T_Nprps2"].as<double>() * s;
+      } else {
+        notes->push_back(fmt::format("dynamics: thrust_scale {:.4f}: multiply every rotor's k_T_Nprps2 by it", s));
+      }
+    } else {
+      notes->push_back(fmt::format("dynamics: {} fitted ({}) but the vehicle schema has no key for it{}", k.effect,
+                                   p.dump(), k.effect == "wind" ? " (it is the world's wind.mean_N_mps)" : ""));
+    }
+  }
+}
+
 }  // namespace
 
 Result<std::string> UpdatedVehicleYaml(const std::string& text, const vehicle::VehicleParams& v, const GapReport& report) {
@@ -48,6 +90,10 @@ Result<std::string> UpdatedVehicleYaml(const std::string& text, const vehicle::V
   }
   std::vector<std::string> notes;
   for (const ChannelResult& ch : report.channels) {
+    if (ch.channel == "dynamics") {
+      AddDynamicsEffects(ch, v, &root, &notes);
+      continue;
+    }
     const int c = CompassIndex(ch.channel);
     if (c < 0 || c >= static_cast<int>(v.compasses.size()) || !root["compasses"] || !root["compasses"][c]) continue;
     YAML::Node node = root["compasses"][c];

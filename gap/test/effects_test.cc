@@ -72,7 +72,7 @@ TEST_P(CleanLog, GivenACleanSimulatedLogWhenDiagnosedThenNoChannelShowsASignific
   Flown f = Fly({}, GetParam());
   auto rep = Diagnose(f.log, f.trial.configured);
   ASSERT_TRUE(rep.ok()) << rep.status().message();
-  for (const char* ch : {"mag", "mag2", "mag3", "gyro", "accel"}) {
+  for (const char* ch : {"mag", "mag2", "mag3", "gyro", "accel", "dynamics"}) {
     const ChannelResult* c = Find(*rep, ch);
     ASSERT_NE(c, nullptr) << ch;
     EXPECT_FALSE(c->gap_detected) << ch << "\n" << Summary(*rep);

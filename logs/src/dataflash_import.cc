@@ -328,6 +328,7 @@ std::optional<double> Param(const Collected& c, const std::string& name) {
 void AddHeld(const Channel& ch, const std::vector<size_t>& cols_to_use, FlightLog* log) {
   if (ch.size() == 0) return;
   std::vector<size_t> out_cols;
+  out_cols.reserve(cols_to_use.size());
   for (size_t c : cols_to_use) out_cols.push_back(log->AddColumn(ch.columns[c]));
   const bool has_t = !ch.t_column.empty();
   const size_t t_col = has_t ? log->AddColumn(ch.t_column) : 0;
@@ -431,8 +432,8 @@ bool IsParameterOfInterest(const std::string& n) {
   return false;
 }
 
-double DecimalYearFromGps(int week, double tow_s) {
-  const double unix_s = UnixFromGps(week, tow_s);
+double DecimalYearFromGps(int week, double time_of_week_s) {
+  const double unix_s = UnixFromGps(week, time_of_week_s);
   const std::time_t t = static_cast<std::time_t>(std::floor(unix_s));
   std::tm tm{};
   gmtime_r(&t, &tm);
@@ -484,9 +485,9 @@ Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string
 
   // Rows: one per ATT sample.
   const size_t t_col = log.AddColumn("t_s");
-  for (size_t i = 0; i < att_t.size(); ++i) {
+  for (const double t_s : att_t) {
     log.AppendRow();
-    log.Set(t_col, att_t[i]);
+    log.Set(t_col, t_s);
   }
   // Truth position/velocity (the autopilot's EKF) come right after t_s, as in the schema.
   const Channel* ekf = nullptr;

@@ -30,6 +30,10 @@ void FlightLog::AppendRow() {
   ++rows_;
 }
 
+void FlightLog::Reserve(size_t rows) {
+  for (auto& c : data_) c.reserve(rows);
+}
+
 const std::vector<double>& FlightLog::Column(const std::string& name) const {
   const int idx = ColumnIndex(name);
   HEXSIM_CHECK(idx >= 0);

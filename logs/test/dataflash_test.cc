@@ -104,7 +104,7 @@ TEST(DataFlashReader, GivenFmtuAndMult_WhenDecoded_ThenTheLoggedMultiplierAndUni
 
 TEST(DataFlashReader, GivenGarbageBetweenMessages_WhenRead_ThenItResynchronisesAndCountsTheSkippedBytes) {
   DataFlashWriter w = SmallLog(3);
-  const std::string clean = w.bytes();
+  const std::string& clean = w.bytes();
   // Garbage with a fake header (unknown type 0xEE) inserted after the first ATT message.
   const size_t insert_at = 2 * 89 + 23;  // two FMT, one ATT
   std::string damaged = clean.substr(0, insert_at) + std::string("\x01\x02\xA3\x95\xEE\x10garbage!", 14) +

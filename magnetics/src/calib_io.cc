@@ -169,7 +169,7 @@ nlohmann::json YamlToJson(const YAML::Node& node) {
       return j;
     }
     case YAML::NodeType::Scalar: {
-      const std::string s = node.Scalar();
+      const std::string& s = node.Scalar();
       double v = 0.0;
       if (ParseDouble(s, &v)) return v;
       return s;

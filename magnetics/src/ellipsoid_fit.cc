@@ -42,7 +42,7 @@ void CentreAndScale(const std::vector<Vector3d>& H, Vector3d* mean, double* scal
 double SpreadRatio(const std::vector<Vector3d>& H, const Vector3d& mean) {
   Matrix3d C = Matrix3d::Zero();
   for (const auto& h : H) C += (h - mean) * (h - mean).transpose();
-  Eigen::SelfAdjointEigenSolver<Matrix3d> es(C);
+  Eigen::SelfAdjointEigenSolver<Matrix3d> es(C, Eigen::EigenvaluesOnly);  // (same values, no vectors)
   const Vector3d ev = es.eigenvalues().cwiseMax(0.0);
   if (ev(2) <= 0.0) return 0.0;
   return std::sqrt(ev(0) / ev(2));
@@ -74,7 +74,11 @@ Status AlgebraicEllipsoid(const std::vector<Vector3d>& xn, Vector3d* beta_n, Mat
     const double x = xn[i](0), y = xn[i](1), z = xn[i](2);
     D.row(i) << x * x, y * y, z * z, 2 * y * z, 2 * x * z, 2 * x * y, 2 * x, 2 * y, 2 * z, 1.0;
   }
-  const Eigen::Matrix<double, 10, 10> S = D.transpose() * D;
+  // S = DᵀD from column dot products, upper triangle mirrored (half a GEMM, no packing).
+  Eigen::Matrix<double, 10, 10> S;
+  for (int c = 0; c < 10; ++c) {
+    for (int r = 0; r <= c; ++r) S(r, c) = S(c, r) = D.col(r).dot(D.col(c));
+  }
   const Eigen::Matrix<double, 6, 6> S11 = S.topLeftCorner<6, 6>();
   const Eigen::Matrix<double, 6, 4> S12 = S.topRightCorner<6, 4>();
   const Eigen::Matrix<double, 4, 4> S22 = S.bottomRightCorner<4, 4>();
@@ -131,22 +135,24 @@ struct LmResult {
 LmResult RefineLm(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, bool sphere,
                   Eigen::Matrix<double, 9, 1>* params) {
   using Vec9 = Eigen::Matrix<double, 9, 1>;
+  using Mat9 = Eigen::Matrix<double, 9, 9>;
   const Eigen::Index n = static_cast<Eigen::Index>(H.size());
+  // Residuals e and Jacobian J (n×9, every column written: the caller's buffer is reused).
   auto evaluate = [&](const Vec9& p, Eigen::VectorXd* e, Eigen::MatrixXd* J) {
     const Matrix3d M = SymFromParams(p);
     const Vector3d beta = p.tail<3>();
     e->resize(n);
-    if (J) J->setZero(n, 9);
+    J->resize(n, 9);
     for (Eigen::Index i = 0; i < n; ++i) {
       const Vector3d v = H[i] - beta;
       const Vector3d w = M * v;
       const double nw = w.norm();
       (*e)(i) = nw - 1.0;
-      if (!J) continue;
       const Vector3d u = nw > 0.0 ? Vector3d(w / nw) : Vector3d::Zero();
       if (sphere) {
         const double dm = u.dot(v);  // d/dm of ‖m v‖ with M = m I
         (*J)(i, 0) = dm;
+        for (int c = 1; c < 6; ++c) (*J)(i, c) = 0.0;
       } else {
         (*J)(i, 0) = u(0) * v(0);
         (*J)(i, 1) = u(1) * v(1);
@@ -158,38 +164,57 @@ LmResult RefineLm(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, 
       J->block<1, 3>(i, 6) = -(u.transpose() * M);
     }
   };
+  // Normal equations of the full 9 columns, JᵀJ and Jᵀe, as column dot products (contiguous
+  // columns; upper triangle mirrored): half the work of a GEMM and none of its packing.
+  auto normal = [&](const Eigen::MatrixXd& J, const Eigen::VectorXd& e, Mat9* JtJ, Vec9* Jte) {
+    for (int c = 0; c < 9; ++c) {
+      for (int r = 0; r <= c; ++r) (*JtJ)(r, c) = (*JtJ)(c, r) = J.col(r).dot(J.col(c));
+      (*Jte)(c) = J.col(c).dot(e);
+    }
+  };
   // Active parameter mask.
   std::vector<int> active = sphere ? std::vector<int>{0, 6, 7, 8} : std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7, 8};
   const Eigen::Index na = static_cast<Eigen::Index>(active.size());
-  auto apply_step = [&](const Vec9& p, const Eigen::VectorXd& dx) {
+  // Active-parameter sized (≤ 9) matrices and vectors, stored inline: no heap in the iterations.
+  using MatA = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 9, 9>;
+  using VecA = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 9, 1>;
+  auto apply_step = [&](const Vec9& p, const VecA& dx) {
     Vec9 q = p;
     for (Eigen::Index k = 0; k < na; ++k) q(active[k]) += dx(k);
     if (sphere) q(1) = q(2) = q(0);
     return q;
   };
-  auto reduce = [&](const Eigen::MatrixXd& J) {
-    Eigen::MatrixXd Ja(J.rows(), na);
-    for (Eigen::Index k = 0; k < na; ++k) Ja.col(k) = J.col(active[k]);
-    return Ja;
+  // The active parameters' block of the normal equations (na×na, na×1).
+  auto reduce = [&](const Mat9& JtJ9, const Vec9& Jte9, MatA* JtJ, VecA* g) {
+    JtJ->resize(na, na);
+    g->resize(na);
+    for (Eigen::Index k = 0; k < na; ++k) {
+      (*g)(k) = Jte9(active[k]);
+      for (Eigen::Index l = 0; l < na; ++l) (*JtJ)(k, l) = JtJ9(active[k], active[l]);
+    }
   };
 
   LmResult r;
   Vec9 p = *params;
-  Eigen::VectorXd e;
-  Eigen::MatrixXd J;
+  // The trial step's residuals and Jacobian are evaluated together (a trial is usually accepted,
+  // and then its Jacobian is the next one): J_new, e_new are swapped in on acceptance.
+  Eigen::VectorXd e, e_new;
+  Eigen::MatrixXd J, J_new;
+  Mat9 JtJ9;
+  Vec9 Jte9;
   evaluate(p, &e, &J);
+  normal(J, e, &JtJ9, &Jte9);
   double cost = e.squaredNorm();
   double lambda = 1e-3;
+  MatA JtJ;
+  VecA g;
   for (r.iterations = 1; r.iterations <= o.max_iterations; ++r.iterations) {
-    const Eigen::MatrixXd Ja = reduce(J);
-    const Eigen::MatrixXd JtJ = Ja.transpose() * Ja;
-    const Eigen::VectorXd g = Ja.transpose() * e;
+    reduce(JtJ9, Jte9, &JtJ, &g);
     bool accepted = false;
-    Eigen::VectorXd dx;
+    VecA dx;
     Vec9 p_new;
-    Eigen::VectorXd e_new;
     for (int tries = 0; tries < 30 && !accepted; ++tries) {
-      Eigen::MatrixXd A = JtJ;
+      MatA A = JtJ;
       for (Eigen::Index k = 0; k < na; ++k) A(k, k) += lambda * std::max(JtJ(k, k), 1e-300);
       dx = -A.ldlt().solve(g);
       if (!dx.allFinite()) {
@@ -197,7 +222,7 @@ LmResult RefineLm(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, 
         continue;
       }
       p_new = apply_step(p, dx);
-      evaluate(p_new, &e_new, nullptr);
+      evaluate(p_new, &e_new, &J_new);
       const double cost_new = e_new.squaredNorm();
       if (std::isfinite(cost_new) && cost_new <= cost) {
         accepted = true;
@@ -206,7 +231,9 @@ LmResult RefineLm(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, 
         p = p_new;
         cost = cost_new;
         lambda = std::max(lambda / 10.0, 1e-12);
-        evaluate(p, &e, &J);
+        e.swap(e_new);
+        J.swap(J_new);
+        normal(J, e, &JtJ9, &Jte9);
         if (rel_decrease < o.function_tolerance || rel_step < o.parameter_tolerance || cost == 0.0) {
           r.converged = true;
         }
@@ -221,16 +248,18 @@ LmResult RefineLm(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, 
     if (r.converged) break;
   }
   if (r.iterations > o.max_iterations) r.iterations = o.max_iterations;
-  // Condition number of the column-scaled Jacobian.
-  Eigen::MatrixXd Ja = reduce(J);
+  // Condition number of the column-scaled Jacobian Ja·D⁻¹ (D = its column norms √(JaᵀJa)_kk), at
+  // the final parameters: cond = sqrt(λmax/λmin) of D⁻¹·JaᵀJa·D⁻¹, the same number as an SVD of
+  // the scaled n×9 Jacobian, from the normal matrix already accumulated.
+  reduce(JtJ9, Jte9, &JtJ, &g);
   for (Eigen::Index k = 0; k < na; ++k) {
-    const double cn = Ja.col(k).norm();
-    if (cn > 0.0) Ja.col(k) /= cn;
+    const double cn = std::sqrt(JtJ(k, k));
+    if (cn > 0.0) {
+      JtJ.row(k) /= cn;
+      JtJ.col(k) /= cn;
+    }
   }
-  // cond(Ja) = sqrt(λmax/λmin) of the small normal matrix JaᵀJa: same number as an SVD of the
-  // n×9 Jacobian at a fraction of the cost.
-  const Eigen::MatrixXd JtJ = Ja.transpose() * Ja;
-  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(JtJ, Eigen::EigenvaluesOnly);
+  Eigen::SelfAdjointEigenSolver<MatA> eig(JtJ, Eigen::EigenvaluesOnly);
   const auto& ev = eig.eigenvalues();  // ascending
   r.condition_number = ev(0) > 0.0 ? std::sqrt(ev(ev.size() - 1) / ev(0)) : std::numeric_limits<double>::infinity();
   *params = p;
@@ -346,25 +375,57 @@ std::string FitGate::Failures() const {
 double DirectionCoverage(const std::vector<Vector3d>& v, int bins) {
   if (bins < 1 || v.empty()) return 0.0;
   std::vector<Vector3d> centres(static_cast<size_t>(bins));
+  std::vector<double> centre_rho(static_cast<size_t>(bins));
   for (int k = 0; k < bins; ++k) {
     const double z = 1.0 - (2.0 * k + 1.0) / bins;
     const double rho = std::sqrt(std::max(0.0, 1.0 - z * z));
     const double phi = kGoldenAngle_rad * k;
     centres[static_cast<size_t>(k)] = Vector3d(rho * std::cos(phi), rho * std::sin(phi), z);
+    centre_rho[static_cast<size_t>(k)] = rho;
   }
   std::vector<bool> hit(static_cast<size_t>(bins), false);
+  // The bin of u is the centre of largest c·u (the first one on ties). Centres are sorted by
+  // polar angle θ_k (z falls with k) and c_k·u ≤ cos(θ_k − θ_u) = z_k u_z + ρ_k ρ_u, a bound that
+  // falls monotonically on either side of u's polar angle: search outward from the centre nearest
+  // in z and stop each way once the bound is below the best dot (by a margin far above rounding).
+  // Same bins as comparing u with every centre, at a fraction of the cost.
+  constexpr double kMargin = 1e-12;
+  const int last = bins - 1;
   for (const auto& x : v) {
     const double nx = x.norm();
     if (!(nx > 0.0)) continue;
     const Vector3d u = x / nx;
     size_t best = 0;
     double best_dot = -2.0;
-    for (size_t k = 0; k < centres.size(); ++k) {
+    auto consider = [&](size_t k) {
       const double d = centres[k].dot(u);
-      if (d > best_dot) {
+      if (d > best_dot || (d == best_dot && k < best)) {
         best_dot = d;
         best = k;
       }
+    };
+    if (!u.allFinite()) {  // (all dots NaN: bin 0, as a full scan gives)
+      for (size_t k = 0; k < centres.size(); ++k) consider(k);
+      hit[best] = true;
+      continue;
+    }
+    const double rho_u = std::sqrt(std::max(0.0, 1.0 - u.z() * u.z()));
+    // The bound falls monotonically once θ_k is past θ_u (z_k ≤ u_z going up in k, z_k ≥ u_z going
+    // down); before that every centre is compared.
+    auto beaten = [&](int k) {
+      const size_t i = static_cast<size_t>(k);
+      return centres[i].z() * u.z() + centre_rho[i] * rho_u < best_dot - kMargin;
+    };
+    // Any start is correct (the pruning only needs the side of θ_u); the nearest in z is fastest.
+    const int k0 = std::clamp(static_cast<int>(0.5 * (1.0 - u.z()) * bins), 0, last);
+    consider(static_cast<size_t>(k0));
+    for (int k = k0 + 1; k <= last; ++k) {
+      if (centres[static_cast<size_t>(k)].z() <= u.z() && beaten(k)) break;
+      consider(static_cast<size_t>(k));
+    }
+    for (int k = k0 - 1; k >= 0; --k) {
+      if (centres[static_cast<size_t>(k)].z() >= u.z() && beaten(k)) break;
+      consider(static_cast<size_t>(k));
     }
     hit[best] = true;
   }
@@ -399,7 +460,7 @@ EllipsoidFit FitEllipsoid(const std::vector<Vector3d>& H, const EllipsoidFitOpti
   }
   std::vector<Vector3d> xn;
   xn.reserve(H.size());
-  for (const auto& h : H) xn.push_back((h - mean) / scale);
+  for (const auto& h : H) xn.emplace_back((h - mean) / scale);
   Vector3d beta_n;
   Matrix3d M_n;
   f.status = AlgebraicEllipsoid(xn, &beta_n, &M_n);
@@ -418,7 +479,7 @@ EllipsoidFit FitEllipsoid(const std::vector<Vector3d>& H, const EllipsoidFitOpti
     return f;
   }
   const Matrix3d M = SymFromParams(p);
-  Eigen::SelfAdjointEigenSolver<Matrix3d> es(M);
+  Eigen::SelfAdjointEigenSolver<Matrix3d> es(M, Eigen::EigenvaluesOnly);  // (same values, no vectors)
   if (!(es.eigenvalues().minCoeff() > 0.0)) {
     f.status = Status::Numerical("ellipsoid refinement left the positive-definite region");
     return f;

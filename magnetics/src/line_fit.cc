@@ -128,16 +128,16 @@ Status LineFitOptions::IsValid() const {
   return Status::Ok();
 }
 
-PaperLineFit FitLinePaperTls(const std::vector<Vector3d>& pts, const LineFitOptions& o) {
+PaperLineFit FitLinePaperTls(const std::vector<Vector3d>& points_uT, const LineFitOptions& options) {
   PaperLineFit f;
-  f.status = o.IsValid();
+  f.status = options.IsValid();
   if (!f.status.ok()) return f;
-  f.status = CheckPoints(pts);
+  f.status = CheckPoints(points_uT);
   if (!f.status.ok()) return f;
-  const Vector3d mu = Centroid(pts);
-  const Eigen::Index n = static_cast<Eigen::Index>(pts.size());
+  const Vector3d mu = Centroid(points_uT);
+  const Eigen::Index n = static_cast<Eigen::Index>(points_uT.size());
   double ss_all = 0.0, ss_z = 0.0;
-  for (const auto& p : pts) {
+  for (const auto& p : points_uT) {
     ss_all += (p - mu).squaredNorm();
     ss_z += std::pow(p(2) - mu(2), 2);
   }
@@ -145,7 +145,7 @@ PaperLineFit FitLinePaperTls(const std::vector<Vector3d>& pts, const LineFitOpti
     f.status = Status::BadInput("line fit: all points coincide");
     return f;
   }
-  if (std::sqrt(ss_z / ss_all) < o.singular_tolerance) {
+  if (std::sqrt(ss_z / ss_all) < options.singular_tolerance) {
     f.status = Status::Numerical(
         "paper line form x = a z + b, y = c z + d is singular: z does not vary along the points "
         "(centres move in the X-Y plane); use the direction-vector fit");
@@ -160,7 +160,7 @@ PaperLineFit FitLinePaperTls(const std::vector<Vector3d>& pts, const LineFitOpti
   Eigen::MatrixXd B = Eigen::MatrixXd::Zero(2 * n, 2);
   Eigen::VectorXd L(2 * n);
   for (Eigen::Index i = 0; i < n; ++i) {
-    const Vector3d p = pts[static_cast<size_t>(i)] - mu;
+    const Vector3d p = points_uT[static_cast<size_t>(i)] - mu;
     B(2 * i, 0) = p(2);
     B(2 * i + 1, 1) = p(2);
     L(2 * i) = p(0);
@@ -179,7 +179,7 @@ PaperLineFit FitLinePaperTls(const std::vector<Vector3d>& pts, const LineFitOpti
     f.status = Status::Numerical("paper line form: singular normal matrix BᵀB (z does not vary)");
     return f;
   }
-  for (f.iterations = 1; f.iterations <= o.max_iterations; ++f.iterations) {
+  for (f.iterations = 1; f.iterations <= options.max_iterations; ++f.iterations) {
     // (E + ξξᵀ) B̂ᵀ = Bᵀ + ξ Lᵀ  (eq. 16)
     const Eigen::Matrix2d E = Eigen::Matrix2d::Identity() + xi * xi.transpose();
     const Eigen::MatrixXd Bh = E.ldlt().solve(B.transpose() + xi * L.transpose()).transpose();
@@ -191,14 +191,14 @@ PaperLineFit FitLinePaperTls(const std::vector<Vector3d>& pts, const LineFitOpti
     }
     const double step = (xi_new - xi).norm();
     xi = xi_new;
-    if (step < o.tolerance * (1.0 + xi.norm())) {
+    if (step < options.tolerance * (1.0 + xi.norm())) {
       f.converged = true;
       break;
     }
   }
   if (!f.converged) {
-    f.iterations = o.max_iterations;
-    f.status = Status::Numerical(fmt::format("paper line TLS did not converge in {} iterations", o.max_iterations));
+    f.iterations = options.max_iterations;
+    f.status = Status::Numerical(fmt::format("paper line TLS did not converge in {} iterations", options.max_iterations));
     return f;
   }
   // Restore intercepts: x − μx = a (z − μz).
@@ -208,17 +208,17 @@ PaperLineFit FitLinePaperTls(const std::vector<Vector3d>& pts, const LineFitOpti
   f.d_uT = mu(1) - f.c * mu(2);
   f.line.point_uT = Vector3d(f.b_uT, f.d_uT, 0.0);
   f.line.direction = Vector3d(f.a, f.c, 1.0).normalized();
-  f.rms_residual_uT = RmsDistance(f.line, pts);
+  f.rms_residual_uT = RmsDistance(f.line, points_uT);
   return f;
 }
 
-SvdLineFit FitLineSvd(const std::vector<Vector3d>& pts) {
+SvdLineFit FitLineSvd(const std::vector<Vector3d>& points_uT) {
   SvdLineFit f;
-  f.status = CheckPoints(pts);
+  f.status = CheckPoints(points_uT);
   if (!f.status.ok()) return f;
-  const Vector3d mu = Centroid(pts);
-  Eigen::MatrixXd X(static_cast<Eigen::Index>(pts.size()), 3);
-  for (size_t i = 0; i < pts.size(); ++i) X.row(static_cast<Eigen::Index>(i)) = (pts[i] - mu).transpose();
+  const Vector3d mu = Centroid(points_uT);
+  Eigen::MatrixXd X(static_cast<Eigen::Index>(points_uT.size()), 3);
+  for (size_t i = 0; i < points_uT.size(); ++i) X.row(static_cast<Eigen::Index>(i)) = (points_uT[i] - mu).transpose();
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(X, Eigen::ComputeThinV);
   f.singular_values = svd.singularValues();
   if (!(f.singular_values(0) > 0.0)) {
@@ -231,7 +231,7 @@ SvdLineFit FitLineSvd(const std::vector<Vector3d>& pts) {
   if (dir(imax) < 0.0) dir = -dir;
   f.line.point_uT = mu;
   f.line.direction = dir.normalized();
-  f.rms_residual_uT = RmsDistance(f.line, pts);
+  f.rms_residual_uT = RmsDistance(f.line, points_uT);
   return f;
 }
 

@@ -25,7 +25,7 @@ std::vector<Vector3d> SphereSamples(const Matrix3d& K, const Vector3d& beta, dou
   for (int i = 0; i < n; ++i) {
     Vector3d u = rng.Normal3(1.0);
     u.normalize();
-    H.push_back(K * (kField_uT * u) + beta + rng.Normal3(sigma_uT));
+    H.emplace_back(K * (kField_uT * u) + beta + rng.Normal3(sigma_uT));
   }
   return H;
 }
@@ -62,6 +62,7 @@ TEST(EllipsoidFit, GivenThreeTurntablePlanesWithNoise_WhenFitted_ThenRecoversSof
   RngStream rng(7, "turntable");
   const auto samples = testing::Turntable(rig, rng);
   std::vector<Vector3d> H;
+  H.reserve(samples.size());
   for (const auto& s : samples) H.push_back(s.mag_B_uT);
   EllipsoidFitOptions o;
   o.planes_present = 3;

@@ -15,7 +15,8 @@ using Eigen::Vector3d;
 
 std::vector<Vector3d> PointsOnLine(const Vector3d& p0, const Vector3d& dir, const std::vector<double>& t) {
   std::vector<Vector3d> pts;
-  for (double ti : t) pts.push_back(p0 + ti * dir);
+  pts.reserve(t.size());
+  for (double ti : t) pts.emplace_back(p0 + ti * dir);
   return pts;
 }
 
@@ -49,6 +50,7 @@ TEST(LineFit, GivenNoiseInEveryCoordinate_WhenFittedOverManySeeds_ThenTlsSlopeIs
   const Vector3d p0(5.0, 3.0, 0.0);
   const Vector3d dir(a_true, c_true, 1.0);
   std::vector<double> t;
+  t.reserve(12);
   for (int i = 0; i < 12; ++i) t.push_back(-4.0 + 8.0 * i / 11.0);
   double var_z = 0.0;
   for (double ti : t) var_z += ti * ti / t.size();
@@ -105,6 +107,7 @@ TEST(LineFit, GivenOnePointOrNan_WhenFitted_ThenBadInput) {
 TEST(AlongFit, GivenPositionsLinearInCurrent_WhenLinearFitted_ThenRecoversInterceptAndSlope) {
   const std::vector<double> I = {0.6, 35.6, 53.1, 20.0};
   std::vector<double> s;
+  s.reserve(I.size());
   for (double i : I) s.push_back(-2.0 + 0.11 * i);
   const AlongFit f = FitLinearAlong(I, s);
   ASSERT_TRUE(f.status.ok());

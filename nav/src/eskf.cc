@@ -314,12 +314,33 @@ class Eskf final : public Estimator {
 
   // P ← F P Fᵀ + Q; F = I + A dt (A as in the header), Q from the noise densities.
   void PredictCovariance(const Eigen::Matrix3d& R, const Eigen::Vector3d& f_N, double dt) {
-    Mat15 F = Mat15::Identity();
-    F.block<3, 3>(kTh, kBg) = -R * dt;
-    F.block<3, 3>(kV, kTh) = -Skew(f_N) * dt;
-    F.block<3, 3>(kV, kBa) = -R * dt;
-    F.block<3, 3>(kP, kV) = Eigen::Matrix3d::Identity() * dt;
-    Mat15 P = F * P_ * F.transpose();
+    // F = I except F_θ,bg = −R·dt (A), F_v,θ = −[f_N]×·dt (B), F_v,ba = −R·dt (A), F_p,v = I·dt.
+    // F·P·Fᵀ is written blockwise (3×3 by 3×15 products, no general 15×15 GEMM at 1 kHz), only
+    // its upper block triangle, then mirrored: P stays exactly symmetric.
+    using Rows3 = Eigen::Matrix<double, 3, 15>;
+    const Eigen::Matrix3d A = -R * dt;
+    const Eigen::Matrix3d B = -Skew(f_N) * dt;
+    // Row blocks of M = F·P (the bias rows of M are those of P).
+    Rows3 M_th = P_.middleRows<3>(kTh);
+    M_th.noalias() += A * P_.middleRows<3>(kBg);
+    Rows3 M_v = P_.middleRows<3>(kV);
+    M_v.noalias() += B * P_.middleRows<3>(kTh);
+    M_v.noalias() += A * P_.middleRows<3>(kBa);
+    const Rows3 M_p = P_.middleRows<3>(kP) + dt * P_.middleRows<3>(kV);
+    // Column blocks of M·Fᵀ: col θ = M_θ + M_bg·Aᵀ; col v = M_v + M_θ·Bᵀ + M_ba·Aᵀ;
+    // col p = M_p + dt·M_v; bias columns unchanged.
+    const Eigen::Matrix3d At = A.transpose(), Bt = B.transpose();
+    Mat15 P;
+    P.block<3, 3>(kTh, kTh) = M_th.middleCols<3>(kTh) + M_th.middleCols<3>(kBg) * At;
+    P.block<3, 3>(kTh, kV) = M_th.middleCols<3>(kV) + M_th.middleCols<3>(kTh) * Bt + M_th.middleCols<3>(kBa) * At;
+    P.block<3, 3>(kTh, kP) = M_th.middleCols<3>(kP) + dt * M_th.middleCols<3>(kV);
+    P.block<3, 6>(kTh, kBg) = M_th.middleCols<6>(kBg);
+    P.block<3, 3>(kV, kV) = M_v.middleCols<3>(kV) + M_v.middleCols<3>(kTh) * Bt + M_v.middleCols<3>(kBa) * At;
+    P.block<3, 3>(kV, kP) = M_v.middleCols<3>(kP) + dt * M_v.middleCols<3>(kV);
+    P.block<3, 6>(kV, kBg) = M_v.middleCols<6>(kBg);
+    P.block<3, 3>(kP, kP) = M_p.middleCols<3>(kP) + dt * M_p.middleCols<3>(kV);
+    P.block<3, 6>(kP, kBg) = M_p.middleCols<6>(kBg);
+    P.block<6, 6>(kBg, kBg) = P_.block<6, 6>(kBg, kBg);
     const double qg = prm_.gyro_noise_radps_rthz * prm_.gyro_noise_radps_rthz * dt;
     const double qa = prm_.accel_noise_mps2_rthz * prm_.accel_noise_mps2_rthz * dt;
     const double qbg = prm_.gyro_bias_rw_radps2_rthz * prm_.gyro_bias_rw_radps2_rthz * dt;
@@ -330,7 +351,9 @@ class Eskf final : public Estimator {
       P(kBg + i, kBg + i) += qbg;
       P(kBa + i, kBa + i) += qba;
     }
-    P = 0.5 * (P + P.transpose());
+    for (int c = 0; c < 15; ++c) {
+      for (int r = c + 1; r < 15; ++r) P(r, c) = P(c, r);
+    }
     if (!CheckCovariance(P, t_, "covariance predict")) return;
     P_ = P;
   }
@@ -351,11 +374,18 @@ class Eskf final : public Estimator {
     Mat15 P = P_;
     for (int i = 0; i < n; ++i) {
       const Vec15 PHt = P * H[i].transpose();
-      const double S = (H[i] * PHt)(0, 0) + r[i];
+      const double S = H[i].dot(PHt) + r[i];
       const Vec15 K = PHt / S;
-      dx += K * (y[i] - (H[i] * dx)(0, 0));
-      const Mat15 IKH = Mat15::Identity() - K * H[i];
-      P = IKH * P * IKH.transpose() + (K * r[i]) * K.transpose();  // Joseph form
+      dx += K * (y[i] - H[i].dot(dx));
+      // Joseph form (I−KH)·P·(I−KH)ᵀ + K·r·Kᵀ, evaluated as rank-1 updates (O(n²), no 15×15 GEMM):
+      // X = (I−KH)·P = P − K·(H·P);  X·(I−KH)ᵀ = X − (X·Hᵀ)·Kᵀ.
+      const Row15 HP = H[i] * P;
+      Mat15 X = P;
+      X.noalias() -= K * HP;
+      const Vec15 XHt = X * H[i].transpose();
+      P = X;
+      P.noalias() -= XHt * K.transpose();
+      P.noalias() += (K * r[i]) * K.transpose();
     }
     P = 0.5 * (P + P.transpose());
     const std::string where = std::string(what) + " update";
@@ -373,9 +403,11 @@ class Eskf final : public Estimator {
     bg_ += dx.segment<3>(kBg);
     ba_ += dx.segment<3>(kBa);
     buffer_.Shift(dx.segment<3>(kP), dx.segment<3>(kV));
-    Mat15 G = Mat15::Identity();
-    G.block<3, 3>(kTh, kTh) += Skew(0.5 * dth);
-    P_ = G * P * G.transpose();
+    // P ← G·P·Gᵀ with G = I except G_θθ = I + [δθ̂/2]×: only the θ row and column blocks change.
+    const Eigen::Matrix3d G = Eigen::Matrix3d::Identity() + Skew(0.5 * dth);
+    P.middleRows<3>(kTh) = (G * P.middleRows<3>(kTh)).eval();
+    P.middleCols<3>(kTh) = (P.middleCols<3>(kTh) * G.transpose()).eval();
+    P_ = P;
     return true;
   }
 

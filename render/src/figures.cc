@@ -223,7 +223,7 @@ Status RenderStandardFigures(const logs::FlightLog& log, const std::string& out_
       }
       if (k == 2) p.y_range = Range{-185.0, 185.0};
       if (k > 0) p.legend = LegendPosition::kNone;
-      f.panels.push_back(p);
+      f.panels.emplace_back(p);
     }
     HEXSIM_RETURN_IF_ERROR(out.Write("attitude.png", f, kFigureWidth_px, 900));
   }
@@ -286,12 +286,12 @@ Status RenderStandardFigures(const logs::FlightLog& log, const std::string& out_
       const std::string name = "motor_" + std::to_string(m) + "_A";
       if (HasData(log, name)) current.series.push_back(Line("motor " + std::to_string(m), t, log.Column(name)));
     }
-    if (!current.series.empty()) f.panels.push_back(current);
+    if (!current.series.empty()) f.panels.emplace_back(current);
     if (HasData(log, "voltage_V")) {
       Plot2D volt = TimePlot(log, "", "voltage (V)");
       volt.series.push_back(Line("bus voltage", t, log.Column("voltage_V"), PaletteColour(3)));
       volt.legend = LegendPosition::kNone;
-      f.panels.push_back(volt);
+      f.panels.emplace_back(volt);
     }
     f.rows = static_cast<int>(f.panels.size());
     if (f.rows == 2) std::get<Plot2D>(f.panels[0]).x_label.clear();
@@ -306,12 +306,12 @@ Status RenderStandardFigures(const logs::FlightLog& log, const std::string& out_
       const std::string name = "motor_" + std::to_string(m) + "_u";
       if (HasData(log, name)) motors.series.push_back(Line("motor " + std::to_string(m), t, log.Column(name)));
     }
-    if (!motors.series.empty()) f.panels.push_back(motors);
+    if (!motors.series.empty()) f.panels.emplace_back(motors);
     if (HasData(log, "control_u")) {
       Plot2D u = TimePlot(log, "", "control amount (0…1000)");
       u.series.push_back(Line("control_u", t, log.Column("control_u"), Colour{0.13f, 0.13f, 0.13f, 1.0f}));
       u.legend = LegendPosition::kNone;
-      f.panels.push_back(u);
+      f.panels.emplace_back(u);
     }
     f.rows = static_cast<int>(f.panels.size());
     if (f.rows == 2) std::get<Plot2D>(f.panels[0]).x_label.clear();

@@ -220,7 +220,7 @@ Status DrawPlot3D(Canvas& canvas, const Plot3D& plot, double x0, double y0, doub
       return cam.Screen({e.centre[0] + Dot(e.shape[0], u), e.centre[1] + Dot(e.shape[1], u),
                          e.centre[2] + Dot(e.shape[2], u)});
     };
-    constexpr int kRings = 7, kMeridians = 12;
+    constexpr int kRings = 7, kMeridians = 12, kHalfSegments = kEllipseSegments / 2;
     for (int i = 1; i <= kRings; ++i) {
       std::vector<Pt> ring;
       const double theta = 3.14159265358979323846 * i / (kRings + 1);
@@ -230,7 +230,7 @@ Status DrawPlot3D(Canvas& canvas, const Plot3D& plot, double x0, double y0, doub
     for (int j = 0; j < kMeridians; ++j) {
       std::vector<Pt> meridian;
       const double phi = 2.0 * 3.14159265358979323846 * j / kMeridians;
-      for (int i = 0; i <= kEllipseSegments / 2; ++i) meridian.push_back(On(3.14159265358979323846 * i / (kEllipseSegments / 2), phi));
+      for (int i = 0; i <= kHalfSegments; ++i) meridian.push_back(On(3.14159265358979323846 * i / kHalfSegments, phi));
       canvas.Polyline(meridian, wire, 1.0);
     }
     if (!e.label.empty()) legend.push_back({e.label, c, SeriesStyle::kLine, false});
@@ -262,7 +262,7 @@ Result<Image> Render(const Plot3D& plot, int width, int height) {
 
 Result<Image> Render(const Figure& figure, int width, int height) {
   if (figure.rows < 1 || figure.cols < 1) return Status::BadInput("render: figure needs at least one row and column");
-  if (figure.panels.size() > static_cast<size_t>(figure.rows * figure.cols)) {
+  if (figure.panels.size() > static_cast<size_t>(figure.rows) * static_cast<size_t>(figure.cols)) {
     return Status::BadInput("render: figure has more panels than rows × cols");
   }
   Result<std::unique_ptr<internal::Canvas>> made = internal::Canvas::Create(width, height);
@@ -278,8 +278,9 @@ Result<Image> Render(const Figure& figure, int width, int height) {
   }
   const double cw = static_cast<double>(width) / figure.cols, ch = (height - top) / figure.rows;
   for (size_t i = 0; i < figure.panels.size(); ++i) {
-    const double px = cw * static_cast<double>(i % static_cast<size_t>(figure.cols));
-    const double py = top + ch * static_cast<double>(i / static_cast<size_t>(figure.cols));
+    const size_t col = i % static_cast<size_t>(figure.cols), row = i / static_cast<size_t>(figure.cols);
+    const double px = cw * static_cast<double>(col);
+    const double py = top + ch * static_cast<double>(row);
     const auto& panel = figure.panels[i];
     if (const auto* p2 = std::get_if<Plot2D>(&panel)) {
       HEXSIM_RETURN_IF_ERROR(internal::DrawPlot2D(canvas, *p2, px, py, cw, ch));

@@ -45,7 +45,7 @@ class AxisTestController final : public control::Controller {
       sp.position_valid = false;
       sp.v_ff_N_mps = Eigen::Vector3d(r, 0.0, 0.0);
     }
-    const control::ControlOutput out = inner_.Update(state, sp, dt_s);
+    control::ControlOutput out = inner_.Update(state, sp, dt_s);
     last_thrust_N_ = out.thrust_N;
     return out;
   }
@@ -197,7 +197,7 @@ Result<FreqTestResult> RunFrequencyTest(const RunSetup& setup, ResponseAxis axis
     res.series.t_s.push_back(t);
     res.series.reference.push_back(r);
     res.series.output.push_back(out);
-    if (t >= t_analyse - 1e-9 && u.size() < static_cast<size_t>(o.periods * o.period_samples)) {
+    if (t >= t_analyse - 1e-9 && u.size() < static_cast<size_t>(o.periods) * static_cast<size_t>(o.period_samples)) {
       u.push_back(r);
       y.push_back(out);
     }

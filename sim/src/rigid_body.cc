@@ -1,5 +1,6 @@
 #include "hexsim/sim/rigid_body.h"
 
+#include <cmath>
 #include <mutex>
 
 #include <ode/ode.h>
@@ -26,6 +27,12 @@ struct RigidBodyWorld::Impl {
   dGeomID gear = nullptr;
   dGeomID ground = nullptr;
   double friction = 0.8;
+  Eigen::Vector3d gear_half_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d gear_offset_B_m = Eigen::Vector3d::Zero();
+  // State() read back from ODE, valid until the body next moves (Step, SetState): the loop reads
+  // the state after each step and the explicit gyroscopic term reads it again before the next.
+  BodyState state_cache;
+  bool state_cache_valid = false;
   int contact_count = 0;
   double mass_kg = 1.0;
   bool explicit_gyro = true;
@@ -43,34 +50,38 @@ void SetMass(dBodyID body, double mass_kg, const Eigen::Matrix3d& I) {
 }
 }  // namespace
 
-RigidBodyWorld::RigidBodyWorld(const RigidBodyParams& p, const BodyState& s, bool ground)
+RigidBodyWorld::RigidBodyWorld(const RigidBodyParams& params, const BodyState& initial, bool ground)
     : impl_(std::make_unique<Impl>()) {
   EnsureOdeInitialised();
   Impl& w = *impl_;
   w.world = dWorldCreate();
   w.threading = dThreadingAllocateSelfThreadedImplementation();
   dWorldSetStepThreadingImplementation(w.world, dThreadingImplementationGetFunctions(w.threading), w.threading);
+  // One body, one island: no point in asking the stepper for island-level parallelism.
+  dWorldSetStepIslandsProcessingMaxThreadCount(w.world, 1);
   // NED: gravity points along +D.
-  dWorldSetGravity(w.world, 0, 0, p.gravity_mps2);
+  dWorldSetGravity(w.world, 0, 0, params.gravity_mps2);
   dWorldSetERP(w.world, 0.2);
   dWorldSetCFM(w.world, 1e-6);
   dWorldSetAutoDisableFlag(w.world, 0);
   w.space = dSimpleSpaceCreate(nullptr);
   w.contacts = dJointGroupCreate(0);
   w.body = dBodyCreate(w.world);
-  w.mass_kg = p.mass_kg;
+  w.mass_kg = params.mass_kg;
   dBodySetGyroscopicMode(w.body, 0);
   dBodySetFiniteRotationMode(w.body, 1);  // exact rotation update for the step's rate
-  SetMassProperties(p.mass_kg, p.inertia_kgm2);
-  w.gear = dCreateBox(w.space, p.gear_size_m.x(), p.gear_size_m.y(), p.gear_size_m.z());
+  SetMassProperties(params.mass_kg, params.inertia_kgm2);
+  w.gear = dCreateBox(w.space, params.gear_size_m.x(), params.gear_size_m.y(), params.gear_size_m.z());
   dGeomSetBody(w.gear, w.body);
-  dGeomSetOffsetPosition(w.gear, p.gear_offset_B_m.x(), p.gear_offset_B_m.y(), p.gear_offset_B_m.z());
+  dGeomSetOffsetPosition(w.gear, params.gear_offset_B_m.x(), params.gear_offset_B_m.y(), params.gear_offset_B_m.z());
   if (ground) {
     // Plane a·x + b·y + c·z = d with the normal pointing into free space: up is −D.
     w.ground = dCreatePlane(w.space, 0, 0, -1, 0);
   }
-  w.friction = p.ground_friction;
-  SetState(s);
+  w.friction = params.ground_friction;
+  w.gear_half_m = 0.5 * params.gear_size_m;
+  w.gear_offset_B_m = params.gear_offset_B_m;
+  SetState(initial);
 }
 
 RigidBodyWorld::~RigidBodyWorld() {
@@ -82,6 +93,7 @@ RigidBodyWorld::~RigidBodyWorld() {
 }
 
 void RigidBodyWorld::SetState(const BodyState& s) {
+  impl_->state_cache_valid = false;
   dBodySetPosition(impl_->body, s.p_N_m.x(), s.p_N_m.y(), s.p_N_m.z());
   const Eigen::Quaterniond q = s.q_NB.normalized();
   const dQuaternion dq = {q.w(), q.x(), q.y(), q.z()};
@@ -92,6 +104,7 @@ void RigidBodyWorld::SetState(const BodyState& s) {
 }
 
 BodyState RigidBodyWorld::State() const {
+  if (impl_->state_cache_valid) return impl_->state_cache;
   BodyState s;
   const dReal* p = dBodyGetPosition(impl_->body);
   const dReal* q = dBodyGetQuaternion(impl_->body);
@@ -101,6 +114,8 @@ BodyState RigidBodyWorld::State() const {
   s.q_NB = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
   s.v_N_mps = {v[0], v[1], v[2]};
   s.w_B_radps = s.q_NB.conjugate() * Eigen::Vector3d(w[0], w[1], w[2]);
+  impl_->state_cache = s;
+  impl_->state_cache_valid = true;
   return s;
 }
 
@@ -111,7 +126,21 @@ void RigidBodyWorld::AddTorque_B(const Eigen::Vector3d& t) { dBodyAddRelTorque(i
 void RigidBodyWorld::Step(double dt_s) {
   Impl& w = *impl_;
   w.contact_count = 0;
+  // The plane reports a contact for every box corner at D >= 0: while the lowest corner of the gear
+  // is well above the ground (by kClearance_m, far beyond rounding), the collision test would find
+  // nothing and is skipped.
+  constexpr double kClearance_m = 0.01;
+  bool near_ground = false;
   if (w.ground) {
+    const dReal* p = dBodyGetPosition(w.body);
+    const dReal* R = dBodyGetRotation(w.body);  // 3×4 row-major; row 2 is the D axis
+    const Eigen::Vector3d& o = w.gear_offset_B_m;
+    const double centre_D = p[2] + R[8] * o.x() + R[9] * o.y() + R[10] * o.z();
+    const double reach_D = std::abs(R[8]) * w.gear_half_m.x() + std::abs(R[9]) * w.gear_half_m.y() +
+                           std::abs(R[10]) * w.gear_half_m.z();
+    near_ground = !(centre_D + reach_D < -kClearance_m);  // NaN: let ODE see it
+  }
+  if (near_ground) {
     dContactGeom geoms[kMaxContacts];
     const int n = dCollide(w.gear, w.ground, kMaxContacts, geoms, sizeof(dContactGeom));
     for (int i = 0; i < n; ++i) {
@@ -136,6 +165,7 @@ void RigidBodyWorld::Step(double dt_s) {
     const Eigen::Vector3d gyro_B = -wm.cross(w.inertia * wm);
     dBodyAddRelTorque(w.body, gyro_B.x(), gyro_B.y(), gyro_B.z());
   }
+  w.state_cache_valid = false;
   dWorldStep(w.world, dt_s);
   dJointGroupEmpty(w.contacts);
 }

@@ -110,6 +110,28 @@ bool Finite(const BodyState& s) {
   return s.p_N_m.allFinite() && s.v_N_mps.allFinite() && s.q_NB.coeffs().allFinite() && s.w_B_radps.allFinite();
 }
 
+// WrapPi / WrapDeg180 (common/rotation) bit for bit: inside the principal range fmod is exact and
+// returns its argument, so only values outside it take the fmod.
+double WrapPiFast(double a) {
+  const double x = a + kPi;
+  return x > 0.0 && x < 2.0 * kPi ? x - kPi : WrapPi(a);
+}
+double WrapDeg180Fast(double a) {
+  const double x = a + 180.0;
+  return x > 0.0 && x < 360.0 ? x - 180.0 : WrapDeg180(a);
+}
+
+// YawDeg(q) bit for bit (the same rotation-matrix entries as Eigen's toRotationMatrix, the same
+// wraps) without the roll and pitch (asin, atan2) that EulerFromQuat also evaluates: the yaw-error
+// statistics take two yaws every step.
+double YawDegFast(const Eigen::Quaterniond& q_in) {
+  const Eigen::Quaterniond q = q_in.normalized();
+  const double ty = 2.0 * q.y(), tz = 2.0 * q.z();
+  const double r10 = ty * q.x() + tz * q.w();
+  const double r00 = 1.0 - (ty * q.y() + tz * q.z());
+  return WrapDeg180Fast(WrapPiFast(std::atan2(r10, r00)) * kRadToDeg);
+}
+
 std::string NonFiniteQuantity(const BodyState& s) {
   if (!s.p_N_m.allFinite()) return "position";
   if (!s.v_N_mps.allFinite()) return "velocity";
@@ -185,6 +207,7 @@ struct Simulation::Impl {
   OutputHook output_hook;
 
   std::vector<double> commands;
+  control::MixResult mix;  // kept across steps: its storage is reused
   double control_u = 0.0;
   double measured_bus_V = 0.0;
   double measured_current_A = 0.0;
@@ -291,6 +314,9 @@ void Simulation::Impl::Build() {
 
   const double t_end = opt.duration_s > 0 ? opt.duration_s : opt.max_duration_s;
   steps = static_cast<int64_t>(std::llround(t_end / dt));
+  // A fixed duration fixes the row count (steps + 1 instants, every log_every-th logged): reserve
+  // it so the columns never grow. An open-ended mission is left to grow.
+  if (opt.write_log && opt.duration_s > 0) out.log.Reserve(static_cast<size_t>(steps / log_every + 1));
   s = body->State();
   empty_readings.mag_uT.resize(vp.compasses.size());
   rd = &empty_readings;
@@ -322,7 +348,8 @@ bool Simulation::Impl::Step() {
   logs::FlightLog& log = out.log;
   const bool use_truth = estimator == nullptr;
   const double t = static_cast<double>(k) * dt;
-  s = body->State();
+  // `s` is the body's state at t: read in Build and after every physics step (below); nothing in
+  // between moves the body (payload changes keep the state).
 
   // Sensors sample the truth of this instant (specific force from the last step).
   truth.t_s = t;
@@ -420,7 +447,7 @@ bool Simulation::Impl::Step() {
       for (size_t i = 0; i < n_rotors; ++i) {
         max_thrust = std::max(max_thrust, vehicle::ThrustForCommand(vp, i, 1.0, measured_bus_V));
       }
-      const control::MixResult mix = mixer->Mix(u.thrust_N, u.torque_B_Nm, max_thrust);
+      mixer->Mix(u.thrust_N, u.torque_B_Nm, max_thrust, &mix);
       const double max_up = opt.motor_slew_up_per_s * ap_dt;
       for (size_t i = 0; i < n_rotors; ++i) {
         const double wanted =
@@ -479,8 +506,8 @@ bool Simulation::Impl::Step() {
       log.Set(c.motor_u[i], commands[i]);
       log.Set(c.motor_A[i], pt.motors.empty() ? 0.0 : pt.motors[i].dc_A);
     }
-    log.Set(c.yaw_true, YawDeg(s.q_NB));
-    log.Set(c.yaw_est, YawDeg(est.q_NB));
+    log.Set(c.yaw_true, YawDegFast(s.q_NB));
+    log.Set(c.yaw_est, YawDegFast(est.q_NB));
     log.Set(c.mode, static_cast<double>(sequencer->mode()));
     log.Set(c.wp, sequencer->waypoint_index());
     log.Set(c.payload, payload_kg);
@@ -495,7 +522,7 @@ bool Simulation::Impl::Step() {
   // Yaw error is scored like cross-track, on the mission legs (the paper's in-flight figure);
   // yaw_error_all_deg also covers take-off and landing, where the rotor spin-up transient lives.
   if (!use_truth && sequencer->mode() != control::FlightMode::kIdle && !sequencer->landed()) {
-    const double e = WrapDeg180(YawDeg(est.q_NB) - YawDeg(s.q_NB));
+    const double e = WrapDeg180Fast(YawDegFast(est.q_NB) - YawDegFast(s.q_NB));
     yaw_err_all.Add(e);
     if (airborne) yaw_err.Add(e);
   }
@@ -511,7 +538,7 @@ bool Simulation::Impl::Step() {
   }
 
   // Physics step.
-  pt = vehicle::StepPowertrain(vp, commands, dt, &power);
+  vehicle::StepPowertrain(vp, commands, dt, &power, &pt);
   const vehicle::Wrench rotors = vehicle::RotorWrench(vp, power.omega_radps, s.w_B_radps);
   body->AddForce_B(rotors.force_B_N);
   body->AddTorque_B(rotors.torque_B_Nm);
@@ -522,6 +549,29 @@ bool Simulation::Impl::Step() {
                      d.quadratic_Ns2pm2.cwiseProduct(v_air_B.cwiseAbs().cwiseProduct(v_air_B))));
   body->AddTorque_B(-(d.rotational_Nmsprad.cwiseProduct(s.w_B_radps) +
                       d.rotational_quad_Nms2prad2.cwiseProduct(s.w_B_radps.cwiseAbs().cwiseProduct(s.w_B_radps))));
+  // Optional rotor aerodynamics (vehicle `aero:`; 0 = off, and then nothing is added).
+  const vehicle::AeroParams& aero = vp.aero;
+  if (aero.rotor_drag_N_per_radps_mps > 0.0) {
+    double omega_sum = 0.0;
+    for (double w : power.omega_radps) omega_sum += w;
+    // F_B = −k·(Σω)·(v_x, v_y, 0): induced drag / blade flapping, in the rotor plane.
+    body->AddForce_B(-aero.rotor_drag_N_per_radps_mps * omega_sum * Eigen::Vector3d(v_air_B.x(), v_air_B.y(), 0.0));
+  }
+  if (aero.ground_effect_radius_m > 0.0) {
+    // T_IGE/T_OGE = 1/(1 − (R/4z)²) per rotor, z the hub height above the ground plane D = 0.
+    const double R = aero.ground_effect_radius_m;
+    for (size_t i = 0; i < vp.rotors.size(); ++i) {
+      const auto& rp = vp.rotors[i];
+      const double hub_D_m = s.p_N_m.z() + (s.q_NB * rp.position_B_m).z();
+      const double z_m = std::max(0.5 * R, -hub_D_m);
+      const double x = R / (4.0 * z_m);
+      const double extra = 1.0 / (1.0 - x * x) - 1.0;
+      const Eigen::Vector3d dF_B =
+          extra * rp.k_T_Nprps2 * power.omega_radps[i] * power.omega_radps[i] * rp.axis_B;
+      body->AddForce_B(dF_B);
+      body->AddTorque_B(rp.position_B_m.cross(dF_B));
+    }
+  }
   if (!external_force_N_N.isZero()) body->AddForce_N(external_force_N_N);
   body->Step(dt);
   const BodyState next = body->State();

@@ -37,24 +37,24 @@ Eigen::Quaterniond TurntableAttitude(const std::string& plane, double angle_deg,
   return (base * Eigen::Quaterniond(Eigen::AngleAxisd(a, axis))).normalized();
 }
 
-Result<std::vector<TurntableRow>> RunTurntable(const vehicle::VehicleParams& vp, const WorldParams& world,
-                                               const TurntableOptions& opt) {
-  HEXSIM_RETURN_IF_ERROR(opt.IsValid());
+Result<std::vector<TurntableRow>> RunTurntable(const vehicle::VehicleParams& vehicle_params, const WorldParams& world,
+                                               const TurntableOptions& options) {
+  HEXSIM_RETURN_IF_ERROR(options.IsValid());
   auto field = magnetics::EvaluateWmm({world.home_lat_deg, world.home_lon_deg, world.home_alt_m},
                                       world.date_decimal_year, world.allow_field_extrapolation);
   if (!field.ok()) return field.status();
   const Eigen::Vector3d B_N = field->B_N_uT + world.anomaly_N_uT;
-  auto suite = vehicle::SensorSuite::Create(vp, opt.seed);
+  auto suite = vehicle::SensorSuite::Create(vehicle_params, options.seed);
   if (!suite.ok()) return suite.status();
   vehicle::SensorSuite sensors = std::move(*suite);
 
-  vehicle::PowertrainState power = vehicle::InitialPowertrainState(vp);
-  if (opt.soc >= 0) power.soc = opt.soc;
-  const size_t n = vp.rotors.size();
-  const double dt = opt.physics_dt_s;
+  vehicle::PowertrainState power = vehicle::InitialPowertrainState(vehicle_params);
+  if (options.soc >= 0) power.soc = options.soc;
+  const size_t n = vehicle_params.rotors.size();
+  const double dt = options.physics_dt_s;
   double t = 0.0;
   std::vector<TurntableRow> rows;
-  vehicle::PowertrainOutput pt = vehicle::EvaluatePowertrain(vp, power, std::vector<double>(n, 0.0));
+  vehicle::PowertrainOutput pt = vehicle::EvaluatePowertrain(vehicle_params, power, std::vector<double>(n, 0.0));
 
   auto step = [&](const Eigen::Quaterniond& q, const std::vector<double>& commands) -> const vehicle::SensorReadings& {
     vehicle::SensorTruth truth;
@@ -64,28 +64,28 @@ Result<std::vector<TurntableRow>> RunTurntable(const vehicle::VehicleParams& vp,
     truth.B_earth_N_uT = B_N;
     truth.currents = pt.Currents();
     const vehicle::SensorReadings& rd = sensors.Step(truth);
-    pt = vehicle::StepPowertrain(vp, commands, dt, &power);
+    pt = vehicle::StepPowertrain(vehicle_params, commands, dt, &power);
     t += dt;
     return rd;
   };
 
-  for (const std::string& plane : opt.planes) {
-    for (double u : opt.control_u) {
+  for (const std::string& plane : options.planes) {
+    for (double u : options.control_u) {
       const std::vector<double> commands(n, u / 1000.0);
-      const Eigen::Quaterniond q0 = TurntableAttitude(plane, 0.0, opt.initial_yaw_deg);
-      for (double s = 0; s < opt.settle_s; s += dt) step(q0, commands);
-      const int steps = static_cast<int>(std::lround(360.0 / opt.step_deg));
+      const Eigen::Quaterniond q0 = TurntableAttitude(plane, 0.0, options.initial_yaw_deg);
+      for (double s = 0; s < options.settle_s; s += dt) step(q0, commands);
+      const int steps = static_cast<int>(std::lround(360.0 / options.step_deg));
       for (int k = 0; k < steps; ++k) {
-        const double angle = k * opt.step_deg;
-        const Eigen::Quaterniond q = TurntableAttitude(plane, angle, opt.initial_yaw_deg);
+        const double angle = k * options.step_deg;
+        const Eigen::Quaterniond q = TurntableAttitude(plane, angle, options.initial_yaw_deg);
         // Wait for every compass to deliver a fresh sample taken at this table angle.
-        std::vector<bool> fresh(vp.compasses.size(), false);
+        std::vector<bool> fresh(vehicle_params.compasses.size(), false);
         TurntableRow row;
         row.plane = plane;
         row.control_u = u;
         row.angle_deg = angle;
         row.q_NB = q;
-        row.mag_B_uT.resize(vp.compasses.size());
+        row.mag_B_uT.resize(vehicle_params.compasses.size());
         row.earth_B_uT = q.conjugate() * B_N;
         double current_sum = 0.0;
         int current_n = 0;

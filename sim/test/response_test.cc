@@ -15,7 +15,7 @@
 namespace hexsim::sim {
 namespace {
 
-using cd = std::complex<double>;
+using Complex = std::complex<double>;
 
 TEST(FrequencyResponse, GivenFirstOrderPlantWithMeasurementNoise_WhenMultisineExcited_ThenBandwidthIsOneOverTau) {
   const double tau_s = 0.2, fs_hz = 200.0, dt = 1.0 / fs_hz;
@@ -57,8 +57,8 @@ TEST(FrequencyResponse, GivenIntegratorWithLag_WhenMarginsComputedFromClosedLoop
   const double K = 20.0, tau = 0.1;
   FrequencyResponse T;
   for (double f = 0.05; f < 50.0; f *= 1.02) {
-    const cd s(0.0, 2 * kPi * f);
-    const cd L = K / (s * (tau * s + 1.0));
+    const Complex s(0.0, 2 * kPi * f);
+    const Complex L = K / (s * (tau * s + 1.0));
     T.f_hz.push_back(f);
     T.H.push_back(L / (1.0 + L));
     T.coherence.push_back(1.0);
@@ -131,11 +131,11 @@ double MotorLagS(const vehicle::VehicleParams& v) {
 
 double PredictedRollBandwidthHz(const control::ControllerParams& p, double motor_lag_s) {
   auto T = [&](double f) {
-    const cd s(0.0, 2 * kPi * f);
-    const cd c = p.rate_roll.kp + p.rate_roll.ki / s;
-    const cd lag = 1.0 / (motor_lag_s * s + 1.0);
-    const cd inner = lag * c / (s + lag * c + lag * p.rate_roll.kd * s);
-    const cd L = p.att_roll_kp * inner / s;
+    const Complex s(0.0, 2 * kPi * f);
+    const Complex c = p.rate_roll.kp + p.rate_roll.ki / s;
+    const Complex lag = 1.0 / (motor_lag_s * s + 1.0);
+    const Complex inner = lag * c / (s + lag * c + lag * p.rate_roll.kd * s);
+    const Complex L = p.att_roll_kp * inner / s;
     return std::abs(L / (1.0 + L));
   };
   for (double f = 0.01; f < 100.0; f *= 1.001) {

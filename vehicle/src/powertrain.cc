@@ -57,17 +57,18 @@ MotorOperatingPoint OperatingPoint(const VehicleParams& p, const MotorConstants&
 }
 
 // Battery current as a function of the bus voltage for fixed rotor speeds:
-// I(V) = avionics + sum_active d_i*(d_i*V - E_i)/(eta*R). Also returns dI/dV.
-double BatteryCurrent(const VehicleParams& p, const MotorConstants& c, const std::vector<double>& duty,
-                      const std::vector<double>& emf_V, double bus_V, double* dI_dV) {
+// I(V) = avionics + sum_active d_i*(d_i*V - E_i)/(eta*R). Also returns dI/dV. d_i and E_i are
+// motors[i].duty and motors[i].back_emf_V (the caller's output buffer, no scratch vectors).
+double BatteryCurrent(const VehicleParams& p, const MotorConstants& c, const std::vector<MotorOperatingPoint>& motors,
+                      double bus_V, double* dI_dV) {
   double I = p.avionics_current_A;
   double slope = 0.0;
-  for (size_t i = 0; i < duty.size(); ++i) {
-    if (duty[i] <= 0.0) continue;
-    const double drive_V = duty[i] * bus_V - emf_V[i];
+  for (const MotorOperatingPoint& m : motors) {
+    if (m.duty <= 0.0) continue;
+    const double drive_V = m.duty * bus_V - m.back_emf_V;
     if (drive_V <= 0.0) continue;
-    I += duty[i] * drive_V / (c.eta * c.R);
-    slope += duty[i] * duty[i] / (c.eta * c.R);
+    I += m.duty * drive_V / (c.eta * c.R);
+    slope += m.duty * m.duty / (c.eta * c.R);
   }
   if (dI_dV) *dI_dV = slope;
   return I;
@@ -75,13 +76,13 @@ double BatteryCurrent(const VehicleParams& p, const MotorConstants& c, const std
 
 // Solves V = V_oc - R_int*I(V). g(V) = V + R_int*I(V) - V_oc is increasing, convex and piecewise
 // linear, so Newton from V_oc (where g >= 0) decreases monotonically onto the root.
-double SolveBusVoltage(const VehicleParams& p, const MotorConstants& c, const std::vector<double>& duty,
-                       const std::vector<double>& emf_V, double open_circuit_V) {
+double SolveBusVoltage(const VehicleParams& p, const MotorConstants& c, const std::vector<MotorOperatingPoint>& motors,
+                       double open_circuit_V) {
   const double R_int = p.battery.internal_resistance_ohm;
   double V = open_circuit_V;
-  for (size_t iter = 0; iter < duty.size() + 4; ++iter) {
+  for (size_t iter = 0; iter < motors.size() + 4; ++iter) {
     double slope = 0.0;
-    const double I = BatteryCurrent(p, c, duty, emf_V, V, &slope);
+    const double I = BatteryCurrent(p, c, motors, V, &slope);
     const double g = V + R_int * I - open_circuit_V;
     const double V_next = V - g / (1.0 + R_int * slope);
     if (std::abs(V_next - V) <= 1e-13 * open_circuit_V) return V_next;
@@ -90,17 +91,23 @@ double SolveBusVoltage(const VehicleParams& p, const MotorConstants& c, const st
   return V;
 }
 
-PowertrainOutput Assemble(const VehicleParams& p, const MotorConstants& c, const std::vector<double>& commands,
-                          const std::vector<double>& omega, double soc, double open_circuit_V, double bus_V) {
-  PowertrainOutput out;
+// Fills *out (every field reset; the motor vector's storage is reused, so a caller that keeps its
+// PowertrainOutput allocates nothing per step).
+void Assemble(const VehicleParams& p, const MotorConstants& c, const std::vector<double>& commands,
+              const std::vector<double>& omega, double soc, double open_circuit_V, double bus_V,
+              PowertrainOutput* out_ptr) {
+  std::vector<MotorOperatingPoint> motors = std::move(out_ptr->motors);
+  PowertrainOutput& out = *out_ptr;
+  out = PowertrainOutput();
+  out.motors = std::move(motors);
   out.open_circuit_V = open_circuit_V;
   out.bus_V = bus_V;
   out.soc = soc;
   out.battery_A = p.avionics_current_A;
-  out.motors.reserve(commands.size());
+  out.motors.resize(commands.size());
   for (size_t i = 0; i < commands.size(); ++i) {
-    out.motors.push_back(OperatingPoint(p, c, i, commands[i], omega[i], bus_V));
-    const MotorOperatingPoint& m = out.motors.back();
+    out.motors[i] = OperatingPoint(p, c, i, commands[i], omega[i], bus_V);
+    const MotorOperatingPoint& m = out.motors[i];
     out.battery_A += m.dc_A;
     out.shaft_W += m.shaft_W;
     out.copper_W += m.copper_W;
@@ -108,7 +115,6 @@ PowertrainOutput Assemble(const VehicleParams& p, const MotorConstants& c, const
   }
   out.power_in_W = bus_V * out.battery_A;
   out.battery_loss_W = p.battery.internal_resistance_ohm * out.battery_A * out.battery_A;
-  return out;
 }
 
 }  // namespace
@@ -130,24 +136,42 @@ PowertrainState InitialPowertrainState(const VehicleParams& params) {
 
 PowertrainOutput EvaluatePowertrain(const VehicleParams& params, const PowertrainState& state,
                                     const std::vector<double>& commands) {
+  PowertrainOutput out;
+  EvaluatePowertrain(params, state, commands, &out);
+  return out;
+}
+
+void EvaluatePowertrain(const VehicleParams& params, const PowertrainState& state, const std::vector<double>& commands,
+                        PowertrainOutput* out) {
+  HEXSIM_CHECK(out != nullptr);
   HEXSIM_CHECK(commands.size() == params.rotors.size());
   HEXSIM_CHECK(state.omega_radps.size() == params.rotors.size());
   const MotorConstants c = Constants(params);
-  std::vector<double> duty(commands.size()), emf(commands.size());
+  // Duty and back-EMF first (the bus-voltage solve needs them), kept in the output's motor records.
+  out->motors.resize(commands.size());
   for (size_t i = 0; i < commands.size(); ++i) {
-    duty[i] = params.esc.Duty(commands[i]);
-    emf[i] = state.omega_radps[i] * c.K_t;
+    out->motors[i].duty = params.esc.Duty(commands[i]);
+    out->motors[i].back_emf_V = state.omega_radps[i] * c.K_t;
   }
   const double V_oc = params.battery.OpenCircuitVoltage_V(state.soc);
-  const double V_bus = SolveBusVoltage(params, c, duty, emf, V_oc);
-  return Assemble(params, c, commands, state.omega_radps, state.soc, V_oc, V_bus);
+  const double V_bus = SolveBusVoltage(params, c, out->motors, V_oc);
+  Assemble(params, c, commands, state.omega_radps, state.soc, V_oc, V_bus, out);
 }
 
 PowertrainOutput StepPowertrain(const VehicleParams& params, const std::vector<double>& commands, double dt_s,
                                 PowertrainState* state) {
+  PowertrainOutput out;
+  StepPowertrain(params, commands, dt_s, state, &out);
+  return out;
+}
+
+void StepPowertrain(const VehicleParams& params, const std::vector<double>& commands, double dt_s,
+                    PowertrainState* state, PowertrainOutput* out_ptr) {
   HEXSIM_CHECK(state != nullptr);
+  HEXSIM_CHECK(out_ptr != nullptr);
   HEXSIM_CHECK(dt_s >= 0.0);
-  PowertrainOutput out = EvaluatePowertrain(params, *state, commands);
+  PowertrainOutput& out = *out_ptr;
+  EvaluatePowertrain(params, *state, commands, &out);
   const MotorConstants c = Constants(params);
   for (size_t i = 0; i < commands.size(); ++i) {
     const MotorOperatingPoint& m = out.motors[i];
@@ -163,7 +187,6 @@ PowertrainOutput StepPowertrain(const VehicleParams& params, const std::vector<d
   }
   const double capacity_As = params.battery.capacity_Ah * 3600.0;
   state->soc = std::clamp(state->soc - out.battery_A * dt_s / capacity_As, 0.0, 1.0);
-  return out;
 }
 
 double SteadyOmega_radps(const VehicleParams& params, size_t rotor, double motor_V) {
@@ -201,7 +224,9 @@ PowertrainOutput SteadyStateForCommands(const VehicleParams& params, const std::
   }
   const double V_bus = 0.5 * (lo + hi);
   battery_current(V_bus);  // leaves omega at V_bus
-  return Assemble(params, c, commands, omega, soc, V_oc, V_bus);
+  PowertrainOutput out;
+  Assemble(params, c, commands, omega, soc, V_oc, V_bus, &out);
+  return out;
 }
 
 PowertrainOutput SteadyStateForCommand(const VehicleParams& params, double command, double soc) {

@@ -259,6 +259,10 @@ Result<VehicleParams> ParseVehicle(const YAML::Node& root, const std::string& fi
     read("rotational_Nmsprad", &p.drag.rotational_Nmsprad);
     read("rotational_quad_Nms2prad2", &p.drag.rotational_quad_Nms2prad2);
   });
+  r.Child("aero", [&](YamlReader& a) {
+    a.Opt("rotor_drag_N_per_radps_mps", &p.aero.rotor_drag_N_per_radps_mps, NonNegative());
+    a.Opt("ground_effect_radius_m", &p.aero.ground_effect_radius_m, NonNegative());
+  });
   r.Child("payload", [&](YamlReader& pl) {
     pl.Opt("mass_kg", &p.payload.mass_kg, NonNegative());
     pl.Opt("attach_B_m", &p.payload.attach_B_m);

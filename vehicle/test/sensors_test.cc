@@ -104,7 +104,7 @@ TEST(Sensors, GivenBiasRandomWalkWhenRunForTimeTThenBiasVarianceGrowsAsWalkSquar
   double sum2 = 0.0;
   for (int seed = 0; seed < seeds; ++seed) {
     SensorSuite s = Make(p, static_cast<uint64_t>(seed));
-    for (int k = 0; k <= static_cast<int>(T_s / kDt_s + 0.5); ++k) s.Step(Truth(k * kDt_s));
+    for (int k = 0; k <= static_cast<int>(std::lround(T_s / kDt_s)); ++k) s.Step(Truth(k * kDt_s));
     sum2 += s.gyro_bias_radps().squaredNorm();
   }
   const double var = sum2 / (3.0 * seeds);

@@ -95,9 +95,9 @@ Trajectory FigureEight(double half_length_m, double period_s, double weave_m, do
 
 Eigen::Vector3d DefaultEarthField_N_uT() { return Eigen::Vector3d(26.0, -4.3, 46.0); }
 
-Eigen::Vector3d TrueSpecificForce_B(const Truth& x) {
+Eigen::Vector3d TrueSpecificForce_B(const Truth& truth) {
   // f = Rᵀ(a − g), g = (0, 0, +g) in NED.
-  return x.q_NB.conjugate() * (x.a_N_mps2 - Eigen::Vector3d(0, 0, kGravity_mps2));
+  return truth.q_NB.conjugate() * (truth.a_N_mps2 - Eigen::Vector3d(0, 0, kGravity_mps2));
 }
 
 void RunScenario(Estimator* est, const Trajectory& traj, const SensorConfig& cfg, RngStream* rng,

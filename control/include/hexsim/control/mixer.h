@@ -41,6 +41,9 @@ class Mixer {
   // and roll/pitch scaled down only when no collective fits), then the collective, and yaw last
   // (scaled down until it fits).
   MixResult Mix(double thrust_N, const Eigen::Vector3d& torque_B_Nm, double max_rotor_thrust_N) const;
+  // The same into a caller-owned result (every field overwritten; its thrust_N storage is reused,
+  // so a caller that keeps one MixResult allocates nothing per call).
+  void Mix(double thrust_N, const Eigen::Vector3d& torque_B_Nm, double max_rotor_thrust_N, MixResult* out) const;
 
   const Eigen::MatrixXd& allocation() const { return A_; }         // 4×N
   const Eigen::MatrixXd& pseudo_inverse() const { return A_pinv_; }  // N×4

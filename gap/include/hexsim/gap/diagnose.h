@@ -45,6 +45,9 @@ struct DiagnoseOptions {
   // The compass the attitude reference fused (column prefix, e.g. "mag"); empty: decided from the
   // log meta (sim truth: none; imported log: the primary compass).
   std::string contaminating_compass = "auto";
+  // Dynamics channel: height of the rotor plane above the ground when the vehicle stands on it
+  // (ground effect uses z = CG height above the take-off point + this).
+  double rotor_height_at_rest_m = 0.2;
 };
 
 struct CandidateResult {
@@ -107,6 +110,10 @@ std::vector<std::string> ClassifyPhases(const logs::FlightLog& log);
 // not: they are listed in not_diagnosed.
 Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle,
                            const DiagnoseOptions& options = {});
+
+// First-order time constant of the configured rotor speed at hover, τ = J/(K_t²/R + 2·k_Q·ω_h)
+// (k_T·ω_h² = m·g/n); the motor_time_constant candidate reports the extra τ at this point.
+double HoverRotorTimeConstant_s(const vehicle::VehicleParams& vehicle);
 
 // gap.json (hexsim.gap/1).
 nlohmann::json ToJson(const GapReport& report);

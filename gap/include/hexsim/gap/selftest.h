@@ -36,6 +36,13 @@ struct EffectRange {
   bool signed_magnitude;
 };
 const std::vector<EffectRange>& InjectableEffects();
+// Effects on the open-loop dynamics channel ("dynamics"), in the unit the diagnosis reports:
+// rotor_drag N/((rad/s)(m/s)) (vehicle aero key in the truth), ground_effect effective radius m
+// (per-rotor Cheeseman–Bennett in the truth, clamped at z = R/2), battery_sag Ω (log level: the
+// logged voltage reads upstream of a resistance ΔR, so the ESCs see ΔR·I less), motor_time_constant
+// extra τ at hover in s (the truth scales the rotor inertia: a speed-dependent lag), wind m/s (a
+// constant world wind, seen through the full quadratic drag).
+const std::vector<EffectRange>& InjectableDynamicsEffects();
 
 // The truth setup of a trial: the vehicle/world/mission loaded (estimator truth, so the withheld
 // compass effects do not change the flight) with the injections applied at the simulator level,

@@ -25,6 +25,9 @@ class FlightLog {
   bool Has(const std::string& name) const { return ColumnIndex(name) >= 0; }
   // Appends a row of missing cells.
   void AppendRow();
+  // Reserves room for `rows` rows in every column added so far (no reallocation while appending
+  // up to that many; columns added later are not affected). Contents and rows() are unchanged.
+  void Reserve(size_t rows);
   // Sets a cell of the last row.
   void Set(size_t column, double value) { data_[column].back() = value; }
   void Set(const std::string& name, double value) { Set(AddColumn(name), value); }

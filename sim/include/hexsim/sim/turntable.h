@@ -42,7 +42,7 @@ struct TurntableRow {
 // Attitude of the rig at a table angle.
 Eigen::Quaterniond TurntableAttitude(const std::string& plane, double angle_deg, double initial_yaw_deg);
 
-Result<std::vector<TurntableRow>> RunTurntable(const vehicle::VehicleParams& vehicle, const WorldParams& world,
+Result<std::vector<TurntableRow>> RunTurntable(const vehicle::VehicleParams& vehicle_params, const WorldParams& world,
                                                const TurntableOptions& options);
 
 // samples.csv (CONTRACTS): plane, control_u, current_A, angle_deg, q_w..q_z, mag_x_uT.. (mag2_.. for

@@ -65,11 +65,18 @@ struct PowertrainOutput {
 // The operating point at `state` with `commands` (one per rotor, 0..1), without advancing it.
 PowertrainOutput EvaluatePowertrain(const VehicleParams& params, const PowertrainState& state,
                                     const std::vector<double>& commands);
+// The same into a caller-owned output (every field overwritten; its `motors` storage is reused, so
+// a caller that keeps one PowertrainOutput across steps allocates nothing).
+void EvaluatePowertrain(const VehicleParams& params, const PowertrainState& state, const std::vector<double>& commands,
+                        PowertrainOutput* out);
 
 // Advances rotor speeds and SoC by dt_s (semi-implicit Euler on the rotor speed, stable for any
 // dt). Returns the operating point that acted over the step (evaluated at the start state).
 PowertrainOutput StepPowertrain(const VehicleParams& params, const std::vector<double>& commands, double dt_s,
                                 PowertrainState* state);
+// The same into a caller-owned output (see EvaluatePowertrain above): the simulation loop's form.
+void StepPowertrain(const VehicleParams& params, const std::vector<double>& commands, double dt_s,
+                    PowertrainState* state, PowertrainOutput* out);
 
 // Steady state (domega/dt = 0 for every rotor, body held still) for per-rotor commands at a state
 // of charge; the bus voltage is found by bisection on the battery equation.

@@ -73,6 +73,15 @@ struct DragParams {
   Eigen::Vector3d rotational_quad_Nms2prad2 = Eigen::Vector3d::Zero();  // N*m/(rad/s)^2
 };
 
+// Rotor aerodynamics beyond k_T·ω² (both 0 = off, the default):
+//   rotor drag (induced drag / blade flapping): F_B = −k·(Σ_i ω_i)·(v_x, v_y, 0) with v the body
+//   air velocity; ground effect (Cheeseman–Bennett, ρ = 1): T_IGE/T_OGE = 1/(1 − (R/4z)²), z the
+//   hub's height above the ground, R an effective rotor radius (z clamped to ≥ R/2).
+struct AeroParams {
+  double rotor_drag_N_per_radps_mps = 0.0;  // k  [N/((rad/s)·(m/s))]
+  double ground_effect_radius_m = 0.0;      // R
+};
+
 struct PayloadParams {
   double mass_kg = 0.0;                                  // 0 = no payload
   Eigen::Vector3d attach_B_m = Eigen::Vector3d(0.0, 0.0, 0.1);  // attachment point
@@ -132,6 +141,7 @@ struct VehicleParams {
   BatteryParams battery;
   double avionics_current_A = 0.5;
   DragParams drag;
+  AeroParams aero;
   PayloadParams payload;
   magnetics::CurrentFieldParams wiring;
   std::vector<CompassParams> compasses;

@@ -1,0 +1,482 @@
+// Open-loop dynamics replay: the log's motor commands, bus voltage, attitude and velocity drive the
+// configured powertrain (rotor speeds integrated with vehicle::StepPowertrain at the logged voltage)
+// and airframe drag to predict the body specific force the accelerometer measures:
+//   f_B = (Σ_i k_T·ω_i²·a_i + F_drag(v_B)) / m,   v_B = R_NBᵀ·v_N (no wind configured)
+// and the residual accel − f_B is explained by the rotor/airframe candidates:
+//   rotor_drag           −k·(Σω)·(v_x, v_y, 0)/m                         k  [N/((rad/s)(m/s))]
+//   ground_effect        F_T/m·(1/(1 − R²/(16 z²)) − 1)                   R  [m] (Cheeseman–Bennett, ρ = 1)
+//   battery_sag          (F_T at V − ΔR·I) − F_T, per unit ΔR (secant)    ΔR [Ω]
+//   motor_time_constant  F_T with rotor inertia ×(1 + Δτ/τ_hover) − F_T   Δτ [s] (slower rotors)
+//   wind                 (F_drag(v_B − R_NBᵀ w) − F_drag(v_B))/m          w_N, w_E [m/s]
+//   thrust_scale         s·F_T/m            (k_T or mass wrong)           s  [1]
+// ground_effect, motor_time_constant and wind are nonlinear in their parameter: a Gauss–Newton fit gives a working
+// point and the candidate's regressor is the secant through it, so the linear coefficient equals
+// the physical parameter at the fit (intervals from the same cluster-robust covariance).
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+#include <fmt/format.h>
+
+#include "channels.h"
+#include "hexsim/common/rotation.h"
+#include "hexsim/vehicle/powertrain.h"
+
+namespace hexsim::gap::internal {
+namespace {
+
+constexpr double kSubstep_s = 0.001;       // powertrain integration step between log rows
+constexpr double kMaxRowGap_s = 0.1;       // larger gaps restart the rotors at steady state
+constexpr double kMinHeight_m = 0.15;      // CG height above the take-off point: clear of the ground
+constexpr double kMinGroundZ_m = 0.1;      // ground-effect height floor
+
+bool HasData(const logs::FlightLog& log, const std::string& name) {
+  if (!log.Has(name)) return false;
+  for (double v : log.Column(name)) {
+    if (std::isfinite(v)) return true;
+  }
+  return false;
+}
+
+Candidate Make(std::string effect, std::vector<std::string> names, std::vector<double> scale, std::string unit,
+               std::string regressor_name) {
+  Candidate c;
+  c.effect = std::move(effect);
+  c.names = std::move(names);
+  c.scale = std::move(scale);
+  c.magnitude_unit = std::move(unit);
+  c.regressor_name = std::move(regressor_name);
+  return c;
+}
+
+// Airframe drag of the configured vehicle, body axes.
+Vec3 DragForce_B(const vehicle::DragParams& d, const Vec3& v_air_B) {
+  return -(d.linear_Nspm.cwiseProduct(v_air_B) + d.quadratic_Ns2pm2.cwiseProduct(v_air_B.cwiseAbs().cwiseProduct(v_air_B)));
+}
+
+// The configured vehicle with a stiff battery at voltage V: StepPowertrain then runs the ESCs and
+// motors at the logged bus voltage.
+void SetStiffBattery(double bus_V, vehicle::VehicleParams* p) {
+  p->battery.internal_resistance_ohm = 0.0;
+  p->battery.cells_series = 1;
+  p->battery.ocv_soc = {0.0, 1.0};
+  p->battery.ocv_cell_V = {bus_V, bus_V};
+}
+
+// 1-D or 2-D Gauss–Newton: minimise Σ|y_k − (g_k(θ) − mean g)|², g_k from `model` (value, Jacobian).
+template <typename Model>
+Eigen::VectorXd GaussNewton(const std::vector<Vec3>& y, bool demean, int p, const Model& model,
+                            const Eigen::VectorXd& lo, const Eigen::VectorXd& hi) {
+  Eigen::VectorXd theta = Eigen::VectorXd::Zero(p);
+  const size_t n = y.size();
+  if (n == 0) return theta;
+  for (int it = 0; it < 12; ++it) {
+    std::vector<Vec3> g(n);
+    std::vector<Mat3X> J(n);
+    Vec3 mg = Vec3::Zero(), my = Vec3::Zero();
+    Mat3X mJ = Mat3X::Zero(3, p);
+    for (size_t k = 0; k < n; ++k) {
+      model(k, theta, &g[k], &J[k]);
+      mg += g[k];
+      mJ += J[k];
+      my += y[k];
+    }
+    if (demean) {
+      mg /= static_cast<double>(n);
+      mJ /= static_cast<double>(n);
+      my /= static_cast<double>(n);
+    } else {
+      mg.setZero();
+      mJ.setZero();
+      my.setZero();
+    }
+    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(p, p);
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(p);
+    for (size_t k = 0; k < n; ++k) {
+      const Mat3X Jk = J[k] - mJ;
+      const Vec3 r = (y[k] - my) - (g[k] - mg);
+      A.noalias() += Jk.transpose() * Jk;
+      b.noalias() += Jk.transpose() * r;
+    }
+    if (!(A.trace() > 0)) break;
+    const Eigen::VectorXd step =
+        (A + Eigen::MatrixXd::Identity(p, p) * (1e-9 * A.trace() / p)).ldlt().solve(b);
+    if (!step.allFinite()) break;
+    theta = (theta + step).cwiseMax(lo).cwiseMin(hi);
+    if (step.norm() < 1e-9 * (1.0 + theta.norm())) break;
+  }
+  return theta;
+}
+
+}  // namespace
+
+double HoverRotorTimeConstant_s(const vehicle::VehicleParams& v) {
+  if (v.rotors.empty() || !(v.rotors.front().k_T_Nprps2 > 0) || !(v.motor.winding_resistance_ohm > 0)) return 0.0;
+  const auto& r = v.rotors.front();
+  // k_T·ω_h² = m·g/n;  τ = J/(K_t²/R + 2·k_Q·ω_h) (linearised rotor speed dynamics while driven).
+  const double omega_h = std::sqrt(v.mass_kg * kGravity_mps2 / (static_cast<double>(v.rotors.size()) * r.k_T_Nprps2));
+  const double Kt = v.motor.Kt_Nm_per_A();
+  return v.RotorInertia_kgm2(0) / (Kt * Kt / v.motor.winding_resistance_ohm + 2.0 * r.k_Q_Nmprps2 * omega_h);
+}
+
+}  // namespace hexsim::gap::internal
+
+namespace hexsim::gap {
+double HoverRotorTimeConstant_s(const vehicle::VehicleParams& v) { return internal::HoverRotorTimeConstant_s(v); }
+}  // namespace hexsim::gap
+
+namespace hexsim::gap::internal {
+
+void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v, const DiagnoseOptions& options,
+                    ReplayResult* out) {
+  const char* kName = "dynamics";
+  auto skip = [&](const std::string& why) { out->not_diagnosed.push_back({kName, why}); };
+  const size_t n_rot = v.rotors.size();
+  std::vector<std::string> missing;
+  for (const char* c : {"accel_x_mps2", "accel_y_mps2", "accel_z_mps2"}) {
+    if (!HasData(log, c)) missing.push_back(c);
+  }
+  for (const char* c : {"vel_N_mps", "vel_E_mps", "vel_D_mps"}) {
+    if (!HasData(log, c)) missing.push_back(c);
+  }
+  for (size_t m = 0; m < n_rot; ++m) {
+    if (!HasData(log, fmt::format("motor_{}_u", m + 1))) missing.push_back(fmt::format("motor_{}_u", m + 1));
+  }
+  const bool has_V = HasData(log, "voltage_V");
+  const bool has_I = HasData(log, "current_A");
+  if (!has_V && !has_I) missing.push_back("voltage_V (or current_A to model the battery)");
+  if (n_rot == 0) missing.push_back("rotors in the vehicle");
+  if (!missing.empty()) {
+    std::string list;
+    for (const auto& m : missing) list += (list.empty() ? "" : ", ") + m;
+    skip("open-loop dynamics replay needs " + list);
+    return;
+  }
+  const auto& t = log.Column("t_s");
+  const auto& vn = log.Column("vel_N_mps");
+  const auto& ve = log.Column("vel_E_mps");
+  const auto& vd = log.Column("vel_D_mps");
+  const auto& ax = log.Column("accel_x_mps2");
+  const auto& ay = log.Column("accel_y_mps2");
+  const auto& az = log.Column("accel_z_mps2");
+  const std::vector<double>* qc[4] = {&log.Column("q_w"), &log.Column("q_x"), &log.Column("q_y"), &log.Column("q_z")};
+  std::vector<const std::vector<double>*> mu;
+  for (size_t m = 0; m < n_rot; ++m) mu.push_back(&log.Column(fmt::format("motor_{}_u", m + 1)));
+  const std::vector<double>* Vcol = has_V ? &log.Column("voltage_V") : nullptr;
+  const std::vector<double>* Icol = has_I ? &log.Column("current_A") : nullptr;
+  const std::vector<double>* soc_col = HasData(log, "battery_soc") ? &log.Column("battery_soc") : nullptr;
+  const std::vector<double>* payload = HasData(log, "payload_kg") ? &log.Column("payload_kg") : nullptr;
+  const bool has_pos = HasData(log, "pos_D_m");
+  const std::vector<double>* alt = has_pos ? &log.Column("pos_D_m") : HasData(log, "baro_alt_m") ? &log.Column("baro_alt_m") : nullptr;
+  const double alt_sign = has_pos ? -1.0 : 1.0;  // height up
+  const size_t N = log.rows();
+
+  // Bus voltage per row: the logged one, else the configured battery V_oc(SoC) − R_int·I.
+  std::vector<double> bus_V(N, std::nan(""));
+  double soc = v.battery.initial_soc;
+  const double capacity_As = v.battery.capacity_Ah * 3600.0;
+  for (size_t i = 0; i < N; ++i) {
+    if (Vcol) {
+      bus_V[i] = (*Vcol)[i];
+      continue;
+    }
+    const double I = (*Icol)[i];
+    if (soc_col && std::isfinite((*soc_col)[i])) soc = (*soc_col)[i];
+    if (std::isfinite(I)) bus_V[i] = v.battery.OpenCircuitVoltage_V(soc) - v.battery.internal_resistance_ohm * I;
+    if (!soc_col && i + 1 < N && std::isfinite(I) && capacity_As > 0) {
+      soc = std::clamp(soc - I * (t[i + 1] - t[i]) / capacity_As, 0.0, 1.0);
+    }
+  }
+  // Height of the CG above the take-off point (the first finite altitude).
+  double h0 = std::nan("");
+  if (alt) {
+    for (double a : *alt) {
+      if (std::isfinite(a)) {
+        h0 = alt_sign * a;
+        break;
+      }
+    }
+  }
+
+  // Rotor speeds at each row: the configured powertrain integrated at the logged voltage, commands
+  // interpolated between rows and held between autopilot ticks.
+  // inertia_scale multiplies every rotor's inertia (the rotor time constant scales with it);
+  // delta_R_ohm lowers the voltage the ESCs see by ΔR·I.
+  std::vector<double> cmd(n_rot), c0(n_rot), c1(n_rot);
+  // The autopilot's control loop runs at the IMU rate (as ArduPilot's and the simulator's do).
+  const double ap_rate_hz = v.sensors.gyro.rate_hz;
+  auto commands_at = [&](size_t i, std::vector<double>* c) {
+    for (size_t m = 0; m < n_rot; ++m) (*c)[m] = (*mu[m])[i];
+    return std::all_of(c->begin(), c->end(), [](double x) { return std::isfinite(x); });
+  };
+  auto esc_V = [&](size_t i, double delta_R_ohm) {
+    return delta_R_ohm != 0 && Icol && std::isfinite((*Icol)[i]) ? bus_V[i] - delta_R_ohm * (*Icol)[i] : bus_V[i];
+  };
+  auto replay = [&](double inertia_scale, double delta_R_ohm, std::vector<std::vector<double>>* omega,
+                    std::vector<bool>* row_ok) {
+    vehicle::VehicleParams stiff = v;
+    stiff.motor.inertia_kgm2 *= inertia_scale;
+    for (auto& r : stiff.rotors) r.inertia_kgm2 *= inertia_scale;
+    vehicle::PowertrainState ps = vehicle::InitialPowertrainState(stiff);
+    omega->assign(N, {});
+    row_ok->assign(N, false);
+    bool have_state = false;
+    for (size_t i = 0; i < N; ++i) {
+      const bool ok_i = commands_at(i, &c1) && std::isfinite(bus_V[i]) && bus_V[i] > 0;
+      if (!ok_i) {
+        have_state = false;
+        continue;
+      }
+      if (!have_state || !(t[i] - t[i - 1] <= kMaxRowGap_s) || !(t[i] > t[i - 1])) {
+        // Restart at the steady state of this row's commands.
+        for (size_t m = 0; m < n_rot; ++m) {
+          ps.omega_radps[m] = c1[m] > 0 ? vehicle::SteadyOmega_radps(v, m, v.esc.Duty(c1[m]) * esc_V(i, delta_R_ohm)) : 0.0;
+        }
+      } else {
+        commands_at(i - 1, &c0);
+        const double dt = t[i] - t[i - 1];
+        const int sub = std::max(1, static_cast<int>(std::ceil(dt / kSubstep_s - 1e-9)));
+        const double h = dt / sub;
+        const double V0 = esc_V(i - 1, delta_R_ohm), V1 = esc_V(i, delta_R_ohm);
+        for (int s = 0; s < sub; ++s) {
+          // The autopilot updates the commands at its own rate and holds them in between: the
+          // command acting at time τ is the one of its last tick, interpolated between the rows.
+          // A step acts with the command in force at its start (as the simulator's loop does).
+          const double tau = s * h;
+          const double w = ap_rate_hz > 0 ? std::floor(tau * ap_rate_hz + 1e-9) / (ap_rate_hz * dt) : tau / dt;
+          for (size_t m = 0; m < n_rot; ++m) cmd[m] = (1 - w) * c0[m] + w * c1[m];
+          SetStiffBattery((1 - w) * V0 + w * V1, &stiff);
+          vehicle::StepPowertrain(stiff, cmd, h, &ps);
+        }
+      }
+      have_state = true;
+      (*omega)[i] = ps.omega_radps;
+      (*row_ok)[i] = true;
+    }
+  };
+  std::vector<std::vector<double>> omega;
+  std::vector<bool> row_ok;
+  replay(1.0, 0.0, &omega, &row_ok);
+
+  ChannelData ch;
+  ch.name = kName;
+  ch.unit = "m/s^2";
+  const vehicle::NoiseParams& np = v.sensors.accel.noise;
+  ch.bias_nuisance = np.bias_std > 0 || np.bias_walk_per_sqrt_s > 0;
+  ch.explain_above_noise = true;
+  std::vector<Vec3> F_T, v_B;  // per kept sample: thrust force, body velocity
+  std::vector<double> mass, omega_sum, current, height;
+  std::vector<Eigen::Matrix3d> Rt;
+  size_t dropped_ground = 0;
+  for (size_t i = 0; i < N; ++i) {
+    if (!row_ok[i]) continue;
+    const Vec3 meas(ax[i], ay[i], az[i]);
+    const Vec3 vel(vn[i], ve[i], vd[i]);
+    Eigen::Quaterniond q((*qc[0])[i], (*qc[1])[i], (*qc[2])[i], (*qc[3])[i]);
+    if (!meas.allFinite() || !vel.allFinite() || !q.coeffs().allFinite() || !(q.norm() > 0.5)) continue;
+    q.normalize();
+    bool armed = true;
+    for (size_t m = 0; m < n_rot; ++m) armed = armed && (*mu[m])[i] > 0;
+    double hgt = std::nan("");
+    if (alt && std::isfinite((*alt)[i])) hgt = alt_sign * (*alt)[i] - h0;
+    // Ground contact forces are not in the model: only airborne samples (height known and clear).
+    if (!armed || !(hgt > kMinHeight_m)) {
+      ++dropped_ground;
+      continue;
+    }
+    const Eigen::Matrix3d R_BN = q.toRotationMatrix().transpose();
+    const Vec3 vb = R_BN * vel;
+    double m_kg = v.mass_kg + (payload && std::isfinite((*payload)[i]) ? (*payload)[i] : v.payload.mass_kg);
+    const Vec3 Ft = vehicle::RotorWrench(v, omega[i]).force_B_N;
+    const Vec3 pred = (Ft + DragForce_B(v.drag, vb)) / m_kg;
+    double wsum = 0;
+    for (size_t m = 0; m < n_rot; ++m) wsum += omega[i][m];
+    ch.t.push_back(t[i]);
+    ch.y.push_back(meas - pred);
+    ch.row.push_back(static_cast<int>(i));
+    F_T.push_back(Ft);
+    v_B.push_back(vb);
+    mass.push_back(m_kg);
+    omega_sum.push_back(wsum);
+    current.push_back(Icol ? (*Icol)[i] : std::nan(""));
+    height.push_back(hgt);
+    Rt.push_back(R_BN);
+  }
+  const size_t n = ch.t.size();
+  if (n == 0) {
+    skip(fmt::format("no airborne samples with motor outputs (dropped {} on the ground or disarmed)", dropped_ground));
+    return;
+  }
+
+  // thrust_scale: k_T (or the mass) off by a factor.
+  // thrust_scale: k_T (or the mass) off by a factor. Over one flight's thrust range it is nearly
+  // collinear with battery_sag (both grow with the thrust); the bootstrap then says "ambiguous".
+  Candidate ts = Make("thrust_scale", {"thrust_scale_minus_1"}, {1.0}, "1", "thrust_N");
+  // rotor_drag: regressor in units of 10⁴ (rad/s)·(m/s) so the coefficient is O(1).
+  constexpr double kDragUnit = 1e-4;
+  Candidate rd = Make("rotor_drag", {"rotor_drag_N_per_radps_mps"}, {kDragUnit}, "N/(rad/s*m/s)", "omega_sum_x_speed");
+  // Thrust force at the kept samples from a replay variant.
+  auto thrust_at_kept = [&](const std::vector<std::vector<double>>& w, const std::vector<bool>& ok) {
+    std::vector<Vec3> F(n, Vec3::Zero());
+    for (size_t k = 0; k < n; ++k) {
+      const size_t i = static_cast<size_t>(ch.row[k]);
+      if (ok[i]) F[k] = vehicle::RotorWrench(v, w[i]).force_B_N;
+    }
+    return F;
+  };
+  // motor_time_constant: the rotors respond slower than configured; the replay with every rotor's
+  // inertia scaled by (1 + κ) (τ ∝ J at a given speed), fitted by Gauss–Newton with secant
+  // Jacobians over replays; reported as the extra time constant at hover Δτ = κ·τ_hover.
+  const double tau_h = HoverRotorTimeConstant_s(v);
+  Candidate mt = Make("motor_time_constant", {"tau_extra_s"}, {1.0}, "s", "dthrust_dt_N_per_s");
+  if (tau_h > 0) {
+    std::vector<std::vector<double>> w_k;
+    std::vector<bool> ok_k;
+    auto effect = [&](double kappa) {
+      replay(1.0 + kappa, 0.0, &w_k, &ok_k);
+      std::vector<Vec3> F = thrust_at_kept(w_k, ok_k);
+      for (size_t k = 0; k < n; ++k) F[k] = (F[k] - F_T[k]) / mass[k];
+      return F;
+    };
+    auto demeaned_dot = [&](const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+      Vec3 ma = Vec3::Zero(), mb = Vec3::Zero();
+      if (ch.bias_nuisance) {
+        for (size_t k = 0; k < n; ++k) {
+          ma += a[k];
+          mb += b[k];
+        }
+        ma /= static_cast<double>(n);
+        mb /= static_cast<double>(n);
+      }
+      double s = 0;
+      for (size_t k = 0; k < n; ++k) s += (a[k] - ma).dot(b[k] - mb);
+      return s;
+    };
+    constexpr double kKappaMin = -0.8, kKappaMax = 10.0;
+    double ka = 0.0, kb = 1.0;
+    std::vector<Vec3> ga(n, Vec3::Zero()), gb = effect(kb);
+    for (int it = 0; it < 8; ++it) {
+      std::vector<Vec3> J(n), r(n);
+      for (size_t k = 0; k < n; ++k) {
+        J[k] = (gb[k] - ga[k]) / (kb - ka);
+        r[k] = ch.y[k] - gb[k];
+      }
+      const double jj = demeaned_dot(J, J);
+      if (!(jj > 0)) break;
+      const double kn = std::clamp(kb + demeaned_dot(J, r) / jj, kKappaMin, kKappaMax);
+      if (std::fabs(kn - kb) < 1e-4) break;
+      ka = kb;
+      ga = std::move(gb);
+      kb = kn;
+      gb = effect(kb);
+    }
+    if (std::fabs(kb) < 0.05) {  // secant through a visible lag so the regressor is not noise
+      kb = 0.5;
+      gb = effect(kb);
+    }
+    for (size_t k = 0; k < n; ++k) mt.X.push_back(gb[k] / (kb * tau_h));  // coefficient = Δτ at the fit
+  }
+  for (size_t k = 0; k < n; ++k) {
+    ts.X.push_back(F_T[k] / mass[k]);
+    ts.regressor.push_back(F_T[k].norm());
+    rd.X.push_back(-omega_sum[k] * kDragUnit * Vec3(v_B[k].x(), v_B[k].y(), 0.0) / mass[k]);
+    rd.regressor.push_back(omega_sum[k] * std::hypot(v_B[k].x(), v_B[k].y()));
+    const size_t a = k > 0 && ch.row[k - 1] == ch.row[k] - 1 ? k - 1 : k;
+    const size_t b = k + 1 < n && ch.row[k + 1] == ch.row[k] + 1 ? k + 1 : k;
+    mt.regressor.push_back(b > a ? (F_T[b] - F_T[a]).norm() / (ch.t[b] - ch.t[a]) : 0.0);
+  }
+  ch.candidates.push_back(std::move(ts));
+  ch.candidates.push_back(std::move(rd));
+  if (!mt.X.empty()) ch.candidates.push_back(std::move(mt));
+
+  // battery_sag: the ESCs see V − ΔR·I.
+  bool current_ok = Icol != nullptr;
+  for (double I : current) current_ok = current_ok && std::isfinite(I);
+  if (current_ok) {
+    // Secant over a replay with the ESC voltage lowered by δ·I (rotor dynamics included).
+    constexpr double kDeltaR_ohm = 0.05;
+    std::vector<std::vector<double>> w_s;
+    std::vector<bool> ok_s;
+    replay(1.0, kDeltaR_ohm, &w_s, &ok_s);
+    const std::vector<Vec3> F_s = thrust_at_kept(w_s, ok_s);
+    Candidate bs = Make("battery_sag", {"delta_R_ohm"}, {1.0}, "ohm", "current_A");
+    for (size_t k = 0; k < n; ++k) {
+      bs.X.push_back((F_s[k] - F_T[k]) / (kDeltaR_ohm * mass[k]));
+      bs.regressor.push_back(current[k]);
+    }
+    ch.candidates.push_back(std::move(bs));
+  } else {
+    ch.not_available.push_back("battery_sag (no current_A column)");
+  }
+
+  // ground_effect: gain(a, z) − 1 = 1/(1 − a/(16 z²)) − 1, a = R², z the rotor height above ground.
+  const double z_rest = options.rotor_height_at_rest_m;
+  double h_min = 1e300;
+  for (double h : height) h_min = std::min(h_min, h);
+  std::vector<double> u(n);  // 1/(16 z²)
+  for (size_t k = 0; k < n; ++k) {
+    const double z = std::max(kMinGroundZ_m, height[k] + z_rest);
+    u[k] = 1.0 / (16.0 * z * z);
+  }
+  if (h_min + z_rest < 1.0) {
+    const double a_max = 0.8 * 16.0 * kMinGroundZ_m * kMinGroundZ_m;  // keeps a·u ≤ 0.8
+    auto model = [&](size_t k, const Eigen::VectorXd& th, Vec3* g, Mat3X* J) {
+      const double au = th[0] * u[k];
+      *g = F_T[k] / mass[k] * (1.0 / (1.0 - au) - 1.0);
+      *J = F_T[k] / mass[k] * (u[k] / ((1.0 - au) * (1.0 - au)));
+    };
+    const Eigen::VectorXd a0 =
+        GaussNewton(ch.y, ch.bias_nuisance, 1, model, Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, a_max));
+    const double a = std::max(a0[0], 1e-4);  // secant point; tangent at a → 0
+    Candidate ge = Make("ground_effect", {"radius_sq_m2"}, {1.0}, "m", "height_m");
+    for (size_t k = 0; k < n; ++k) {
+      const double au = a * u[k];
+      ge.X.push_back(F_T[k] / mass[k] * ((1.0 / (1.0 - au) - 1.0) / a));
+      ge.regressor.push_back(height[k]);
+    }
+    ch.candidates.push_back(std::move(ge));
+  } else {
+    ch.not_available.push_back("ground_effect (no airborne samples within 1 m of the ground)");
+  }
+
+  // wind: a constant horizontal wind seen through the configured airframe drag.
+  const auto& dr = v.drag;
+  if (dr.linear_Nspm.norm() + dr.quadratic_Ns2pm2.norm() > 0) {
+    auto model = [&](size_t k, const Eigen::VectorXd& th, Vec3* g, Mat3X* J) {
+      const Vec3 w_B = Rt[k].leftCols<2>() * th;
+      const Vec3 a_B = v_B[k] - w_B;
+      *g = (DragForce_B(dr, a_B) - DragForce_B(dr, v_B[k])) / mass[k];
+      const Vec3 slope = dr.linear_Nspm + 2.0 * dr.quadratic_Ns2pm2.cwiseProduct(a_B.cwiseAbs());  // −∂F/∂a
+      *J = slope.asDiagonal() * Rt[k].leftCols<2>() / mass[k];
+    };
+    constexpr double kMaxWind_mps = 30.0;
+    const Eigen::VectorXd w0 = GaussNewton(ch.y, ch.bias_nuisance, 2, model, Eigen::VectorXd::Constant(2, -kMaxWind_mps),
+                                           Eigen::VectorXd::Constant(2, kMaxWind_mps));
+    Candidate wi = Make("wind", {"wind_N_mps", "wind_E_mps"}, {1.0, 1.0}, "m/s", "speed_mps");
+    for (size_t k = 0; k < n; ++k) {
+      // Secant slope per body axis through the working point (tangent where the wind component is ~0).
+      const Vec3 b = Rt[k].leftCols<2>() * w0;
+      const Vec3 dF = DragForce_B(dr, v_B[k] - b) - DragForce_B(dr, v_B[k]);
+      Vec3 slope;
+      for (int i = 0; i < 3; ++i) {
+        slope[i] = std::fabs(b[i]) > 1e-3 ? dF[i] / b[i]
+                                          : dr.linear_Nspm[i] + 2.0 * dr.quadratic_Ns2pm2[i] * std::fabs(v_B[k][i]);
+      }
+      wi.X.push_back(slope.asDiagonal() * Rt[k].leftCols<2>() / mass[k]);
+      wi.regressor.push_back(std::hypot(v_B[k].x(), v_B[k].y()));
+    }
+    ch.candidates.push_back(std::move(wi));
+  } else {
+    ch.not_available.push_back("wind (the vehicle configures no airframe drag to see it through)");
+  }
+  if (!ch.bias_nuisance) {
+    Candidate off = Make("bias", {"b_x", "b_y", "b_z"}, {1, 1, 1}, "m/s^2", "");
+    for (size_t k = 0; k < n; ++k) off.X.push_back(Mat3X(Eigen::Matrix3d::Identity()));
+    ch.candidates.push_back(std::move(off));
+  }
+  out->channels.push_back(std::move(ch));
+}
+
+}  // namespace hexsim::gap::internal
