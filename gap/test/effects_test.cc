@@ -2,6 +2,7 @@
 // statistics helpers the gap test relies on.
 #include <algorithm>
 #include <cmath>
+#include <ostream>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -184,6 +185,8 @@ struct OutCase {
   const char* effect;
   double magnitude;
   uint64_t seed;
+  // Readable and stable in test listings (the default prints the object's bytes, a pointer included).
+  friend void PrintTo(const OutCase& c, std::ostream* os) { *os << c.effect << " " << c.magnitude << " seed " << c.seed; }
 };
 
 class OutOfLibrary : public ::testing::TestWithParam<OutCase> {};
