@@ -132,22 +132,22 @@ namespace hexsim::gap::internal {
 void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v, const DiagnoseOptions& options,
                     ReplayResult* out) {
   const char* kName = "dynamics";
-  auto skip = [&](const std::string& why) { out->not_diagnosed.push_back({kName, why}); };
+  auto skip = [&](const std::string& why) { out->not_diagnosed.emplace_back(kName, why); };
   const size_t n_rot = v.rotors.size();
   std::vector<std::string> missing;
   for (const char* c : {"accel_x_mps2", "accel_y_mps2", "accel_z_mps2"}) {
-    if (!HasData(log, c)) missing.push_back(c);
+    if (!HasData(log, c)) missing.emplace_back(c);
   }
   for (const char* c : {"vel_N_mps", "vel_E_mps", "vel_D_mps"}) {
-    if (!HasData(log, c)) missing.push_back(c);
+    if (!HasData(log, c)) missing.emplace_back(c);
   }
   for (size_t m = 0; m < n_rot; ++m) {
     if (!HasData(log, fmt::format("motor_{}_u", m + 1))) missing.push_back(fmt::format("motor_{}_u", m + 1));
   }
   const bool has_V = HasData(log, "voltage_V");
   const bool has_I = HasData(log, "current_A");
-  if (!has_V && !has_I) missing.push_back("voltage_V (or current_A to model the battery)");
-  if (n_rot == 0) missing.push_back("rotors in the vehicle");
+  if (!has_V && !has_I) missing.emplace_back("voltage_V (or current_A to model the battery)");
+  if (n_rot == 0) missing.emplace_back("rotors in the vehicle");
   if (!missing.empty()) {
     std::string list;
     for (const auto& m : missing) list += (list.empty() ? "" : ", ") + m;
@@ -294,7 +294,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     double wsum = 0;
     for (size_t m = 0; m < n_rot; ++m) wsum += omega[i][m];
     ch.t.push_back(t[i]);
-    ch.y.push_back(meas - pred);
+    ch.y.emplace_back(meas - pred);
     ch.row.push_back(static_cast<int>(i));
     F_T.push_back(Ft);
     v_B.push_back(vb);
@@ -376,12 +376,12 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
       kb = 0.5;
       gb = effect(kb);
     }
-    for (size_t k = 0; k < n; ++k) mt.X.push_back(gb[k] / (kb * tau_h));  // coefficient = Δτ at the fit
+    for (size_t k = 0; k < n; ++k) mt.X.emplace_back(gb[k] / (kb * tau_h));  // coefficient = Δτ at the fit
   }
   for (size_t k = 0; k < n; ++k) {
-    ts.X.push_back(F_T[k] / mass[k]);
+    ts.X.emplace_back(F_T[k] / mass[k]);
     ts.regressor.push_back(F_T[k].norm());
-    rd.X.push_back(-omega_sum[k] * kDragUnit * Vec3(v_B[k].x(), v_B[k].y(), 0.0) / mass[k]);
+    rd.X.emplace_back(-omega_sum[k] * kDragUnit * Vec3(v_B[k].x(), v_B[k].y(), 0.0) / mass[k]);
     rd.regressor.push_back(omega_sum[k] * std::hypot(v_B[k].x(), v_B[k].y()));
     const size_t a = k > 0 && ch.row[k - 1] == ch.row[k] - 1 ? k - 1 : k;
     const size_t b = k + 1 < n && ch.row[k + 1] == ch.row[k] + 1 ? k + 1 : k;
@@ -403,12 +403,12 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     const std::vector<Vec3> F_s = thrust_at_kept(w_s, ok_s);
     Candidate bs = Make("battery_sag", {"delta_R_ohm"}, {1.0}, "ohm", "current_A");
     for (size_t k = 0; k < n; ++k) {
-      bs.X.push_back((F_s[k] - F_T[k]) / (kDeltaR_ohm * mass[k]));
+      bs.X.emplace_back((F_s[k] - F_T[k]) / (kDeltaR_ohm * mass[k]));
       bs.regressor.push_back(current[k]);
     }
     ch.candidates.push_back(std::move(bs));
   } else {
-    ch.not_available.push_back("battery_sag (no current_A column)");
+    ch.not_available.emplace_back("battery_sag (no current_A column)");
   }
 
   // ground_effect: gain(a, z) − 1 = 1/(1 − a/(16 z²)) − 1, a = R², z the rotor height above ground.
@@ -433,12 +433,12 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     Candidate ge = Make("ground_effect", {"radius_sq_m2"}, {1.0}, "m", "height_m");
     for (size_t k = 0; k < n; ++k) {
       const double au = a * u[k];
-      ge.X.push_back(F_T[k] / mass[k] * ((1.0 / (1.0 - au) - 1.0) / a));
+      ge.X.emplace_back(F_T[k] / mass[k] * ((1.0 / (1.0 - au) - 1.0) / a));
       ge.regressor.push_back(height[k]);
     }
     ch.candidates.push_back(std::move(ge));
   } else {
-    ch.not_available.push_back("ground_effect (no airborne samples within 1 m of the ground)");
+    ch.not_available.emplace_back("ground_effect (no airborne samples within 1 m of the ground)");
   }
 
   // wind: a constant horizontal wind seen through the configured airframe drag.
@@ -464,16 +464,16 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
         slope[i] = std::fabs(b[i]) > 1e-3 ? dF[i] / b[i]
                                           : dr.linear_Nspm[i] + 2.0 * dr.quadratic_Ns2pm2[i] * std::fabs(v_B[k][i]);
       }
-      wi.X.push_back(slope.asDiagonal() * Rt[k].leftCols<2>() / mass[k]);
+      wi.X.emplace_back(slope.asDiagonal() * Rt[k].leftCols<2>() / mass[k]);
       wi.regressor.push_back(std::hypot(v_B[k].x(), v_B[k].y()));
     }
     ch.candidates.push_back(std::move(wi));
   } else {
-    ch.not_available.push_back("wind (the vehicle configures no airframe drag to see it through)");
+    ch.not_available.emplace_back("wind (the vehicle configures no airframe drag to see it through)");
   }
   if (!ch.bias_nuisance) {
     Candidate off = Make("bias", {"b_x", "b_y", "b_z"}, {1, 1, 1}, "m/s^2", "");
-    for (size_t k = 0; k < n; ++k) off.X.push_back(Mat3X(Eigen::Matrix3d::Identity()));
+    for (size_t k = 0; k < n; ++k) off.X.emplace_back(Mat3X(Eigen::Matrix3d::Identity()));
     ch.candidates.push_back(std::move(off));
   }
   out->channels.push_back(std::move(ch));
