@@ -2,6 +2,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -29,6 +30,18 @@ struct Candidate {
   int magnitude_params = -1;  // the magnitude uses the first this many parameters (-1: all)
   int p() const { return static_cast<int>(names.size()); }
 };
+
+// A candidate with its parameter names, scales, magnitude unit and plot regressor; the caller adds X.
+inline Candidate MakeCandidate(std::string effect, std::vector<std::string> names, std::vector<double> scale,
+                               std::string unit, std::string regressor_name = "") {
+  Candidate c;
+  c.effect = std::move(effect);
+  c.names = std::move(names);
+  c.scale = std::move(scale);
+  c.magnitude_unit = std::move(unit);
+  c.regressor_name = std::move(regressor_name);
+  return c;
+}
 
 // The replayed channel.
 struct ChannelData {

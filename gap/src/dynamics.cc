@@ -40,17 +40,6 @@ bool HasData(const logs::FlightLog& log, const std::string& name) {
   return false;
 }
 
-Candidate Make(std::string effect, std::vector<std::string> names, std::vector<double> scale, std::string unit,
-               std::string regressor_name) {
-  Candidate c;
-  c.effect = std::move(effect);
-  c.names = std::move(names);
-  c.scale = std::move(scale);
-  c.magnitude_unit = std::move(unit);
-  c.regressor_name = std::move(regressor_name);
-  return c;
-}
-
 // Airframe drag of the configured vehicle, body axes.
 Vec3 DragForce_B(const vehicle::DragParams& d, const Vec3& v_air_B) {
   return -(d.linear_Nspm.cwiseProduct(v_air_B) + d.quadratic_Ns2pm2.cwiseProduct(v_air_B.cwiseAbs().cwiseProduct(v_air_B)));
@@ -313,10 +302,10 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
   // thrust_scale: k_T (or the mass) off by a factor.
   // thrust_scale: k_T (or the mass) off by a factor. Over one flight's thrust range it is nearly
   // collinear with battery_sag (both grow with the thrust); the bootstrap then says "ambiguous".
-  Candidate ts = Make("thrust_scale", {"thrust_scale_minus_1"}, {1.0}, "1", "thrust_N");
+  Candidate ts = MakeCandidate("thrust_scale", {"thrust_scale_minus_1"}, {1.0}, "1", "thrust_N");
   // rotor_drag: regressor in units of 10⁴ (rad/s)·(m/s) so the coefficient is O(1).
   constexpr double kDragUnit = 1e-4;
-  Candidate rd = Make("rotor_drag", {"rotor_drag_N_per_radps_mps"}, {kDragUnit}, "N/(rad/s*m/s)", "omega_sum_x_speed");
+  Candidate rd = MakeCandidate("rotor_drag", {"rotor_drag_N_per_radps_mps"}, {kDragUnit}, "N/(rad/s*m/s)", "omega_sum_x_speed");
   // Thrust force at the kept samples from a replay variant.
   auto thrust_at_kept = [&](const std::vector<std::vector<double>>& w, const std::vector<bool>& ok) {
     std::vector<Vec3> F(n, Vec3::Zero());
@@ -330,7 +319,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
   // inertia scaled by (1 + κ) (τ ∝ J at a given speed), fitted by Gauss–Newton with secant
   // Jacobians over replays; reported as the extra time constant at hover Δτ = κ·τ_hover.
   const double tau_h = HoverRotorTimeConstant_s(v);
-  Candidate mt = Make("motor_time_constant", {"tau_extra_s"}, {1.0}, "s", "dthrust_dt_N_per_s");
+  Candidate mt = MakeCandidate("motor_time_constant", {"tau_extra_s"}, {1.0}, "s", "dthrust_dt_N_per_s");
   if (tau_h > 0) {
     std::vector<std::vector<double>> w_k;
     std::vector<bool> ok_k;
@@ -401,7 +390,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     std::vector<bool> ok_s;
     replay(1.0, kDeltaR_ohm, &w_s, &ok_s);
     const std::vector<Vec3> F_s = thrust_at_kept(w_s, ok_s);
-    Candidate bs = Make("battery_sag", {"delta_R_ohm"}, {1.0}, "ohm", "current_A");
+    Candidate bs = MakeCandidate("battery_sag", {"delta_R_ohm"}, {1.0}, "ohm", "current_A");
     for (size_t k = 0; k < n; ++k) {
       bs.X.emplace_back((F_s[k] - F_T[k]) / (kDeltaR_ohm * mass[k]));
       bs.regressor.push_back(current[k]);
@@ -430,7 +419,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     const Eigen::VectorXd a0 =
         GaussNewton(ch.y, ch.bias_nuisance, 1, model, Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, a_max));
     const double a = std::max(a0[0], 1e-4);  // secant point; tangent at a → 0
-    Candidate ge = Make("ground_effect", {"radius_sq_m2"}, {1.0}, "m", "height_m");
+    Candidate ge = MakeCandidate("ground_effect", {"radius_sq_m2"}, {1.0}, "m", "height_m");
     for (size_t k = 0; k < n; ++k) {
       const double au = a * u[k];
       ge.X.emplace_back(F_T[k] / mass[k] * ((1.0 / (1.0 - au) - 1.0) / a));
@@ -454,7 +443,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     constexpr double kMaxWind_mps = 30.0;
     const Eigen::VectorXd w0 = GaussNewton(ch.y, ch.bias_nuisance, 2, model, Eigen::VectorXd::Constant(2, -kMaxWind_mps),
                                            Eigen::VectorXd::Constant(2, kMaxWind_mps));
-    Candidate wi = Make("wind", {"wind_N_mps", "wind_E_mps"}, {1.0, 1.0}, "m/s", "speed_mps");
+    Candidate wi = MakeCandidate("wind", {"wind_N_mps", "wind_E_mps"}, {1.0, 1.0}, "m/s", "speed_mps");
     for (size_t k = 0; k < n; ++k) {
       // Secant slope per body axis through the working point (tangent where the wind component is ~0).
       const Vec3 b = Rt[k].leftCols<2>() * w0;
@@ -472,7 +461,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     ch.not_available.emplace_back("wind (the vehicle configures no airframe drag to see it through)");
   }
   if (!ch.bias_nuisance) {
-    Candidate off = Make("bias", {"b_x", "b_y", "b_z"}, {1, 1, 1}, "m/s^2", "");
+    Candidate off = MakeCandidate("bias", {"b_x", "b_y", "b_z"}, {1, 1, 1}, "m/s^2", "");
     for (size_t k = 0; k < n; ++k) off.X.emplace_back(Mat3X(Eigen::Matrix3d::Identity()));
     ch.candidates.push_back(std::move(off));
   }

@@ -78,17 +78,6 @@ struct LogInputs {
 
 Mat3X Diag3(double v) { return Mat3X(Eigen::Matrix3d::Identity() * v); }
 
-Candidate MakeCandidate(std::string effect, std::vector<std::string> names, std::vector<double> scale,
-                        std::string unit, std::string regressor_name = "") {
-  Candidate c;
-  c.effect = std::move(effect);
-  c.names = std::move(names);
-  c.scale = std::move(scale);
-  c.magnitude_unit = std::move(unit);
-  c.regressor_name = std::move(regressor_name);
-  return c;
-}
-
 // Central-difference derivative of a sample series (one-sided at the ends).
 std::vector<Vec3> Derivative(const std::vector<double>& t, const std::vector<Vec3>& v) {
   std::vector<Vec3> d(v.size(), Vec3::Zero());

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include "support/gap_fixtures.h"
+
 #include "hexsim/common/rng.h"
 #include "hexsim/gap/diagnose.h"
 #include "hexsim/gap/selftest.h"
@@ -10,12 +12,7 @@
 namespace hexsim::gap {
 namespace {
 
-const ChannelResult* Find(const GapReport& r, const std::string& ch) {
-  for (const auto& c : r.channels) {
-    if (c.channel == ch) return &c;
-  }
-  return nullptr;
-}
+const ChannelResult* Find(const GapReport& r, const std::string& ch) { return gaptest::FindChannel(r, ch); }
 
 bool NotDiagnosed(const GapReport& r, const std::string& ch) {
   for (const auto& [c, why] : r.not_diagnosed) {
@@ -24,20 +21,9 @@ bool NotDiagnosed(const GapReport& r, const std::string& ch) {
   return false;
 }
 
-struct Flown {
-  Trial trial;
-  logs::FlightLog log;
-};
+using gaptest::Flown;
 
-Flown Fly(const std::vector<Injection>& inj, uint64_t seed) {
-  SelftestOptions o;
-  RngStream rng(seed, "test");
-  auto trial = MakeTrial(o, seed, inj, &rng);
-  EXPECT_TRUE(trial.ok()) << trial.status().message();
-  auto log = FlyTrial(&*trial, &rng);
-  EXPECT_TRUE(log.ok()) << log.status().message();
-  return {std::move(*trial), std::move(*log)};
-}
+Flown Fly(const std::vector<Injection>& inj, uint64_t seed) { return gaptest::FlyInjected(inj, seed, "test"); }
 
 TEST(GapDiagnose, GivenACleanSimulatedLogWhenDiagnosedThenTheExternalCompassShowsNoSignificantGap) {
   Flown f = Fly({}, 11);

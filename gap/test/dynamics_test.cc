@@ -8,6 +8,8 @@
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
 
+#include "support/gap_fixtures.h"
+
 #include "hexsim/common/rng.h"
 #include "hexsim/gap/diagnose.h"
 #include "hexsim/gap/selftest.h"
@@ -15,12 +17,7 @@
 namespace hexsim::gap {
 namespace {
 
-const ChannelResult* FindChannel(const GapReport& r, const std::string& ch) {
-  for (const auto& c : r.channels) {
-    if (c.channel == ch) return &c;
-  }
-  return nullptr;
-}
+using gaptest::FindChannel;
 
 std::string Candidates(const ChannelResult& c) {
   std::string s;
@@ -32,26 +29,12 @@ std::string Candidates(const ChannelResult& c) {
   return s;
 }
 
-const CandidateResult* FindCandidate(const ChannelResult& c, const std::string& effect) {
-  for (const auto& k : c.candidates) {
-    if (k.effect == effect) return &k;
-  }
-  return nullptr;
-}
+using gaptest::FindCandidate;
 
-struct Flown {
-  Trial trial;
-  logs::FlightLog log;
-};
+using gaptest::Flown;
 
 Flown FlyTrialWith(const std::vector<Injection>& inj, uint64_t seed) {
-  SelftestOptions o;
-  RngStream rng(seed, "dynamics_test");
-  auto trial = MakeTrial(o, seed, inj, &rng);
-  EXPECT_TRUE(trial.ok()) << trial.status().message();
-  auto log = FlyTrial(&*trial, &rng);
-  EXPECT_TRUE(log.ok()) << log.status().message();
-  return {std::move(*trial), std::move(*log)};
+  return gaptest::FlyInjected(inj, seed, "dynamics_test");
 }
 
 class CleanDynamics : public ::testing::TestWithParam<uint64_t> {};

@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include "support/gap_fixtures.h"
+
 #include "../src/stats.h"
 #include "hexsim/common/rng.h"
 #include "hexsim/gap/diagnose.h"
@@ -15,34 +17,15 @@
 namespace hexsim::gap {
 namespace {
 
-const ChannelResult* Find(const GapReport& r, const std::string& ch) {
-  for (const auto& c : r.channels) {
-    if (c.channel == ch) return &c;
-  }
-  return nullptr;
-}
+const ChannelResult* Find(const GapReport& r, const std::string& ch) { return gaptest::FindChannel(r, ch); }
 
 const CandidateResult* Candidate(const ChannelResult& c, const std::string& effect) {
-  for (const auto& k : c.candidates) {
-    if (k.effect == effect) return &k;
-  }
-  return nullptr;
+  return gaptest::FindCandidate(c, effect);
 }
 
-struct Flown {
-  Trial trial;
-  logs::FlightLog log;
-};
+using gaptest::Flown;
 
-Flown Fly(const std::vector<Injection>& inj, uint64_t seed) {
-  SelftestOptions o;
-  RngStream rng(seed, "effects_test");
-  auto trial = MakeTrial(o, seed, inj, &rng);
-  EXPECT_TRUE(trial.ok()) << trial.status().message();
-  auto log = FlyTrial(&*trial, &rng);
-  EXPECT_TRUE(log.ok()) << log.status().message();
-  return {std::move(*trial), std::move(*log)};
-}
+Flown Fly(const std::vector<Injection>& inj, uint64_t seed) { return gaptest::FlyInjected(inj, seed, "effects_test"); }
 
 const std::string kInjected = "mag2";  // kSelftestCompass
 

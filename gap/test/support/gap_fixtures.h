@@ -1,0 +1,27 @@
+// Shared by the gap tests: fly a selftest trial (effects withheld from the diagnosis) and look up
+// channels and candidates in a GapReport.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "hexsim/gap/diagnose.h"
+#include "hexsim/gap/selftest.h"
+#include "hexsim/logs/flight_log.h"
+
+namespace hexsim::gap::gaptest {
+
+struct Flown {
+  Trial trial;
+  logs::FlightLog log;
+};
+
+// Makes and flies a trial with `injections`; `stream` names the test's random stream, so each test
+// file keeps its own sequence for a given seed. Failures are reported as test failures.
+Flown FlyInjected(const std::vector<Injection>& injections, uint64_t seed, const std::string& stream);
+
+const ChannelResult* FindChannel(const GapReport& report, const std::string& channel);
+const CandidateResult* FindCandidate(const ChannelResult& channel, const std::string& effect);
+
+}  // namespace hexsim::gap::gaptest
