@@ -22,7 +22,7 @@ stages=("$@")
 ((${#stages[@]})) || stages=(sanitize tidy fuzz determinism)
 
 # Tools, installed the way scripts/setup.sh does it: only what is missing.
-packages=(clang clang-tidy libclang-rt-14-dev lld ccache ninja-build cmake)
+packages=(clang clang-tidy libclang-rt-14-dev lld ccache ninja-build cmake python3)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -2,5 +2,5 @@
 # Sets up, builds and runs every test (the README's second command).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-HEXSIM_EXTRA_PACKAGES="slurm-wlm munge ${HEXSIM_EXTRA_PACKAGES:-}" scripts/setup.sh build
+HEXSIM_EXTRA_PACKAGES="slurm-wlm munge python3 ${HEXSIM_EXTRA_PACKAGES:-}" scripts/setup.sh build
 ctest --test-dir build -j"$(nproc)" --output-on-failure --timeout 600
