@@ -97,8 +97,7 @@ Status StepCommand(const StepArgs& a) {
   sim::HoverOptions hover;
   auto setup = Load(a.common, &hover);
   if (!setup.ok()) return setup.status();
-  const bool attitude = *axis == sim::ResponseAxis::kRoll || *axis == sim::ResponseAxis::kPitch ||
-                        *axis == sim::ResponseAxis::kYaw;
+  const bool attitude = sim::IsAttitudeAxis(*axis);
   const double after_s = a.duration_s > 0 ? a.duration_s : (attitude ? 4.0 : 15.0);
   OutputDirectory out;
   HEXSIM_RETURN_IF_ERROR(out.Open(a.common.out));
@@ -170,8 +169,7 @@ Status FreqCommand(const FreqArgs& a) {
   sim::HoverOptions hover;
   auto setup = Load(a.common, &hover);
   if (!setup.ok()) return setup.status();
-  const bool attitude = *axis == sim::ResponseAxis::kRoll || *axis == sim::ResponseAxis::kPitch ||
-                        *axis == sim::ResponseAxis::kYaw;
+  const bool attitude = sim::IsAttitudeAxis(*axis);
   sim::FreqTestOptions o;
   o.f_lo_hz = a.f_lo_hz > 0 ? a.f_lo_hz : (attitude ? 0.2 : 0.05);
   o.f_hi_hz = a.f_hi_hz > 0 ? a.f_hi_hz : (attitude ? 8.0 : 3.0);

@@ -14,8 +14,6 @@ namespace {
 
 constexpr double kDegPerRad = 180.0 / kPi;
 
-bool IsAttitude(ResponseAxis a) { return a == ResponseAxis::kRoll || a == ResponseAxis::kPitch || a == ResponseAxis::kYaw; }
-
 // Flies hover under the built-in cascade until t_start, then injects r(t) into the chosen loop.
 class AxisTestController final : public control::Controller {
  public:
@@ -27,7 +25,7 @@ class AxisTestController final : public control::Controller {
   control::ControlOutput Update(const control::NavState& state, const control::Setpoint&, double dt_s) override {
     const bool active = state.t_s >= t_start_s_;
     const double r = active ? input_(state.t_s - t_start_s_) : 0.0;  // axis units (rad for angles)
-    if (active && IsAttitude(axis_)) {
+    if (active && IsAttitudeAxis(axis_)) {
       if (!holding_) {
         const Eigen::Vector3d e = EulerFromQuat(state.q_NB);
         hold_thrust_N_ = last_thrust_N_ * std::cos(e.x()) * std::cos(e.y());
@@ -124,21 +122,25 @@ std::string AxisName(ResponseAxis a) {
   return "";
 }
 
+bool IsAttitudeAxis(ResponseAxis a) {
+  return a == ResponseAxis::kRoll || a == ResponseAxis::kPitch || a == ResponseAxis::kYaw;
+}
+
 std::string AxisUnit(ResponseAxis a) {
-  if (IsAttitude(a)) return "deg";
+  if (IsAttitudeAxis(a)) return "deg";
   return a == ResponseAxis::kAlt ? "m" : "m/s";
 }
 
 Result<StepTestResult> RunStepTest(const RunSetup& setup, ResponseAxis axis, double size, double after_s,
                                    const HoverOptions& hover) {
   if (!(std::isfinite(size) && size != 0.0)) return Status::BadInput("--size: must be non-zero");
-  if (IsAttitude(axis) && std::fabs(size) > 45.0) return Status::BadInput("--size: attitude steps up to 45 deg");
+  if (IsAttitudeAxis(axis) && std::fabs(size) > 45.0) return Status::BadInput("--size: attitude steps up to 45 deg");
   if (!(after_s > 0)) return Status::BadInput("--duration: must be > 0");
   const double t0 = hover.settle_s;
   auto sim_or = MakeHoverSim(setup, t0 + after_s, hover);
   if (!sim_or.ok()) return sim_or.status();
   Simulation& sim = **sim_or;
-  const double scale = IsAttitude(axis) ? 1.0 / kDegPerRad : 1.0;
+  const double scale = IsAttitudeAxis(axis) ? 1.0 / kDegPerRad : 1.0;
   sim.SetController(std::make_unique<AxisTestController>(setup.control, sim.control_model(), axis,
                                                          Eigen::Vector3d(0, 0, -hover.hover_alt_m), t0,
                                                          [size, scale](double) { return size * scale; }));
@@ -180,7 +182,7 @@ Result<FreqTestResult> RunFrequencyTest(const RunSetup& setup, ResponseAxis axis
   auto sim_or = MakeHoverSim(setup, total, hover);
   if (!sim_or.ok()) return sim_or.status();
   Simulation& sim = **sim_or;
-  const double scale = IsAttitude(axis) ? 1.0 / kDegPerRad : 1.0;
+  const double scale = IsAttitudeAxis(axis) ? 1.0 / kDegPerRad : 1.0;
   sim.SetController(std::make_unique<AxisTestController>(setup.control, sim.control_model(), axis,
                                                          Eigen::Vector3d(0, 0, -hover.hover_alt_m), t0,
                                                          [&ms, scale](double t) { return scale * ms.At(t); }));

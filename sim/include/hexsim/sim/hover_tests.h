@@ -27,6 +27,7 @@ enum class ResponseAxis { kRoll, kPitch, kYaw, kAlt, kVelN };
 Result<ResponseAxis> ParseResponseAxis(const std::string& name);  // roll|pitch|yaw|alt|vel_N
 std::string AxisName(ResponseAxis axis);
 std::string AxisUnit(ResponseAxis axis);  // deg | m | m/s
+bool IsAttitudeAxis(ResponseAxis axis);    // roll, pitch or yaw
 
 struct HoverOptions {
   double hover_alt_m = 10.0;
