@@ -31,7 +31,8 @@ Status ImportCommand(const ImportArgs& a) {
   HEXSIM_RETURN_IF_ERROR(dir.Open(DirName(a.out)));
   HEXSIM_RETURN_IF_ERROR(logs::WriteImport(*result, a.out));
   dir.Commit();
-  std::printf("import: %zu rows, %zu columns -> %s\n", result->log.rows(), result->log.columns().size(), a.out.c_str());
+  std::printf("import: %zu rows, %zu columns -> %s (+ %zu native-rate streams <log>.<stream>.csv)\n", result->log.rows(),
+              result->log.columns().size(), a.out.c_str(), result->log.stream_names().size());
   return Status::Ok();
 }
 
@@ -42,7 +43,7 @@ void AddImportCommand(CLI::App& app, int* exit_code) {
   CLI::App* c = app.add_subcommand("import", "Real flight log (ArduPilot DataFlash .bin) -> FlightLog CSV + meta");
   c->add_option("log", a->log, "DataFlash .bin file")->required();
   c->add_flag("--info", a->info, "Print message types, counts, rates, time span and parameters of interest");
-  c->add_option("--out", a->out, "log.csv to write (log.meta.json beside it)");
+  c->add_option("--out", a->out, "log.csv to write (log.meta.json and log.<stream>.csv beside it)");
   c->callback([a, exit_code] { *exit_code = Report(ImportCommand(*a)); });
 }
 

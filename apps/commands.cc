@@ -5,6 +5,7 @@ namespace hexsim::app {
 void RegisterCommands(CLI::App& app, int* exit_code) {
   AddRunCommand(app, exit_code);
   AddGapCommand(app, exit_code);
+  AddIdentifyCommand(app, exit_code);
   AddBatchCommands(app, exit_code);
   AddCalibrationCommands(app, exit_code);
   AddCompareCommand(app, exit_code);

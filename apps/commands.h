@@ -9,6 +9,7 @@ void RegisterCommands(CLI::App& app, int* exit_code);
 
 void AddRunCommand(CLI::App& app, int* exit_code);
 void AddGapCommand(CLI::App& app, int* exit_code);
+void AddIdentifyCommand(CLI::App& app, int* exit_code);
 void AddBatchCommands(CLI::App& app, int* exit_code);
 void AddCalibrationCommands(CLI::App& app, int* exit_code);
 void AddCompareCommand(CLI::App& app, int* exit_code);

@@ -74,6 +74,14 @@ struct ReplayResult {
 };
 
 ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, const DiagnoseOptions& options);
+// Generic sensor-axis candidates (misalignment, scale_error, latency) of a vector channel whose
+// prediction is h (sensor frame).
+void AddAxisCandidates(const std::vector<double>& t, const std::vector<Vec3>& h, const std::string& unit,
+                       ChannelData* ch);
+// Gyro and accel channels on the native-rate `imu` stream (accel: thrust model driven by the `rcou`
+// stream); false when the log has no imu stream (the row-based channels run instead).
+bool ReplayGyroStream(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, ReplayResult* out);
+bool ReplayAccelStream(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, ReplayResult* out);
 // The open-loop dynamics channel ("dynamics": accelerometer against the specific force predicted
 // from motor commands, bus voltage, attitude and velocity); appends it or a not_diagnosed line.
 double HoverRotorTimeConstant_s(const vehicle::VehicleParams& vehicle);

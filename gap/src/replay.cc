@@ -90,6 +90,8 @@ std::vector<Vec3> Derivative(const std::vector<double>& t, const std::vector<Vec
   return d;
 }
 
+}  // namespace
+
 // Generic sensor-axis candidates for any vector channel whose prediction is h (sensor frame).
 void AddAxisCandidates(const std::vector<double>& t, const std::vector<Vec3>& h, const std::string& unit,
                        ChannelData* ch) {
@@ -109,6 +111,8 @@ void AddAxisCandidates(const std::vector<double>& t, const std::vector<Vec3>& h,
   ch->candidates.push_back(std::move(sc));
   ch->candidates.push_back(std::move(lat));
 }
+
+namespace {
 
 std::string MagPrefix(size_t c) { return c == 0 ? "mag" : fmt::format("mag{}", c + 1); }
 
@@ -336,12 +340,16 @@ void ReplayInertial(const logs::FlightLog& log, const vehicle::VehicleParams& v,
   const bool has_vel = ColumnHasData(log, "vel_N_mps") && ColumnHasData(log, "vel_E_mps") &&
                        ColumnHasData(log, "vel_D_mps");
   constexpr double kMaxRowGap_s = 0.1;  // derivatives need rows at least this dense
+  // Native-rate streams where the log has them (inertial_streams.cc); rows otherwise.
+  const bool gyro_native = ReplayGyroStream(log, v, out);
+  const bool accel_native = ReplayAccelStream(log, v, out);
+  if (gyro_native && accel_native) return;
   if (!has_gyro) out->not_diagnosed.emplace_back("gyro", "no gyro_*_radps columns");
   if (!has_accel) out->not_diagnosed.emplace_back("accel", "no accel_*_mps2 columns");
   else if (!has_vel) out->not_diagnosed.emplace_back("accel", "no vel_*_mps columns to differentiate");
   for (int which = 0; which < 2; ++which) {
-    if (which == 0 && !has_gyro) continue;
-    if (which == 1 && (!has_accel || !has_vel)) continue;
+    if (which == 0 && (gyro_native || !has_gyro)) continue;
+    if (which == 1 && (accel_native || !has_accel || !has_vel)) continue;
     ChannelData ch;
     ch.name = which == 0 ? "gyro" : "accel";
     ch.unit = which == 0 ? "rad/s" : "m/s^2";

@@ -11,14 +11,17 @@
 
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/rotation.h"
+#include "dataflash_streams.h"
 
 namespace hexsim::logs {
 
 namespace {
 
+using internal::GpsBootTime_s;
+using internal::InstanceOf;
+using internal::MagToMicroTesla;
+
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kUTPerGauss = 100.0;   // 1 G = 100 µT
-constexpr double kUTPerMilliGauss = 0.1;
 constexpr double kThrottleScale = 1000.0;  // control_u: 0..1000
 constexpr int kGps3dFix = 3;
 // WGS-84.
@@ -73,17 +76,6 @@ struct Channel {
   }
 };
 
-// Instance of a multi-instance message: MAG2 -> 1, or its instance column (I / Inst / C) when present.
-int InstanceOf(const DataFlashMessage& m, const std::string& base) {
-  for (const char* col : {"I", "Inst", "Instance", "C"}) {
-    if (m.Has(col)) return static_cast<int>(m.GetRawInt(col));
-  }
-  if (m.name() == base) return 0;
-  const std::string suffix = m.name().substr(base.size());
-  if (suffix.size() == 1 && suffix[0] >= '2' && suffix[0] <= '9') return suffix[0] - '1';
-  return -1;
-}
-
 bool StartsWith(const std::string& s, const std::string& prefix) { return s.compare(0, prefix.size(), prefix) == 0; }
 
 // Log text as printable ASCII (damaged bytes become '?'), so JSON output stays valid UTF-8.
@@ -93,17 +85,6 @@ std::string Printable(const std::string& s) {
     if (ch < 0x20 || ch > 0x7e) ch = '?';
   }
   return out;
-}
-
-// Magnetic field value in µT from a decoded MAG field (Gauss when the unit is known, else mG counts).
-double MagToMicroTesla(const DataFlashMessage& m, const char* field) {
-  const int i = m.format().FieldIndex(field);
-  if (i < 0) return kNaN;
-  const double v = m.GetIndex(static_cast<size_t>(i));
-  const std::string& unit = m.format().units[static_cast<size_t>(i)];
-  if (unit == "Gauss" || unit == "G") return v * kUTPerGauss;
-  if (unit == "mGauss" || unit == "mG") return v * kUTPerMilliGauss;
-  return v * kUTPerMilliGauss;  // older logs without units: milligauss counts
 }
 
 double Clamp01(double x) { return std::isfinite(x) ? std::clamp(x, 0.0, 1.0) : kNaN; }
@@ -210,13 +191,6 @@ struct Collected {
 Channel MakeMagChannel(const std::string& prefix) {
   return Channel(prefix + "_t_s", {prefix + "_x_uT", prefix + "_y_uT", prefix + "_z_uT", prefix + "_mot_x_uT",
                                    prefix + "_mot_y_uT", prefix + "_mot_z_uT"});
-}
-
-double GpsBootTime_s(const DataFlashMessage& m) {
-  if (m.Has("TimeUS")) return m.BootTime_s();
-  if (m.Has("T")) return static_cast<double>(m.GetRawInt("T")) * 1e-3;  // 3.3: TimeMS is GPS time of week
-  if (m.Has("Week")) return kNaN;                                      // no boot time at all
-  return m.BootTime_s();
 }
 
 void CollectMessage(const DataFlashMessage& m, Collected* c) {
@@ -584,6 +558,12 @@ Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string
     }
     AddHeld(u, AllColumns(u), &log);
   }
+  // Native-rate streams beside the table (same motor mapping).
+  size_t stream_dropped = 0;
+  for (auto& [sname, table] : internal::DataFlashStreams(
+           bytes, {pwm_min, pwm_max, static_cast<size_t>(std::max(0, motors))}, &stream_dropped)) {
+    log.SetStream(sname, std::move(table));
+  }
   if (ekf) {
     Channel est("", {"est_pos_N_m", "est_pos_E_m", "est_pos_D_m", "est_vel_N_mps", "est_vel_E_mps", "est_vel_D_mps"});
     est.t = ekf->t;
@@ -655,6 +635,7 @@ Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string
   for (const auto& mc : c.mags) samples_dropped += mc.dropped;
   for (const auto& [n, e] : c.ekf) samples_dropped += e.dropped;
   damage["samples_dropped"] = samples_dropped;
+  damage["stream_samples_dropped"] = stream_dropped;
   meta["damage"] = damage;
   return result;
 }

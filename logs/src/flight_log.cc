@@ -1,5 +1,6 @@
 #include "hexsim/logs/flight_log.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <filesystem>
@@ -40,6 +41,63 @@ const std::vector<double>& FlightLog::Column(const std::string& name) const {
   return data_[static_cast<size_t>(idx)];
 }
 
+const FlightLog* FlightLog::Stream(const std::string& name) const {
+  for (size_t i = 0; i < stream_names_.size(); ++i) {
+    if (stream_names_[i] == name) return &streams_[i];
+  }
+  return nullptr;
+}
+
+void FlightLog::SetStream(const std::string& name, FlightLog stream) {
+  stream.stream_names_.clear();
+  stream.streams_.clear();
+  for (size_t i = 0; i < stream_names_.size(); ++i) {
+    if (stream_names_[i] == name) {
+      streams_[i] = std::move(stream);
+      return;
+    }
+  }
+  stream_names_.push_back(name);
+  streams_.push_back(std::move(stream));
+}
+
+namespace {
+std::string CsvStem(const std::string& csv_path) {
+  const std::string ext = ".csv";
+  if (csv_path.size() >= ext.size() && csv_path.compare(csv_path.size() - ext.size(), ext.size(), ext) == 0) {
+    return csv_path.substr(0, csv_path.size() - ext.size());
+  }
+  return csv_path;
+}
+
+std::string BaseName(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+// Median sample rate of a stream (1 / median Δt), NaN with fewer than two samples.
+double MedianRate_hz(const FlightLog& s) {
+  if (!s.Has("t_s") || s.rows() < 2) return std::numeric_limits<double>::quiet_NaN();
+  const auto& t = s.Column("t_s");
+  std::vector<double> dt;
+  dt.reserve(t.size());
+  for (size_t i = 1; i < t.size(); ++i) dt.push_back(t[i] - t[i - 1]);
+  std::nth_element(dt.begin(), dt.begin() + static_cast<std::ptrdiff_t>(dt.size() / 2), dt.end());
+  const double m = dt[dt.size() / 2];
+  return m > 0 ? 1.0 / m : std::numeric_limits<double>::quiet_NaN();
+}
+}  // namespace
+
+bool IsStreamName(const std::string& name) {
+  constexpr size_t kMaxStreamName = 32;
+  if (name.empty() || name.size() > kMaxStreamName) return false;
+  return std::all_of(name.begin(), name.end(), [](char c) { return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_'; });
+}
+
+std::string StreamPathFor(const std::string& csv_path, const std::string& stream) {
+  return CsvStem(csv_path) + "." + stream + ".csv";
+}
+
 std::string MetaPathFor(const std::string& csv_path) {
   const std::string ext = ".csv";
   if (csv_path.size() >= ext.size() && csv_path.compare(csv_path.size() - ext.size(), ext.size(), ext) == 0) {
@@ -71,7 +129,23 @@ std::string FlightLogToCsv(const FlightLog& log) {
 }
 
 Status WriteFlightLog(const FlightLog& log, const std::string& path) {
-  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(MetaPathFor(path), log.meta.dump(2) + "\n"));
+  nlohmann::json meta = log.meta;
+  if (!log.stream_names().empty()) {
+    nlohmann::json listed = nlohmann::json::object();
+    for (const std::string& name : log.stream_names()) {
+      const FlightLog& s = *log.Stream(name);
+      const std::string file = StreamPathFor(path, name);
+      HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(file, FlightLogToCsv(s)));
+      const double rate = MedianRate_hz(s);
+      listed[name] = {{"file", BaseName(file)},
+                      {"rows", s.rows()},
+                      {"rate_hz", std::isfinite(rate) ? nlohmann::json(rate) : nlohmann::json(nullptr)},
+                      {"columns", s.columns()}};
+      if (s.meta.contains("source")) listed[name]["source"] = s.meta["source"];
+    }
+    meta["streams"] = listed;
+  }
+  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(MetaPathFor(path), meta.dump(2) + "\n"));
   return WriteFileAtomic(path, FlightLogToCsv(log));
 }
 
@@ -175,7 +249,27 @@ Result<FlightLog> ReadFlightLog(const std::string& path) {
       return Status::BadInput(meta_path + ": JSON: " + e.what());
     }
   }
+  const auto streams = log->meta.find("streams");
+  if (streams != log->meta.end() && streams->is_object()) {
+    for (const auto& [name, entry] : streams->items()) {
+      if (!IsStreamName(name)) {
+        return Status::BadInput(fmt::format("{}: streams: '{}': a stream name is 1-32 of [a-z0-9_]", meta_path, name));
+      }
+      if (!std::filesystem::is_regular_file(StreamPathFor(path, name), ec)) continue;
+      auto s = ReadStream(path, name);
+      if (!s.ok()) return s.status();
+      if (entry.is_object() && entry.contains("source")) s->meta["source"] = entry["source"];
+      log->SetStream(name, std::move(*s));
+    }
+  }
   return log;
+}
+
+Result<FlightLog> ReadStream(const std::string& csv_path, const std::string& stream) {
+  const std::string file = StreamPathFor(csv_path, stream);
+  auto text = ReadFile(file);
+  if (!text.ok()) return text.status();
+  return ParseFlightLogCsv(*text, file);
 }
 
 }  // namespace hexsim::logs

@@ -21,6 +21,10 @@
 //                           the autopilot's estimate, used both as "truth" and as estimate  ekf_t_s
 //   mode                    MODE ModeNum (or Mode)
 //   waypoint_index          CMD CNum (the latest mission command logged)
+//
+// Native-rate streams (log.Stream(name), written as `<log>.<stream>.csv`): every IMU, RCOU, battery,
+// BARO, GPS, compass, EKF and CTUN sample with its own boot time, never resampled; the streams and
+// their columns are listed in logs/src/dataflash_streams.h and in the meta's `streams`.
 #pragma once
 
 #include <string>

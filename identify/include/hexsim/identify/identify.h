@@ -1,0 +1,119 @@
+// Vehicle identification from a real or simulated FlightLog (issue 18, CONTRACTS `hexsim.identify/1`).
+//
+// In flight windows (all motors turning, clear of the ground), per IMU sample, with every other
+// stream held at its latest sample (never interpolated):
+//   vertical    −f_z = c·Σ_i LP_τ[φ(x_i)] + d_z·v_z,B         x_i = u_i·V/V_ref,  φ(x) = (1−e)·x + e·x²
+//               (ArduPilot's thrust model: e = MOT_THST_EXPO where logged, else profiled over [0, 1];
+//               LP_τ the first-order motor lag, τ profiled over 5–300 ms; c the specific thrust of
+//               one motor at full output and V_ref, m/s²)
+//   lateral     f_x,y = −δ1·v − δ2·|v|·v + b_x,y            (linear and quadratic drag per unit mass)
+//   yaw         ṙ = κ·c·Σ_i s_i·LP_τ[φ(x_i)] − ζ·r + b_r    (s_i the rotor spin; k_Q/k_T = κ·J_z/m)
+//   battery     V = V_oc − R·I − k_q·Q(t)                    (Q the charge drawn so far)
+//   IMU noise   σ = RMS(Δy)/√2 over consecutive samples (white noise per sample at the log rate)
+// Hover output u_h: n·c·φ(u_h) = g at V_ref. Each parameter carries a 95 % interval from a block
+// bootstrap over contiguous time blocks (profiled parameters re-profiled per resample) and its
+// physical range; a value outside its range is a model mismatch and is not used in the vehicle.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "hexsim/common/status.h"
+#include "hexsim/logs/flight_log.h"
+#include "hexsim/vehicle/vehicle_params.h"
+
+namespace hexsim::identify {
+
+struct IdentifyOptions {
+  std::string frame = "auto";  // auto | quad-x | quad-plus | hex-x | hex-plus | octo-x
+  int blocks = 20;             // contiguous time blocks (bootstrap unit; even/odd: fit/held-out)
+  int bootstrap_samples = 200;
+  uint64_t seed = 1;
+  double min_height_m = 0.5;   // flight: CG this far above the take-off point
+  double window_edge_s = 1.0;  // trimmed from each end of a flight window (take-off/landing transients)
+  double min_flight_s = 10.0;  // less flight than this is not identifiable (bad input)
+  // Fit only on these blocks (empty: all). gap diagnose fits on even blocks and tests on odd ones.
+  std::vector<int> fit_blocks;
+  std::string IsValid() const;  // empty when valid
+};
+
+// One identified (or base) parameter.
+struct Param {
+  double value = 0.0;
+  double ci95[2] = {0.0, 0.0};
+  std::string unit;
+  std::string source = "fitted";  // fitted | base | "model mismatch"
+  double range[2] = {0.0, 0.0};   // physical range
+  std::string note;
+  bool plausible() const { return value >= range[0] && value <= range[1]; }
+};
+
+struct FlightWindow {
+  double start_s = 0.0, end_s = 0.0;
+  std::string kind = "flight";  // flight | ground
+  std::string why;
+};
+
+// Fit quality on held-out blocks (fitted on the even blocks, evaluated on the odd ones).
+struct HeldoutFit {
+  std::string output, unit;
+  double rms_measured = 0.0;  // about its mean
+  double rms_residual = 0.0;
+  double r2 = 0.0;            // 1 − SS_res/SS_tot
+  size_t samples = 0;
+};
+
+// Measured vs predicted on held-out samples, for the report's plots.
+struct Trace {
+  std::string output, unit;
+  std::vector<double> t_s, measured, predicted;
+};
+
+struct IdentifyResult {
+  std::string frame;         // quad-x, hex-x, ...
+  std::string frame_source;  // FRAME_CLASS/FRAME_TYPE, FRAME, motor outputs
+  size_t motors = 0;
+  std::string base_name;
+  std::map<std::string, Param> params;
+  std::vector<std::string> param_order;  // report order
+  std::vector<FlightWindow> windows;
+  std::vector<HeldoutFit> heldout;
+  std::vector<Trace> traces;
+  std::vector<double> hover_voltage_V, hover_output;  // steady-hover samples (for the plot)
+  double v_ref_V = 0.0;       // reference bus voltage (median in flight; 0 when not logged)
+  double thrust_expo = 0.0;
+  std::string thrust_expo_source;
+  std::vector<int> spins;     // rotor spins used for the yaw fit
+  std::string data_source;    // which streams or columns fed the fit
+  std::vector<std::string> notes;
+};
+
+// Identifies the log's vehicle. `base` supplies what the log cannot determine (mass, inertia,
+// motor constants). Bad input: no usable flight (too short, missing accel/motor outputs).
+Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::VehicleParams& base,
+                                const IdentifyOptions& options = {});
+
+// Frame from the log: FRAME_CLASS/FRAME_TYPE (3.5+), FRAME (3.3: 0 plus, 1 X), else the motor outputs.
+// Returns e.g. "quad-x"; `source` says from what. Empty when not determined.
+std::string FrameOfLog(const logs::FlightLog& log, std::string* source);
+// The shipped vehicle of a frame class: quad_* -> quad_x, hex_* -> default_hex, else empty.
+std::string DefaultBaseFor(const std::string& frame);
+
+// The vehicle YAML: the base vehicle's document with the fitted values applied (k_T, k_Q, rotor
+// inertia, drag, battery, IMU noise), a header comment listing what was fitted and what kept.
+Result<std::string> IdentifiedVehicleYaml(const std::string& base_yaml_text, const vehicle::VehicleParams& base,
+                                          const IdentifyResult& result);
+// The base vehicle with the identified values applied (what the YAML describes).
+vehicle::VehicleParams ApplyIdentified(const vehicle::VehicleParams& base, const IdentifyResult& result);
+
+// identify.json (hexsim.identify/1).
+nlohmann::json ToJson(const IdentifyResult& result);
+// identify.html and its PNG plots into `dir`.
+Status WriteIdentifyHtml(const IdentifyResult& result, const std::string& dir);
+// A plain-text summary (one line per parameter).
+std::string Summary(const IdentifyResult& result);
+
+}  // namespace hexsim::identify

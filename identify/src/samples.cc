@@ -1,0 +1,294 @@
+#include "samples.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include <Eigen/Geometry>
+#include <fmt/format.h>
+
+namespace hexsim::identify::internal {
+namespace {
+
+constexpr double kMinFlightOutput = 0.05;  // every motor above this output: turning, not idling on the ground
+constexpr double kMinWindow_s = 2.0;       // shorter flight windows (after trimming) are left out
+constexpr double kCommandGapReset_s = 0.5; // the motor-lag filter restarts after a longer RCOU gap
+constexpr double kImuGapFactor = 3.0;      // consecutive IMU samples further apart are not differenced
+// A flip or crash ends the usable log: tilt above kMaxTilt_deg for kSustained_s; everything from
+// kCutLead_s before it on is excluded (a multirotor in controlled flight stays well below 60°).
+constexpr double kMaxTilt_deg = 60.0;
+constexpr double kSustained_s = 0.5;
+constexpr double kCutLead_s = 1.0;
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+double MedianRate_hz(const std::vector<double>& t) {
+  std::vector<double> d;
+  for (size_t i = 1; i < t.size(); ++i) d.push_back(t[i] - t[i - 1]);
+  const double m = Median(d);
+  return m > 0 ? 1.0 / m : 0.0;
+}
+
+// Latest sample index at or before t (advancing *i); false before the first sample.
+bool Held(const std::vector<double>& t, double tq, size_t* i) {
+  while (*i + 1 < t.size() && t[*i + 1] <= tq) ++*i;
+  return !t.empty() && t[*i] <= tq;
+}
+
+const std::vector<double>* Col(const logs::FlightLog& s, const std::string& name) {
+  return s.Has(name) ? &s.Column(name) : nullptr;
+}
+
+// Maps a time inside the flight windows to its block: blocks split the flight time evenly.
+struct BlockMap {
+  std::vector<FlightWindow> w;
+  double total_s = 0.0;
+  int blocks = 1;
+  int At(double t) const {
+    double before = 0.0;
+    for (const auto& x : w) {
+      if (t >= x.start_s && t <= x.end_s) {
+        const int b = static_cast<int>((before + t - x.start_s) / total_s * blocks);
+        return std::clamp(b, 0, blocks - 1);
+      }
+      before += x.end_s - x.start_s;
+    }
+    return -1;
+  }
+};
+
+}  // namespace
+
+std::vector<FrameRotor> FrameRotors(const std::string& frame) {
+  // AP_MotorsMatrix::setup_*: add_motor(number, angle, yaw factor); CCW yaw factor = spin +1.
+  if (frame == "quad-x") return {{45, 1}, {-135, 1}, {-45, -1}, {135, -1}};
+  if (frame == "quad-plus") return {{90, 1}, {-90, 1}, {0, -1}, {180, -1}};
+  if (frame == "hex-x") return {{90, -1}, {-90, 1}, {-30, -1}, {150, 1}, {30, 1}, {-150, -1}};
+  if (frame == "hex-plus") return {{0, -1}, {180, 1}, {-120, -1}, {60, 1}, {-60, 1}, {120, -1}};
+  if (frame == "octo-x") {
+    return {{22.5, -1}, {-157.5, -1}, {67.5, 1}, {157.5, 1}, {-22.5, 1}, {-112.5, 1}, {-67.5, -1}, {112.5, -1}};
+  }
+  return {};
+}
+
+Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector<int>& spins,
+                                   const IdentifyOptions& options) {
+  const std::string name = log.meta.value("source", std::string("log"));
+  bool imu_from_table = false, rcou_from_table = false;
+  const logs::FlightLog imu = logs::StreamAtOwnRate(log, "imu", &imu_from_table);
+  const logs::FlightLog rcou = logs::StreamAtOwnRate(log, "rcou", &rcou_from_table);
+  const logs::FlightLog batt = logs::StreamAtOwnRate(log, "batt");
+  for (const char* c : {"gyro_x_radps", "gyro_y_radps", "gyro_z_radps", "accel_x_mps2", "accel_y_mps2", "accel_z_mps2"}) {
+    if (!imu.Has(c)) return Status::BadInput(fmt::format("{}: {}: identification needs the IMU", name, c));
+  }
+  const size_t n = spins.size();
+  std::vector<const std::vector<double>*> mu;
+  for (size_t m = 0; m < n; ++m) {
+    const auto* c = Col(rcou, fmt::format("motor_{}_u", m + 1));
+    if (!c) return Status::BadInput(fmt::format("{}: motor_{}_u: identification needs every motor output", name, m + 1));
+    mu.push_back(c);
+  }
+  for (const char* c : {"q_w", "q_x", "q_y", "q_z", "vel_N_mps", "vel_E_mps", "vel_D_mps"}) {
+    if (!log.Has(c)) return Status::BadInput(fmt::format("{}: {}: identification needs attitude and velocity", name, c));
+  }
+  const bool has_pos = log.Has("pos_D_m");
+  const std::vector<double>* alt = has_pos ? &log.Column("pos_D_m") : Col(log, "baro_alt_m");
+  if (!alt) return Status::BadInput(name + ": pos_D_m: identification needs a height (pos_D_m or baro_alt_m)");
+  const double up = has_pos ? -1.0 : 1.0;
+  const auto& tr = rcou.Column("t_s");
+  const auto& t_row = log.Column("t_s");
+  const std::vector<double>* armed = Col(log, "armed");
+
+  FlightSamples out;
+  out.motors = n;
+  out.source = fmt::format("IMU {} at {:.0f} Hz, motor outputs {} at {:.0f} Hz", imu_from_table ? "from the table" : "stream",
+                           MedianRate_hz(imu.Column("t_s")), rcou_from_table ? "from the table" : "stream",
+                           MedianRate_hz(tr));
+  out.imu_rate_hz = MedianRate_hz(imu.Column("t_s"));
+  out.rcou_rate_hz = MedianRate_hz(tr);
+  for (int s : spins) out.z0 += s;
+
+  // Flight rows: every motor turning, clear of the ground (and armed where the log says).
+  double h0 = std::nan("");
+  for (double a : *alt) {
+    if (std::isfinite(a)) {
+      h0 = up * a;
+      break;
+    }
+  }
+  // The flip/crash cut.
+  double cut_s = INFINITY, tilted_since = NAN;
+  for (size_t r = 0; r < log.rows() && !std::isfinite(cut_s); ++r) {
+    const Eigen::Quaterniond q(log.Column("q_w")[r], log.Column("q_x")[r], log.Column("q_y")[r], log.Column("q_z")[r]);
+    if (!q.coeffs().allFinite()) continue;
+    const double cos_tilt = (q.normalized().toRotationMatrix() * Vec3::UnitZ()).z();
+    if (cos_tilt < std::cos(kMaxTilt_deg * M_PI / 180.0)) {
+      if (!std::isfinite(tilted_since)) tilted_since = t_row[r];
+      if (t_row[r] - tilted_since >= kSustained_s) cut_s = tilted_since - kCutLead_s;
+    } else {
+      tilted_since = NAN;
+    }
+  }
+  std::vector<char> flying(log.rows(), 0);
+  size_t ir = 0;
+  for (size_t r = 0; r < log.rows(); ++r) {
+    if (t_row[r] >= cut_s || !Held(tr, t_row[r], &ir)) continue;
+    bool ok = (up * (*alt)[r] - h0) > options.min_height_m && (!armed || (*armed)[r] != 0);
+    for (size_t m = 0; ok && m < n; ++m) ok = (*mu[m])[ir] > kMinFlightOutput;
+    flying[r] = ok ? 1 : 0;
+  }
+  BlockMap bm;
+  bm.blocks = std::max(2, options.blocks);
+  double ground_from = t_row.empty() ? 0.0 : t_row.front();
+  for (size_t r = 0; r < log.rows();) {
+    if (!flying[r]) {
+      ++r;
+      continue;
+    }
+    size_t e = r;
+    while (e + 1 < log.rows() && flying[e + 1]) ++e;
+    FlightWindow w{t_row[r] + options.window_edge_s, t_row[e] - options.window_edge_s, "flight",
+                   "every motor output > 0.05 and CG above the take-off point (edges trimmed)"};
+    if (w.end_s - w.start_s >= kMinWindow_s) {
+      out.windows.push_back({ground_from, t_row[r], "ground", "motors idle or stopped, or near the ground"});
+      bm.w.push_back(w);
+      bm.total_s += w.end_s - w.start_s;
+      out.windows.push_back(w);
+      ground_from = t_row[e];
+    }
+    r = e + 1;
+  }
+  const double log_end = t_row.empty() ? 0.0 : std::min(t_row.back(), cut_s);
+  if (log_end > ground_from) {
+    out.windows.push_back({ground_from, log_end, "ground", "motors idle or stopped, or near the ground"});
+  }
+  if (std::isfinite(cut_s) && !t_row.empty()) {
+    out.windows.push_back({cut_s, t_row.back(), "excluded",
+                           fmt::format("tilt above {:.0f} deg for {:.1f} s (flip or crash) and after", kMaxTilt_deg, kSustained_s)});
+  }
+  if (bm.total_s < options.min_flight_s) {
+    return Status::BadInput(fmt::format("{}: t_s: {:.1f} s of flight found (needs {:.0f} s with every motor turning above "
+                                        "{:.1f} m)", name, bm.total_s, options.min_flight_s, options.min_height_m));
+  }
+
+  // Battery: flight voltage, reference voltage, charge drawn.
+  const std::vector<double>* bV = Col(batt, "voltage_V");
+  const std::vector<double>* bI = Col(batt, "current_A");
+  const std::vector<double>* tb = batt.rows() > 0 ? &batt.Column("t_s") : nullptr;
+  {
+    std::vector<double> vf;
+    double q_As = 0.0;
+    for (size_t k = 0; tb && k < batt.rows(); ++k) {
+      if (bI && k > 0 && std::isfinite((*bI)[k - 1])) q_As += (*bI)[k - 1] * ((*tb)[k] - (*tb)[k - 1]);
+      const int b = bm.At((*tb)[k]);
+      if (b < 0 || !bV || !std::isfinite((*bV)[k])) continue;
+      vf.push_back((*bV)[k]);
+      if (!bI || !std::isfinite((*bI)[k])) continue;
+      out.batt_t_s.push_back((*tb)[k]);
+      out.batt_V.push_back((*bV)[k]);
+      out.batt_I.push_back((*bI)[k]);
+      out.batt_Q_Ah.push_back(q_As / 3600.0);
+      out.batt_block.push_back(b);
+    }
+    out.V_ref = vf.empty() ? 0.0 : Median(vf);
+  }
+  const bool has_V = out.V_ref > 0;
+
+  // Thrust-curve sums at each RCOU sample, then lagged: exact first-order response to the held input.
+  struct Feature { double S1, S2, Z1, Z2; };
+  std::vector<Feature> F(tr.size());
+  std::vector<double> V_at(tr.size(), 1.0);
+  size_t ib = 0;
+  for (size_t j = 0; j < tr.size(); ++j) {
+    double V = out.V_ref;
+    if (has_V && Held(*tb, tr[j], &ib) && std::isfinite((*bV)[ib]) && (*bV)[ib] > 0) V = (*bV)[ib];
+    V_at[j] = V;
+    Feature f{0, 0, 0, 0};
+    for (size_t m = 0; m < n; ++m) {
+      const double x = (*mu[m])[j] * (has_V ? V / out.V_ref : 1.0);
+      f.S1 += x;
+      f.S2 += x * x;
+      f.Z1 += spins[m] * x;
+      f.Z2 += spins[m] * x * x;
+    }
+    F[j] = f;
+  }
+  // z_j[τ]: the lagged state at RCOU sample j (before its own input acts).
+  std::vector<std::array<Feature, kTauCount>> Zs(tr.size());
+  for (size_t j = 0; j < tr.size(); ++j) {
+    for (size_t g = 0; g < kTauCount; ++g) {
+      // Restart at the steady state of the current input (first sample, a gap, or no lag at all).
+      if (j == 0 || tr[j] - tr[j - 1] > kCommandGapReset_s || kTauGrid_s[g] <= 0) {
+        Zs[j][g] = F[j];
+        continue;
+      }
+      const double a = std::exp(-(tr[j] - tr[j - 1]) / kTauGrid_s[g]);
+      const Feature& p = Zs[j - 1][g];
+      const Feature& in = F[j - 1];
+      Zs[j][g] = {in.S1 + (p.S1 - in.S1) * a, in.S2 + (p.S2 - in.S2) * a, in.Z1 + (p.Z1 - in.Z1) * a,
+                  in.Z2 + (p.Z2 - in.Z2) * a};
+    }
+  }
+
+  // IMU samples in flight.
+  const auto& ti = imu.Column("t_s");
+  const auto &gx = imu.Column("gyro_x_radps"), &gy = imu.Column("gyro_y_radps"), &gz = imu.Column("gyro_z_radps");
+  const auto &ax = imu.Column("accel_x_mps2"), &ay = imu.Column("accel_y_mps2"), &az = imu.Column("accel_z_mps2");
+  const double max_gap_s = kImuGapFactor / std::max(out.imu_rate_hz, 1e-9);
+  const auto &qw = log.Column("q_w"), &qx = log.Column("q_x"), &qy = log.Column("q_y"), &qz = log.Column("q_z");
+  const auto &vn = log.Column("vel_N_mps"), &ve = log.Column("vel_E_mps"), &vd = log.Column("vel_D_mps");
+  size_t row = 0;
+  ir = 0;
+  int prev_k = -2;
+  for (size_t k = 0; k < ti.size(); ++k) {
+    const int b = bm.At(ti[k]);
+    if (b < 0 || !Held(tr, ti[k], &ir) || !Held(t_row, ti[k], &row)) continue;
+    const Vec3 f(ax[k], ay[k], az[k]), w(gx[k], gy[k], gz[k]);
+    const Eigen::Quaterniond q(qw[row], qx[row], qy[row], qz[row]);
+    const Vec3 vN(vn[row], ve[row], vd[row]);
+    if (!f.allFinite() || !w.allFinite() || !q.coeffs().allFinite() || !vN.allFinite()) continue;
+    // Yaw acceleration: central difference over the neighbouring IMU samples.
+    double rdot = std::nan("");
+    if (k > 0 && k + 1 < ti.size() && ti[k + 1] - ti[k - 1] < 2 * max_gap_s && ti[k + 1] > ti[k - 1]) {
+      rdot = (gz[k + 1] - gz[k - 1]) / (ti[k + 1] - ti[k - 1]);
+    }
+    if (!std::isfinite(rdot)) continue;
+    LaggedSums s;
+    for (size_t g = 0; g < kTauCount; ++g) {
+      const Feature& z = Zs[ir][g];
+      const Feature& in = F[ir];
+      const double a = kTauGrid_s[g] > 0 ? std::exp(-(ti[k] - tr[ir]) / kTauGrid_s[g]) : 0.0;
+      s.S1[g] = in.S1 + (z.S1 - in.S1) * a;
+      s.S2[g] = in.S2 + (z.S2 - in.S2) * a;
+      s.Z1[g] = in.Z1 + (z.Z1 - in.Z1) * a;
+      s.Z2[g] = in.Z2 + (z.Z2 - in.Z2) * a;
+    }
+    double um = 0;
+    for (size_t m = 0; m < n; ++m) um += (*mu[m])[ir] / static_cast<double>(n);
+    out.t_s.push_back(ti[k]);
+    out.f_B.push_back(f);
+    out.w_B.push_back(w);
+    out.r_dot.push_back(rdot);
+    out.v_B.push_back(q.normalized().toRotationMatrix().transpose() * vN);
+    out.u_mean.push_back(um);
+    out.V.push_back(V_at[ir]);
+    out.sums.push_back(s);
+    out.block.push_back(b);
+    if (prev_k == static_cast<int>(k) - 1 && ti[k] - ti[k - 1] < max_gap_s) {
+      out.d_gyro.push_back(w - out.w_B[out.w_B.size() - 2]);
+      out.d_accel.push_back(f - out.f_B[out.f_B.size() - 2]);
+      out.d_block.push_back(b);
+    }
+    prev_k = static_cast<int>(k);
+  }
+  if (out.t_s.size() < 100) {
+    return Status::BadInput(fmt::format("{}: t_s: only {} IMU samples in flight windows", name, out.t_s.size()));
+  }
+  return out;
+}
+
+}  // namespace hexsim::identify::internal

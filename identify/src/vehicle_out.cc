@@ -1,0 +1,126 @@
+// The identified vehicle: the base with the fitted values applied, as parameters and as YAML.
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include "hexsim/common/rotation.h"
+#include "hexsim/identify/identify.h"
+
+namespace hexsim::identify {
+namespace {
+
+// The fitted value of a usable parameter (fitted and inside its range), else nullopt.
+std::optional<double> Fitted(const IdentifyResult& r, const std::string& k) {
+  auto it = r.params.find(k);
+  if (it == r.params.end() || it->second.source != "fitted" || !std::isfinite(it->second.value)) return std::nullopt;
+  return it->second.value;
+}
+
+// Rotor inertia that gives the rotor speed the time constant τ at hover:
+// τ = J/(K_t²/R + 2·k_Q·ω_h), k_T·ω_h² = m·g/n.
+double InertiaForTimeConstant(const vehicle::VehicleParams& v, double tau_s) {
+  const auto& r = v.rotors.front();
+  const double m = v.mass_kg + v.payload.mass_kg;
+  const double omega_h = std::sqrt(m * kGravity_mps2 / (static_cast<double>(v.rotors.size()) * r.k_T_Nprps2));
+  const double Kt = v.motor.Kt_Nm_per_A();
+  return tau_s * (Kt * Kt / v.motor.winding_resistance_ohm + 2.0 * r.k_Q_Nmprps2 * omega_h);
+}
+
+// State of charge at which the pack's open-circuit voltage is V (inverse of the per-cell table).
+double SocForOcv(const vehicle::BatteryParams& b, double V) {
+  const double cell = V / b.cells_series;
+  const auto& s = b.ocv_soc;
+  const auto& c = b.ocv_cell_V;
+  if (cell <= c.front()) return s.front();
+  for (size_t i = 1; i < c.size(); ++i) {
+    if (cell <= c[i]) return s[i - 1] + (s[i] - s[i - 1]) * (cell - c[i - 1]) / (c[i] - c[i - 1]);
+  }
+  return s.back();
+}
+
+}  // namespace
+
+vehicle::VehicleParams ApplyIdentified(const vehicle::VehicleParams& base, const IdentifyResult& r) {
+  vehicle::VehicleParams v = base;
+  const double m = base.mass_kg + base.payload.mass_kg;
+  if (auto s = Fitted(r, "thrust_scale")) {
+    for (auto& rot : v.rotors) rot.k_T_Nprps2 *= *s;
+  }
+  if (auto q = Fitted(r, "yaw_torque_coefficient_m")) {
+    for (auto& rot : v.rotors) rot.k_Q_Nmprps2 = *q * rot.k_T_Nprps2;
+  }
+  if (auto tau = Fitted(r, "motor_time_constant_s"); tau && !v.rotors.empty() && v.motor.winding_resistance_ohm > 0) {
+    v.motor.inertia_kgm2 = InertiaForTimeConstant(v, *tau);
+    for (auto& rot : v.rotors) rot.inertia_kgm2 = 0.0;  // every rotor takes the motor's
+  }
+  if (auto d = Fitted(r, "linear_drag_per_mass_1ps")) v.drag.linear_Nspm.head<2>().setConstant(*d * m);
+  if (auto d = Fitted(r, "quadratic_drag_per_mass_1pm")) v.drag.quadratic_Ns2pm2.head<2>().setConstant(*d * m);
+  if (auto d = Fitted(r, "vertical_drag_per_mass_1ps")) v.drag.linear_Nspm.z() = *d * m;
+  if (auto R = Fitted(r, "battery_resistance_ohm")) v.battery.internal_resistance_ohm = *R;
+  if (auto V0 = Fitted(r, "battery_ocv_V")) {
+    v.battery.cells_series = std::max(1, static_cast<int>(std::lround(*V0 / 3.8)));
+    v.battery.initial_soc = SocForOcv(v.battery, *V0);
+  }
+  if (auto g = Fitted(r, "gyro_noise_radps")) v.sensors.gyro.noise.noise_std = *g;
+  if (auto a = Fitted(r, "accel_noise_mps2")) v.sensors.accel.noise.noise_std = *a;
+  v.name = base.name + "_identified";
+  return v;
+}
+
+Result<std::string> IdentifiedVehicleYaml(const std::string& base_yaml_text, const vehicle::VehicleParams& base,
+                                          const IdentifyResult& r) {
+  YAML::Node doc;
+  try {
+    doc = YAML::Load(base_yaml_text);
+  } catch (const YAML::Exception& e) {
+    return Status::BadInput(std::string("base vehicle: YAML: ") + e.what());
+  }
+  const vehicle::VehicleParams v = ApplyIdentified(base, r);
+  auto vec3 = [](const Eigen::Vector3d& x) {
+    YAML::Node n(YAML::NodeType::Sequence);
+    for (int i = 0; i < 3; ++i) n.push_back(x(i));
+    n.SetStyle(YAML::EmitterStyle::Flow);
+    return n;
+  };
+  doc["name"] = v.name;
+  YAML::Node rd = doc["rotor_defaults"];
+  rd["k_T_Nprps2"] = v.rotors.front().k_T_Nprps2;
+  rd["k_Q_Nmprps2"] = v.rotors.front().k_Q_Nmprps2;
+  for (size_t i = 0; i < doc["rotors"].size() && i < v.rotors.size(); ++i) {
+    YAML::Node rot = doc["rotors"][i];
+    if (rot["k_T_Nprps2"]) rot["k_T_Nprps2"] = v.rotors[i].k_T_Nprps2;
+    if (rot["k_Q_Nmprps2"]) rot["k_Q_Nmprps2"] = v.rotors[i].k_Q_Nmprps2;
+    if (rot["inertia_kgm2"]) rot["inertia_kgm2"] = v.rotors[i].inertia_kgm2;
+  }
+  doc["motor"]["inertia_kgm2"] = v.motor.inertia_kgm2;
+  doc["drag"]["linear_Nspm"] = vec3(v.drag.linear_Nspm);
+  doc["drag"]["quadratic_Ns2pm2"] = vec3(v.drag.quadratic_Ns2pm2);
+  doc["battery"]["internal_resistance_ohm"] = v.battery.internal_resistance_ohm;
+  doc["battery"]["cells_series"] = v.battery.cells_series;
+  doc["battery"]["initial_soc"] = v.battery.initial_soc;
+  for (const auto& [key, unit, value] : {std::tuple{"gyro", "radps", v.sensors.gyro.noise.noise_std},
+                                         std::tuple{"accel", "mps2", v.sensors.accel.noise.noise_std}}) {
+    YAML::Node s = doc["sensors"][key];
+    s.remove(fmt::format("noise_density_{}_per_sqrt_hz", unit));
+    s[fmt::format("noise_std_{}", unit)] = value;
+  }
+  YAML::Emitter e;
+  e << doc;
+  if (!e.good()) return Status::CheckFailed(std::string("identify: YAML emitter: ") + e.GetLastError());
+  std::string head = fmt::format("# Identified by `hexsim identify` from {} (frame {}, {}); base vehicle {}.\n",
+                                 r.windows.empty() ? "a log" : "the log", r.frame, r.frame_source, base.name);
+  head += "# Fitted (95 % interval) or kept from the base:\n";
+  for (const auto& k : r.param_order) {
+    const Param& p = r.params.at(k);
+    head += fmt::format("#   {:<32} {:>12.5g} [{:.5g}, {:.5g}] {} ({})\n", k, p.value, p.ci95[0], p.ci95[1], p.unit, p.source);
+  }
+  head += "# Applied: k_T (thrust_scale), k_Q (yaw_torque_coefficient_m), motor inertia (motor_time_constant_s),\n"
+          "# drag, battery resistance/cells/initial SoC, IMU noise; a value marked `model mismatch` is not applied.\n"
+          "# The control section is the base's: the controller's gains act on angular accelerations and its\n"
+          "# model of thrust and inertia comes from this file, so the identified thrust rescales it.\n";
+  return head + e.c_str() + "\n";
+}
+
+}  // namespace hexsim::identify
