@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 
+#include "hexsim/common/statistics.h"
+
 namespace hexsim::app {
 
 const std::vector<std::string>& SummaryFigures() {
@@ -11,15 +13,6 @@ const std::vector<std::string>& SummaryFigures() {
                                              "cross_track_m.rms", "energy_Wh",         "mission_time_s",
                                              "distance_m",        "current_A.mean",    "current_A.max"};
   return k;
-}
-
-double StudentT975(int dof) {
-  static const double t[] = {0, 12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228,
-                             2.201, 2.179, 2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086,
-                             2.080, 2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042};
-  if (dof <= 0) return NAN;
-  if (dof <= 30) return t[dof];
-  return 1.959964 + 2.4 / dof;  // asymptotic expansion, within 0.1 % beyond 30
 }
 
 namespace {
@@ -49,14 +42,9 @@ nlohmann::json GroupMetrics(const std::vector<nlohmann::json>& summaries) {
       if (Lookup(s, f, &v)) x.push_back(v);
     }
     if (x.empty()) continue;
-    double mean = 0;
-    for (double v : x) mean += v;
-    mean /= static_cast<double>(x.size());
-    double var = 0;
-    for (double v : x) var += (v - mean) * (v - mean);
-    const double sd = x.size() > 1 ? std::sqrt(var / static_cast<double>(x.size() - 1)) : 0.0;
-    const double half = x.size() > 1 ? StudentT975(static_cast<int>(x.size()) - 1) * sd / std::sqrt(static_cast<double>(x.size())) : 0.0;
-    m[f] = {{"mean", mean}, {"std", sd}, {"ci95", {mean - half, mean + half}}, {"n", x.size()}};
+    const SampleStats st = Summarize(x);
+    const double sd = st.std.value_or(0.0);
+    m[f] = {{"mean", st.mean}, {"std", sd}, {"ci95", {st.ci95_lo.value_or(st.mean), st.ci95_hi.value_or(st.mean)}}, {"n", x.size()}};
   }
   return m;
 }

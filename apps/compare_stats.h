@@ -13,8 +13,6 @@ namespace hexsim::app {
 const std::vector<std::string>& SummaryFigures();
 // {figure: {mean, std, ci95: [lo, hi]}} over the summaries that have the figure.
 nlohmann::json GroupMetrics(const std::vector<nlohmann::json>& summaries);
-// Student's t quantile t_{0.975, dof}.
-double StudentT975(int dof);
 // The comparison as a text table (method × metric, mean ± std) plus the heading-error table.
 std::string CompareTable(const nlohmann::json& comparison);
 

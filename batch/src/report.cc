@@ -9,36 +9,6 @@ namespace hexsim::batch {
 
 using nlohmann::json;
 
-double StudentT975(size_t dof) {
-  // t_{0.975, ν} for ν = 1..30 (standard tables); beyond that the Cornish–Fisher expansion
-  // t ≈ z + (z³ + z)/(4ν) + (5z⁵ + 16z³ + 3z)/(96ν²), z = 1.959964.
-  static const double kTable[30] = {12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228,
-                                    2.201,  2.179, 2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086,
-                                    2.080,  2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042};
-  if (dof >= 1 && dof <= 30) return kTable[dof - 1];
-  const double z = 1.959964, v = static_cast<double>(std::max<size_t>(dof, 1));
-  return z + (z * z * z + z) / (4 * v) + (5 * std::pow(z, 5) + 16 * z * z * z + 3 * z) / (96 * v * v);
-}
-
-MetricStats ComputeStats(const std::vector<double>& values) {
-  MetricStats s;
-  s.n = values.size();
-  if (s.n == 0) return s;
-  double sum = 0;
-  for (double v : values) sum += v;
-  s.mean = sum / static_cast<double>(s.n);
-  if (s.n >= 2) {
-    double ss = 0;
-    for (double v : values) ss += (v - s.mean) * (v - s.mean);
-    const double sd = std::sqrt(ss / static_cast<double>(s.n - 1));
-    const double half = StudentT975(s.n - 1) * sd / std::sqrt(static_cast<double>(s.n));
-    s.std = sd;
-    s.ci95_lo = s.mean - half;
-    s.ci95_hi = s.mean + half;
-  }
-  return s;
-}
-
 namespace {
 
 std::string ValueText(const json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); }
@@ -92,7 +62,7 @@ std::vector<GroupReport> AggregateRuns(const std::vector<RunRow>& rows) {
   }
   for (size_t i = 0; i < groups.size(); ++i) {
     for (const auto& m : MetricColumns()) {
-      groups[i].metrics[m.column] = ComputeStats(values[i][m.column]);
+      groups[i].metrics[m.column] = Summarize(values[i][m.column]);
       groups[i].values[m.column] = values[i][m.column];
     }
   }

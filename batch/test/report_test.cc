@@ -1,50 +1,9 @@
 #include "hexsim/batch/report.h"
 
-#include <cmath>
-
 #include <gtest/gtest.h>
-
-#include "hexsim/common/rng.h"
 
 namespace hexsim::batch {
 namespace {
-
-TEST(StudentT975, GivenDegreesOfFreedomWhenLookedUpThenItMatchesTablesAndTendsToTheNormalQuantile) {
-  EXPECT_NEAR(StudentT975(1), 12.706, 1e-3);
-  EXPECT_NEAR(StudentT975(4), 2.776, 1e-3);
-  EXPECT_NEAR(StudentT975(40), 2.021, 2e-3);    // table value 2.0211
-  EXPECT_NEAR(StudentT975(100), 1.984, 2e-3);   // table value 1.9840
-  EXPECT_NEAR(StudentT975(100000), 1.960, 1e-3);
-}
-
-TEST(ComputeStats, GivenNormalSamplesWhenTheIntervalIsComputedThenItCoversTheTrueMeanAbout95PercentOfTheTime) {
-  RngStream rng(3, "ci_coverage");
-  constexpr int kTrials = 4000;
-  constexpr double kMean = 5.0, kStd = 2.0;
-  int covered = 0;
-  for (int t = 0; t < kTrials; ++t) {
-    std::vector<double> v;
-    v.reserve(5);
-    for (int i = 0; i < 5; ++i) v.push_back(rng.Normal(kMean, kStd));
-    const MetricStats s = ComputeStats(v);
-    ASSERT_TRUE(s.ci95_lo && s.ci95_hi && s.std);
-    covered += (*s.ci95_lo <= kMean && kMean <= *s.ci95_hi);
-  }
-  // Binomial(4000, 0.95): std 0.0034; 4 sigma.
-  EXPECT_NEAR(static_cast<double>(covered) / kTrials, 0.95, 0.014);
-}
-
-TEST(ComputeStats, GivenOneOrNoValueWhenComputedThenThereIsNoSpreadOrInterval) {
-  EXPECT_EQ(ComputeStats({}).n, 0u);
-  const MetricStats one = ComputeStats({3.0});
-  EXPECT_DOUBLE_EQ(one.mean, 3.0);
-  EXPECT_FALSE(one.std.has_value());
-  EXPECT_FALSE(one.ci95_lo.has_value());
-  const MetricStats two = ComputeStats({1.0, 3.0});
-  EXPECT_DOUBLE_EQ(two.mean, 2.0);
-  EXPECT_DOUBLE_EQ(*two.std, std::sqrt(2.0));
-  EXPECT_NEAR(*two.ci95_hi - 2.0, 12.706 * std::sqrt(2.0) / std::sqrt(2.0), 1e-3);
-}
 
 RunRow Row(const std::string& calibration, uint64_t seed, const std::string& status, double rms) {
   RunPoint p;

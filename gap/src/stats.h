@@ -4,6 +4,8 @@
 #include <cmath>
 #include <vector>
 
+#include "hexsim/common/statistics.h"
+
 namespace hexsim::gap::internal {
 
 // Upper tail of the standard normal.
@@ -18,13 +20,8 @@ inline double ChiSquareSf(double x, double k) {
   return NormalSf(z);
 }
 
-// Two-sided 97.5 % quantile of Student's t with df degrees of freedom (Cornish–Fisher expansion).
-inline double StudentT975(double df) {
-  const double z = 1.959963984540054;
-  const double z3 = z * z * z, z5 = z3 * z * z, z7 = z5 * z * z;
-  return z + (z3 + z) / (4 * df) + (5 * z5 + 16 * z3 + 3 * z) / (96 * df * df) +
-         (3 * z7 + 19 * z5 + 17 * z3 - 15 * z) / (384 * df * df * df);
-}
+// Student's t quantile and the regularised incomplete beta: one implementation, in common/.
+using hexsim::StudentT975;
 
 // Ljung–Box Q over lags 1..h of a zero-mean-tested series; returns the p-value (chi-square, h dof).
 inline double LjungBoxP(const std::vector<double>& x, int h) {
@@ -51,47 +48,10 @@ inline double LjungBoxP(const std::vector<double>& x, int h) {
 
 namespace hexsim::gap::internal {
 
-// Regularised incomplete beta I_x(a, b) (continued fraction, modified Lentz).
-inline double IncompleteBeta(double a, double b, double x) {
-  if (!(x > 0)) return 0.0;
-  if (!(x < 1)) return 1.0;
-  auto cf = [](double a_, double b_, double x_) {
-    constexpr double kTiny = 1e-300;
-    double c = 1.0, d = 1.0 - (a_ + b_) * x_ / (a_ + 1.0);
-    if (std::fabs(d) < kTiny) d = kTiny;
-    d = 1.0 / d;
-    double h = d;
-    for (int m = 1; m <= 300; ++m) {
-      const double m2 = 2.0 * m;
-      double aa = m * (b_ - m) * x_ / ((a_ - 1.0 + m2) * (a_ + m2));
-      d = 1.0 + aa * d;
-      if (std::fabs(d) < kTiny) d = kTiny;
-      c = 1.0 + aa / c;
-      if (std::fabs(c) < kTiny) c = kTiny;
-      d = 1.0 / d;
-      h *= d * c;
-      aa = -(a_ + m) * (a_ + b_ + m) * x_ / ((a_ + m2) * (a_ + 1.0 + m2));
-      d = 1.0 + aa * d;
-      if (std::fabs(d) < kTiny) d = kTiny;
-      c = 1.0 + aa / c;
-      if (std::fabs(c) < kTiny) c = kTiny;
-      d = 1.0 / d;
-      const double del = d * c;
-      h *= del;
-      if (std::fabs(del - 1.0) < 1e-12) break;
-    }
-    return h;
-  };
-  const double lbeta = std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b);
-  const double front = std::exp(lbeta + a * std::log(x) + b * std::log1p(-x));
-  if (x < (a + 1.0) / (a + b + 2.0)) return front * cf(a, b, x) / a;
-  return 1.0 - front * cf(b, a, 1.0 - x) / b;
-}
-
 // Upper tail of Fisher's F with (d1, d2) degrees of freedom.
 inline double FSf(double f, double d1, double d2) {
   if (!(f > 0)) return 1.0;
-  return IncompleteBeta(d2 / 2.0, d1 / 2.0, d2 / (d2 + d1 * f));
+  return RegularizedIncompleteBeta(d2 / 2.0, d1 / 2.0, d2 / (d2 + d1 * f));
 }
 
 }  // namespace hexsim::gap::internal

@@ -12,20 +12,12 @@
 #include <nlohmann/json.hpp>
 
 #include "hexsim/batch/results_db.h"
+#include "hexsim/common/statistics.h"
 
 namespace hexsim::batch {
 
-struct MetricStats {
-  size_t n = 0;
-  double mean = 0.0;
-  std::optional<double> std;             // n ≥ 2
-  std::optional<double> ci95_lo, ci95_hi;  // n ≥ 2
-};
-
-// Mean, sample std and the 95 % t interval of `values` (n = 0: mean 0, nothing else).
-MetricStats ComputeStats(const std::vector<double>& values);
-// Two-sided 97.5 % quantile of Student's t with `dof` degrees of freedom (dof ≥ 1).
-double StudentT975(size_t dof);
+// n, mean, sample std and the 95 % t interval of a metric (common/statistics.h: Summarize).
+using MetricStats = hexsim::SampleStats;
 
 struct GroupReport {
   std::string label;          // "square paper_hex changchun none eskf control.rate.roll.kp=0.12"
