@@ -19,4 +19,14 @@ inline int Report(const Status& s) {
   return s.exit_code();
 }
 
+// The top level's last resort (apps/main.cc): an exception no command turned into a Status.
+// One line on stderr; returns `exit_code`.
+inline int ReportUnexpected(std::string what, int exit_code) {
+  for (char& c : what) {
+    if (c == '\n' || c == '\r') c = ' ';
+  }
+  std::fprintf(stderr, "hexsim: unexpected error: %s\n", what.c_str());
+  return exit_code;
+}
+
 }  // namespace hexsim::app

@@ -21,12 +21,22 @@ Status ImportCommand(const ImportArgs& a) {
   auto bytes = ReadFile(a.log);
   if (!bytes.ok()) return bytes.status();
   if (a.info) {
+    // Bad input as for the import itself: an empty file, or one without a single DataFlash message.
+    if (bytes->empty()) return Status::BadInput(a.log + ": empty file");
+    if (logs::DataFlashInfoJson(*bytes, a.log)["types"].empty()) {
+      return Status::BadInput(a.log + ": not an ArduPilot DataFlash log: no readable messages");
+    }
     std::fputs(logs::DataFlashInfo(*bytes, a.log).c_str(), stdout);
     return Status::Ok();
   }
   if (a.out.empty()) return Status::BadInput("import: --out is required (or --info)");
   auto result = logs::ImportDataFlash(*bytes, a.log, logs::ImportOptions{});
   if (!result.ok()) return result.status();
+  // Damage that did not refuse the log is still said, once, on stderr (the counts are in the meta).
+  if (result->damage.any() || result->records.dropped() > 0) {
+    std::fprintf(stderr, "hexsim: %s\n",
+                 logs::DamageSummaryLine(a.log, result->damage, result->records, result->records_accepted).c_str());
+  }
   OutputDirectory dir;
   HEXSIM_RETURN_IF_ERROR(dir.Open(DirName(a.out)));
   HEXSIM_RETURN_IF_ERROR(logs::WriteImport(*result, a.out));

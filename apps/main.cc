@@ -1,5 +1,8 @@
 // hexsim: the command line. Each subcommand lives in its own cmd_*.cc file.
 #include <cstdio>
+#include <exception>
+#include <new>
+#include <stdexcept>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -29,6 +32,14 @@ int main(int argc, char** argv) {
     }
     std::fprintf(stderr, "hexsim: %s (see hexsim --help)\n", what.c_str());
     return 2;
+  } catch (const std::exception& e) {
+    // Nothing escapes as a signal: whatever a command did not turn into a Status ends here, as one
+    // line. Logic errors (argument, range, length, domain) come from input a check let through:
+    // bad input, exit 2; anything else (allocation, runtime) is a failure of the run, exit 3.
+    const bool input = dynamic_cast<const std::logic_error*>(&e) != nullptr;
+    return hexsim::app::ReportUnexpected(e.what(), input ? 2 : 3);
+  } catch (...) {
+    return hexsim::app::ReportUnexpected("unknown exception", 3);
   }
   return exit_code;
 }

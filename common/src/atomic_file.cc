@@ -57,6 +57,8 @@ Status OutputDirectory::Open(const std::string& dir) {
 }
 
 Result<std::string> ReadFile(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) return Status::BadInput(path + ": is a directory, not a file");
   std::ifstream in(path, std::ios::binary);
   if (!in) return Status::BadInput(path + ": cannot open file");
   std::stringstream ss;

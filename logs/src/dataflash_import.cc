@@ -12,6 +12,7 @@
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/rotation.h"
 #include "dataflash_streams.h"
+#include "hexsim/logs/dataflash_plausibility.h"
 
 namespace hexsim::logs {
 
@@ -184,7 +185,7 @@ struct Collected {
   std::optional<nlohmann::json> home;
   int gps_week = -1;
   double gps_tow_s = kNaN;
-  std::vector<double> mag_mot_nonzero = {0, 0, 0};
+  std::vector<double> mag_mot_nonzero = {0, 0, 0};  // samples with a non-zero motor offset, per compass
   size_t messages = 0;
 };
 
@@ -216,7 +217,7 @@ void CollectMessage(const DataFlashMessage& m, Collected* c) {
     const double my = MagToMicroTesla(m, m.Has("MOfsY") ? "MOfsY" : "MOY");
     const double mz = MagToMicroTesla(m, m.Has("MOfsZ") ? "MOfsZ" : "MOZ");
     if ((std::isfinite(mx) && mx != 0) || (std::isfinite(my) && my != 0) || (std::isfinite(mz) && mz != 0)) {
-      c->mag_mot_nonzero[k] = 1;
+      ++c->mag_mot_nonzero[k];
     }
     c->mags[k].Add(m.BootTime_s(), {MagToMicroTesla(m, "MagX"), MagToMicroTesla(m, "MagY"),
                                     MagToMicroTesla(m, "MagZ"), mx, my, mz});
@@ -296,6 +297,14 @@ std::optional<double> Param(const Collected& c, const std::string& name) {
   auto it = c.params.find(name);
   if (it == c.params.end()) return std::nullopt;
   return it->second;
+}
+
+// Whether compass k's per-sample motor offsets are real: ArduPilot fills them only when motor
+// compensation is on (COMPASS_MOTCT != 0); a log without that parameter needs them non-zero in most
+// samples. A few non-zero samples in a log without compensation are damage, and make no columns.
+bool HasMotorOffsets(const Collected& c, size_t k) {
+  if (auto motct = Param(c, "COMPASS_MOTCT")) return *motct != 0 && c.mag_mot_nonzero[k] > 0;
+  return 2.0 * c.mag_mot_nonzero[k] > static_cast<double>(c.mags[k].size());
 }
 
 // Adds a channel's held samples to the log (columns only when the channel has samples).
@@ -389,7 +398,7 @@ nlohmann::json CompassMeta(const Collected& c, size_t k, const std::string& pref
   const bool calibrated = ofs && (*ofs != 0 || Param(c, "COMPASS_OFS" + n + "_Y").value_or(0) != 0 ||
                                   Param(c, "COMPASS_OFS" + n + "_Z").value_or(0) != 0);
   j["offsets_set"] = calibrated;
-  j["motor_offset_columns"] = c.mag_mot_nonzero[k] != 0
+  j["motor_offset_columns"] = HasMotorOffsets(c, k)
                                   ? nlohmann::json::array({prefix + "_mot_x_uT", prefix + "_mot_y_uT", prefix + "_mot_z_uT"})
                                   : nlohmann::json("all zero: not written");
   return j;
@@ -425,9 +434,10 @@ Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string
   DataFlashReader reader(bytes);
   DataFlashMessage m;
   size_t data_messages = 0;
+  RecordPlausibility plausibility;  // drops records damage made implausible (dataflash_plausibility.h)
   while (reader.Next(&m)) {
     if (m.type() != kDataFlashFmtType) ++data_messages;
-    CollectMessage(m, &c);
+    if (plausibility.Accept(m)) CollectMessage(m, &c);
   }
   if (data_messages == 0) {
     return Status::BadInput(fmt::format("{}: not an ArduPilot DataFlash log: no readable messages ({} bytes skipped)",
@@ -449,12 +459,32 @@ Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string
   for (Channel* ch : {&c.att, &c.imu, &c.batt, &c.rcou, &c.ctun, &c.gps, &c.baro, &c.mode, &c.waypoint}) ch->Finalize();
   for (auto& ch : c.mags) ch.Finalize();
   for (auto& [n, ch] : c.ekf) ch.Finalize();
-  if (c.att.size() == 0) return Status::BadInput(name + ": ATT: no attitude messages, so no rows to import");
+  RecordDamage& records = plausibility.mutable_damage();
+  records.time = c.att.dropped + c.imu.dropped + c.batt.dropped + c.rcou.dropped + c.ctun.dropped + c.gps.dropped +
+                 c.baro.dropped + c.mode.dropped + c.waypoint.dropped;
+  for (const auto& mc : c.mags) records.time += mc.dropped;
+  for (const auto& [n, e] : c.ekf) records.time += e.dropped;
+  if (const double share = DamagedRecordShare(reader.damage(), records, data_messages); share > kMaxDamagedRecordShare) {
+    return Status::BadInput(fmt::format("{}: damage: {:.0f} % of the records are damaged (more than {:.0f} %), refused: {}",
+                                        name, 100.0 * share, 100.0 * kMaxDamagedRecordShare,
+                                        DamageSummaryLine(name, reader.damage(), records, data_messages)));
+  }
+  if (c.att.size() == 0) {
+    const auto att_dropped = records.by_message.find("ATT");
+    if (att_dropped != records.by_message.end() || c.att.dropped > 0) {
+      return Status::BadInput(fmt::format("{}: ATT: every attitude record is damaged ({} dropped), so no rows to import",
+                                          name, c.att.dropped + (att_dropped == records.by_message.end()
+                                                                      ? 0 : att_dropped->second)));
+    }
+    return Status::BadInput(name + ": ATT: no attitude messages, so no rows to import");
+  }
   const std::vector<double>& att_t = c.att.t;
 
   ImportResult result;
   result.damage = reader.damage();
   result.rows_dropped = c.att.dropped;
+  result.records = records;
+  result.records_accepted = data_messages;
   FlightLog& log = result.log;
 
   // Rows: one per ATT sample.
@@ -494,7 +524,7 @@ Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string
   const char* mag_prefix[] = {"mag", "mag2", "mag3"};
   for (size_t k = 0; k < 3; ++k) {
     std::vector<size_t> cols = {0, 1, 2};
-    if (c.mag_mot_nonzero[k] != 0) cols.insert(cols.end(), {3, 4, 5});
+    if (HasMotorOffsets(c, k)) cols.insert(cols.end(), {3, 4, 5});
     AddHeld(c.mags[k], cols, &log);
   }
   AddHeld(c.baro, AllColumns(c.baro), &log);
@@ -636,6 +666,8 @@ Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string
   for (const auto& [n, e] : c.ekf) samples_dropped += e.dropped;
   damage["samples_dropped"] = samples_dropped;
   damage["stream_samples_dropped"] = stream_dropped;
+  damage.update(RecordDamageJson(records));
+  damage["damaged_record_share"] = DamagedRecordShare(result.damage, records, data_messages);
   meta["damage"] = damage;
   return result;
 }
@@ -664,7 +696,11 @@ nlohmann::json DataFlashInfoJson(const std::string& bytes, const std::string& na
   DataFlashReader reader(bytes);
   DataFlashMessage m;
   double t_min = kNaN, t_max = kNaN;
+  RecordPlausibility plausibility;
+  size_t data_messages = 0;
   while (reader.Next(&m)) {
+    if (m.type() != kDataFlashFmtType) ++data_messages;
+    if (!plausibility.Accept(m)) continue;
     TypeStats& s = stats[m.name()];
     ++s.count;
     const double t = m.name() == "GPS" ? GpsBootTime_s(m) : m.BootTime_s();
@@ -705,6 +741,8 @@ nlohmann::json DataFlashInfoJson(const std::string& bytes, const std::string& na
   j["params"] = ParamsOfInterest(params);
   j["parameter_count"] = params.size();
   j["damage"] = DamageJson(reader.damage());
+  j["damage"].update(RecordDamageJson(plausibility.damage()));
+  j["damage"]["damaged_record_share"] = DamagedRecordShare(reader.damage(), plausibility.damage(), data_messages);
   return j;
 }
 
@@ -725,8 +763,13 @@ std::string DataFlashInfo(const std::string& bytes, const std::string& name) {
   out += fmt::format("parameters: {} ({} of interest)\n", j["parameter_count"].get<size_t>(), j["params"].size());
   for (const auto& [k, v] : j["params"].items()) out += fmt::format("  {} = {}\n", k, v.get<double>());
   out += "damage:";
-  for (const auto& [k, v] : j["damage"].items()) out += fmt::format(" {}={}", k, v.get<size_t>());
-  out += "\n";
+  for (const auto& [k, v] : j["damage"].items()) {
+    if (v.is_number_unsigned()) out += fmt::format(" {}={}", k, v.get<size_t>());
+  }
+  out += fmt::format(" damaged_record_share={:.4f}\n", j["damage"]["damaged_record_share"].get<double>());
+  for (const auto& [k, v] : j["damage"]["records_dropped_by_message"].items()) {
+    out += fmt::format("  dropped {} records: {}\n", k, v.get<size_t>());
+  }
   return out;
 }
 

@@ -33,6 +33,7 @@
 
 #include "hexsim/common/status.h"
 #include "hexsim/logs/dataflash.h"
+#include "hexsim/logs/dataflash_plausibility.h"
 #include "hexsim/logs/flight_log.h"
 
 namespace hexsim::logs {
@@ -49,10 +50,13 @@ struct ImportResult {
   FlightLog log;  // log.meta holds the meta JSON (hexsim.log_meta/1)
   DataFlashDamage damage;
   size_t rows_dropped = 0;  // ATT samples dropped for damaged time or non-finite angles
+  RecordDamage records;         // records dropped as implausible (dataflash_plausibility.h)
+  size_t records_accepted = 0;  // data records the reader accepted (before the plausibility checks)
 };
 
 // Imports a DataFlash byte buffer. `name` is used in messages and the meta's source. Bad input
-// (empty, no DataFlash messages, no attitude) is a kBadInput Status; damage is skipped and counted.
+// (empty, no DataFlash messages, no attitude, more than kMaxDamagedRecordShare of the records damaged)
+// is a kBadInput Status; lesser damage is skipped and counted (result.damage, result.records).
 Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string& name,
                                      const ImportOptions& options = {});
 // Reads `path` and imports it.
