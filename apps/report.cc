@@ -363,11 +363,6 @@ Status FlightFigures(const json& c, const std::vector<FlownRun>& runs, FigureSin
   if (all_tracks.size() > 1) {
     render::Plot2D top = render::TracksTopView(planned ? *planned : no_plan, all_tracks);
     top.title = "Planned path and every calibration's flown track (top view)";
-    // Earlier tracks drawn wider, so tracks that coincide still show every colour.
-    const size_t first_flown = top.series.size() - all_tracks.size();
-    for (size_t k = first_flown; k < top.series.size(); ++k) {
-      top.series[k].width_px = 1.6f + 1.4f * static_cast<float>(top.series.size() - 1 - k);
-    }
     top.legend = render::LegendPosition::kBottomRight;
     HEXSIM_RETURN_IF_ERROR(sink->Add(
         render::Render(top, 1100, 900),

@@ -326,6 +326,12 @@ Plot2D TracksTopView(const Track& planned, const std::vector<Track>& flown) {
   p.x_label = "East (m)";
   p.y_label = "North (m)";
   p.equal_aspect = true;
+  size_t k = 0;
+  for (const Track& t : flown) {
+    p.series.push_back(Line(t.name, t.east_m, t.north_m, t.colour ? t.colour : PaletteColour(k)));
+    ++k;
+  }
+  // The planned path last, on top of the tracks that follow it.
   if (!planned.north_m.empty()) {
     Series s = Line(planned.name.empty() ? "planned" : planned.name, planned.east_m, planned.north_m,
                     planned.colour ? planned.colour : Colour{0.35f, 0.35f, 0.35f, 1.0f});
@@ -333,11 +339,6 @@ Plot2D TracksTopView(const Track& planned, const std::vector<Track>& flown) {
     s.style = SeriesStyle::kLineMarkers;
     s.marker_px = 6.0f;
     p.series.push_back(s);
-  }
-  size_t k = 0;
-  for (const Track& t : flown) {
-    p.series.push_back(Line(t.name, t.east_m, t.north_m, t.colour ? t.colour : PaletteColour(k)));
-    ++k;
   }
   return p;
 }
@@ -359,13 +360,13 @@ Plot3D Tracks3D(const Track& planned, const std::vector<Track>& flown) {
     s.marker_px = 5.0f;
     p.series.push_back(std::move(s));
   };
-  if (!planned.north_m.empty()) {
+  size_t k = 0;
+  for (const Track& t : flown) add(t, t.colour ? *t.colour : PaletteColour(k++), SeriesStyle::kLine);
+  if (!planned.north_m.empty()) {  // last: on top
     Track named = planned;
     if (named.name.empty()) named.name = "planned";
     add(named, planned.colour ? *planned.colour : Colour{0.35f, 0.35f, 0.35f, 1.0f}, SeriesStyle::kLineMarkers);
   }
-  size_t k = 0;
-  for (const Track& t : flown) add(t, t.colour ? *t.colour : PaletteColour(k++), SeriesStyle::kLine);
   return p;
 }
 

@@ -3,6 +3,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <optional>
+#include <utility>
 
 #include "draw.h"
 
@@ -103,6 +105,74 @@ Status CheckRange(const std::optional<Range>& r, const char* name) {
 
 double Snap(double v) { return std::floor(v) + 0.5; }
 
+std::vector<Pt> SeriesPixels(const Series& s, const Layout2D& L) {
+  std::vector<Pt> pts(s.x.size());
+  for (size_t i = 0; i < s.x.size(); ++i) {
+    const bool finite = std::isfinite(s.x[i]) && std::isfinite(s.y[i]);
+    pts[i] = finite ? Pt{L.XToPx(s.x[i]), L.YToPx(s.y[i])} : Pt{NAN, NAN};
+  }
+  return pts;
+}
+
+// Whether the segment a-b meets the rectangle [x0, x1] × [y0, y1] (Liang–Barsky clipping: the
+// segment a + t (b − a), t in [0, 1], keeps a non-empty part inside).
+bool SegmentMeetsRect(const Pt& a, const Pt& b, double x0, double y0, double x1, double y1) {
+  double t0 = 0.0, t1 = 1.0;
+  const double d[2] = {b[0] - a[0], b[1] - a[1]};
+  const double lo[2] = {x0, y0}, hi[2] = {x1, y1};
+  for (int k = 0; k < 2; ++k) {
+    for (const auto& [p, q] : {std::pair{-d[k], a[k] - lo[k]}, std::pair{d[k], hi[k] - a[k]}}) {
+      if (p == 0.0) {
+        if (q < 0.0) return false;
+        continue;
+      }
+      const double r = q / p;
+      if (p < 0.0) t0 = std::max(t0, r);
+      else t1 = std::min(t1, r);
+      if (t0 > t1) return false;
+    }
+  }
+  return true;
+}
+
+// Whether any series (its points, or its line segments) or reference line enters the rectangle.
+bool DataInRect(const Plot2D& plot, const Layout2D& L, double x0, double y0, double x1, double y1) {
+  for (const Series& s : plot.series) {
+    const std::vector<Pt> pts = SeriesPixels(s, L);
+    for (size_t i = 0; i < pts.size(); ++i) {
+      if (!std::isfinite(pts[i][0])) continue;
+      if (pts[i][0] >= x0 && pts[i][0] <= x1 && pts[i][1] >= y0 && pts[i][1] <= y1) return true;
+      if (s.style != SeriesStyle::kScatter && i + 1 < pts.size() && std::isfinite(pts[i + 1][0]) &&
+          SegmentMeetsRect(pts[i], pts[i + 1], x0, y0, x1, y1)) {
+        return true;
+      }
+    }
+  }
+  for (const RefLine& r : plot.ref_lines) {
+    const bool horizontal = r.axis == RefLine::Axis::kHorizontal;
+    const double v = horizontal ? L.YToPx(r.value) : L.XToPx(r.value);
+    if (horizontal ? (v >= y0 && v <= y1) : (v >= x0 && v <= x1)) return true;
+  }
+  return false;
+}
+
+// The first corner, starting with the requested one, whose legend box no data enters.
+std::optional<LegendPosition> EmptyCorner(const Plot2D& plot, const Layout2D& L, const Style& st, const Pt& size) {
+  std::vector<LegendPosition> order = {plot.legend};
+  for (LegendPosition p : {LegendPosition::kTopRight, LegendPosition::kTopLeft, LegendPosition::kBottomRight,
+                           LegendPosition::kBottomLeft}) {
+    if (p != plot.legend) order.push_back(p);
+  }
+  const double margin = 3.0 * st.scale;  // half a line width plus a gap
+  for (LegendPosition p : order) {
+    const Pt at = LegendCorner(st, size, p, L.left_px, L.top_px, L.right_px, L.bottom_px);
+    if (!DataInRect(plot, L, at[0] - margin, at[1] - margin, at[0] + size[0] + margin, at[1] + size[1] + margin)) {
+      return p;
+    }
+  }
+  return std::nullopt;
+}
+
 double MaxWidth(Canvas& canvas, const std::vector<double>& ticks, double size_px) {
   double w = 0.0;
   const double step = ticks.size() > 1 ? ticks[1] - ticks[0] : 1.0;
@@ -185,36 +255,90 @@ Result<Layout2D> LayoutPlot2D(Canvas& canvas, const Plot2D& plot, double x0, dou
   return L;
 }
 
+Pt LegendSize(Canvas& canvas, const Style& st, const std::vector<LegendEntry>& entries) {
+  const double font = st.legend_px();
+  const double row_h = canvas.Measure("Ag", font).height_px * 1.15;
+  const double sample_w = 22.0 * st.scale, gap = 6.0 * st.scale, pad = 6.0 * st.scale;
+  double text_w = 0.0;
+  for (const LegendEntry& e : entries) text_w = std::max(text_w, canvas.Measure(e.label, font).width_px);
+  return {pad + sample_w + gap + text_w + pad, pad + row_h * static_cast<double>(entries.size()) + pad};
+}
+
+Pt LegendCorner(const Style& st, const Pt& size, LegendPosition where, double x0, double y0, double x1, double y1) {
+  const double inset = 8.0 * st.scale;
+  const bool right = where == LegendPosition::kTopRight || where == LegendPosition::kBottomRight;
+  const bool top = where == LegendPosition::kTopRight || where == LegendPosition::kTopLeft;
+  return {right ? x1 - inset - size[0] : x0 + inset, top ? y0 + inset : y1 - inset - size[1]};
+}
+
 void DrawLegend(Canvas& canvas, const Style& st, const std::vector<LegendEntry>& entries, LegendPosition where,
                 double x0, double y0, double x1, double y1) {
   if (where == LegendPosition::kNone || entries.empty()) return;
+  const Pt size = LegendSize(canvas, st, entries);
+  const Pt at = LegendCorner(st, size, where, x0, y0, x1, y1);
+  DrawLegendAt(canvas, st, entries, at[0], at[1]);
+}
+
+void DrawLegendAt(Canvas& canvas, const Style& st, const std::vector<LegendEntry>& entries, double bx, double by) {
   const double font = st.legend_px();
   const double row_h = canvas.Measure("Ag", font).height_px * 1.15;
-  const double sample_w = 22.0 * st.scale, gap = 6.0 * st.scale, inset = 8.0 * st.scale, pad = 6.0 * st.scale;
-  double text_w = 0.0;
-  for (const LegendEntry& e : entries) text_w = std::max(text_w, canvas.Measure(e.label, font).width_px);
-  const double bw = pad + sample_w + gap + text_w + pad, bh = pad + row_h * entries.size() + pad;
-  const bool right = where == LegendPosition::kTopRight || where == LegendPosition::kBottomRight;
-  const bool top = where == LegendPosition::kTopRight || where == LegendPosition::kTopLeft;
-  const double bx = right ? x1 - inset - bw : x0 + inset;
-  const double by = top ? y0 + inset : y1 - inset - bh;
+  const double sample_w = 22.0 * st.scale, gap = 6.0 * st.scale, pad = 6.0 * st.scale;
+  const Pt size = LegendSize(canvas, st, entries);
+  const double bw = size[0], bh = size[1];
   canvas.FillRect(bx, by, bx + bw, by + bh, {1.0f, 1.0f, 1.0f, 0.88f});
   canvas.StrokeRect(bx, by, bx + bw, by + bh, {0.75f, 0.75f, 0.75f, 1.0f}, 1.0);
   for (size_t i = 0; i < entries.size(); ++i) {
     const LegendEntry& e = entries[i];
     const double cy = by + pad + row_h * (i + 0.5);
     const double sx0 = bx + pad, sx1 = sx0 + sample_w;
-    if (e.style != SeriesStyle::kScatter) canvas.Line(sx0, cy, sx1, cy, e.colour, 2.0 * st.scale, e.dashed);
+    if (e.style != SeriesStyle::kScatter) canvas.Line(sx0, cy, sx1, cy, e.colour, kMaxLineWidth_px, e.dashed);
     if (e.style != SeriesStyle::kLine) canvas.Discs({{0.5 * (sx0 + sx1), cy}}, e.colour, 6.0 * st.scale);
     canvas.Text(e.label, sx1 + gap, cy, font, kInk, HAlign::kLeft, VAlign::kMiddle);
   }
 }
 
-Status DrawPlot2D(Canvas& canvas, const Plot2D& plot, double x0, double y0, double w, double h) {
+namespace {
+
+std::vector<LegendEntry> LegendEntries(const Plot2D& plot) {
+  std::vector<LegendEntry> legend;
+  size_t auto_colour = 0;
+  for (const Series& s : plot.series) {
+    const Colour c = s.colour ? *s.colour : PaletteColour(auto_colour++);
+    if (!s.label.empty()) legend.push_back({s.label, c, s.style, s.dashed});
+  }
+  return legend;
+}
+
+}  // namespace
+
+Result<Placed2D> PlacePlot2D(Canvas& canvas, const Plot2D& plot, double x0, double y0, double w, double h) {
+  const Style st = Style::ForPanel(w, h);
   Result<Layout2D> layout = LayoutPlot2D(canvas, plot, x0, y0, w, h);
   if (!layout.ok()) return layout.status();
-  const Layout2D& L = *layout;
+  Placed2D placed{*layout, std::nullopt};
+  const std::vector<LegendEntry> legend = LegendEntries(plot);
+  if (plot.legend == LegendPosition::kNone || legend.empty()) return placed;
+  // The legend goes in a corner no data crosses (the requested one first); where every corner has
+  // data, outside the plot area on the right, which narrows the plot.
+  const Pt size = LegendSize(canvas, st, legend);
+  if (const auto corner = EmptyCorner(plot, *layout, st, size)) {
+    const Pt at = LegendCorner(st, size, *corner, layout->left_px, layout->top_px, layout->right_px, layout->bottom_px);
+    placed.legend = LegendBox{at[0], at[1], size[0], size[1], false};
+    return placed;
+  }
+  const double gap = 8.0 * st.scale;
+  auto narrowed = LayoutPlot2D(canvas, plot, x0, y0, w - size[0] - gap, h);
+  if (!narrowed.ok()) return placed;  // too small to move it out: the requested corner
+  placed.layout = *narrowed;
+  placed.legend = LegendBox{narrowed->right_px + gap, narrowed->top_px, size[0], size[1], true};
+  return placed;
+}
+
+Status DrawPlot2D(Canvas& canvas, const Plot2D& plot, double x0, double y0, double w, double h) {
   const Style st = Style::ForPanel(w, h);
+  Result<Placed2D> placed = PlacePlot2D(canvas, plot, x0, y0, w, h);
+  if (!placed.ok()) return placed.status();
+  const Layout2D& L = placed->layout;
   const double tick_len = 4.0 * st.scale;
 
   canvas.Clip(L.left_px, L.top_px, L.right_px, L.bottom_px);
@@ -233,18 +357,12 @@ Status DrawPlot2D(Canvas& canvas, const Plot2D& plot, double x0, double y0, doub
       canvas.Line(L.XToPx(r.value), L.top_px, L.XToPx(r.value), L.bottom_px, r.colour, 1.2 * st.scale, true);
     }
   }
-  std::vector<LegendEntry> legend;
   size_t auto_colour = 0;
   for (const Series& s : plot.series) {
     const Colour c = s.colour ? *s.colour : PaletteColour(auto_colour++);
-    std::vector<Pt> pts(s.x.size());
-    for (size_t i = 0; i < s.x.size(); ++i) {
-      const bool finite = std::isfinite(s.x[i]) && std::isfinite(s.y[i]);
-      pts[i] = finite ? Pt{L.XToPx(s.x[i]), L.YToPx(s.y[i])} : Pt{NAN, NAN};
-    }
-    if (s.style != SeriesStyle::kScatter) canvas.Polyline(pts, c, s.width_px * st.scale, s.dashed);
+    const std::vector<Pt> pts = SeriesPixels(s, L);
+    if (s.style != SeriesStyle::kScatter) canvas.Polyline(pts, c, LineWidth(s.width_px, st), s.dashed);
     if (s.style != SeriesStyle::kLine) canvas.Discs(pts, c, s.marker_px * st.scale);
-    if (!s.label.empty()) legend.push_back({s.label, c, s.style, s.dashed});
   }
   canvas.Unclip();
   // Span and reference-line labels, inside the plot area.
@@ -294,7 +412,7 @@ Status DrawPlot2D(Canvas& canvas, const Plot2D& plot, double x0, double y0, doub
   if (!plot.title.empty()) {
     canvas.Text(plot.title, pw_mid, y0 + st.pad_px(), st.title_px(), kInk, HAlign::kCenter, VAlign::kTop);
   }
-  DrawLegend(canvas, st, legend, plot.legend, L.left_px, L.top_px, L.right_px, L.bottom_px);
+  if (placed->legend) DrawLegendAt(canvas, st, LegendEntries(plot), placed->legend->x_px, placed->legend->y_px);
   return Status::Ok();
 }
 
@@ -305,6 +423,15 @@ Result<Layout2D> ComputeLayout(const Plot2D& plot, int width, int height) {
   if (!canvas.ok()) return canvas.status();
   if (width < internal::kMinSize_px || height < internal::kMinSize_px) return Status::BadInput("render: image too small");
   return internal::LayoutPlot2D(**canvas, plot, 0.0, 0.0, width, height);
+}
+
+Result<std::optional<LegendBox>> ComputeLegendBox(const Plot2D& plot, int width, int height) {
+  Result<std::unique_ptr<internal::Canvas>> canvas = internal::Canvas::Create(internal::kMinSize_px, internal::kMinSize_px);
+  if (!canvas.ok()) return canvas.status();
+  if (width < internal::kMinSize_px || height < internal::kMinSize_px) return Status::BadInput("render: image too small");
+  auto placed = internal::PlacePlot2D(**canvas, plot, 0.0, 0.0, width, height);
+  if (!placed.ok()) return placed.status();
+  return placed->legend;
 }
 
 Result<Image> Render(const Plot2D& plot, int width, int height) {

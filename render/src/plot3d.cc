@@ -239,7 +239,7 @@ Status DrawPlot3D(Canvas& canvas, const Plot3D& plot, double x0, double y0, doub
     const Colour c = s.colour ? *s.colour : PaletteColour(auto_colour++);
     std::vector<Pt> pts(s.x.size());
     for (size_t i = 0; i < s.x.size(); ++i) pts[i] = cam.Screen({s.x[i], s.y[i], s.z[i]});
-    if (s.style != SeriesStyle::kScatter) canvas.Polyline(pts, c, s.width_px * st.scale);
+    if (s.style != SeriesStyle::kScatter) canvas.Polyline(pts, c, LineWidth(s.width_px, st));
     if (s.style != SeriesStyle::kLine) canvas.Discs(pts, c, s.marker_px * st.scale);
     if (!s.label.empty()) legend.push_back({s.label, c, s.style, false});
   }

@@ -116,6 +116,15 @@ struct Layout2D {
 // Computes the layout Render() uses for `plot` in a `width`×`height` panel at (0, 0).
 Result<Layout2D> ComputeLayout(const Plot2D& plot, int width, int height);
 
+// Where Render() puts a Plot2D's legend (pixels, y down): in the requested corner when no series or
+// reference line enters it, else in another corner no data enters, else outside the plot area on the
+// right (`outside`; the plot is narrowed to make room). Nothing when the plot shows no legend.
+struct LegendBox {
+  double x_px = 0, y_px = 0, width_px = 0, height_px = 0;  // top-left corner and size
+  bool outside = false;
+};
+Result<std::optional<LegendBox>> ComputeLegendBox(const Plot2D& plot, int width, int height);
+
 // Renders to an image (white background). Sizes in pixels, each 16..8192.
 Result<Image> Render(const Plot2D& plot, int width, int height);
 Result<Image> Render(const Plot3D& plot, int width, int height);
