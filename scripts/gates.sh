@@ -10,6 +10,8 @@
 #   5    determinism  the same runs (truth loop; paper_hex with turntable, fits, adaptive compensator
 #                   and ESKF) with the release binary (build/, -O3, made by scripts/test.sh) and the
 #                   sanitizer binary (-O1 + ASan/UBSan): log.csv byte for byte
+#   6    readme     README.md's deterministic tables (Table 1, compare) agree with a fresh run of the
+#                   release binary: scripts/readme_figures.sh --check (made by scripts/test.sh)
 #
 # Usage: scripts/gates.sh [STAGE...]     (default: all stages; e.g. `scripts/gates.sh tidy fuzz`)
 # Environment: HEXSIM_GATES_JOBS (default: nproc), HEXSIM_TIDY_FILES (a regex restricting the .cc files
@@ -19,7 +21,7 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 jobs=${HEXSIM_GATES_JOBS:-$(nproc)}
 stages=("$@")
-((${#stages[@]})) || stages=(sanitize tidy fuzz determinism)
+((${#stages[@]})) || stages=(sanitize tidy fuzz determinism readme)
 
 # Tools, installed the way scripts/setup.sh does it: only what is missing.
 packages=(clang clang-tidy libclang-rt-14-dev lld ccache ninja-build cmake python3)
@@ -140,10 +142,17 @@ stage_determinism() {
   end determinism
 }
 
+stage_readme() {
+  begin "readme: README tables (Table 1, compare) agree with a fresh run"
+  [ -x "$root/build/apps/hexsim" ] || { echo "no $root/build/apps/hexsim: run scripts/test.sh first" >&2; fail readme; }
+  bash scripts/readme_figures.sh --check || fail readme
+  end readme
+}
+
 for s in "${stages[@]}"; do
   case $s in
-    sanitize|tidy|fuzz|determinism) "stage_$s" ;;
-    *) echo "gates: unknown stage '$s' (sanitize tidy fuzz determinism)" >&2; exit 2 ;;
+    sanitize|tidy|fuzz|determinism|readme) "stage_$s" ;;
+    *) echo "gates: unknown stage '$s' (sanitize tidy fuzz determinism readme)" >&2; exit 2 ;;
   esac
 done
 echo

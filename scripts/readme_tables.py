@@ -1,0 +1,195 @@
+#!/usr/bin/env python3
+"""The README's tables of figures, written from fresh outputs (used by scripts/readme_figures.sh).
+
+    readme_tables.py table1 HEADING_ERROR.json            > table.md
+    readme_tables.py compare COMPARISON.json               > table.md
+    readme_tables.py selftest SELFTEST.json MACHINE DATE   > table.md
+    readme_tables.py speed MACHINE DATE BENCH.json...      > table.md
+    readme_tables.py splice README NAME TABLE.md   (replace the block between NAME's markers)
+    readme_tables.py check README NAME TABLE.md    (exit 1, with a diff, when they disagree)
+
+A block sits between `<!-- readme_figures:NAME -->` and `<!-- /readme_figures:NAME -->`.
+"""
+import difflib
+import json
+import os
+import sys
+
+# Table 1: each row's label and the paper's figures (Xu et al. 2016, Table 1: max error in degrees at
+# control 0/200/300); rows are the heading-error JSON's names, in the README's order.
+TABLE1_ROWS = [
+    ("uncorrected", "uncorrected", "12.5 / 13.3 / 14.3"),
+    ("traditional", "traditional (ground ellipsoid)", "2.5 / 5.0 / 7.6"),
+    ("adaptive", "adaptive (paper: TLS line, control-indexed)", "2.4 / 2.5 / 2.6"),
+    ("adaptive-current", "adaptive-current (line indexed by current)", "–"),
+    ("compassmot", "compassmot (ArduPilot-style, µT/A)", "–"),
+    ("px4-ls", "px4-ls (PX4-style least squares on current)", "–"),
+]
+
+COMPARE_COLUMNS = [
+    ("yaw_error_deg.max", "yaw max (°)"),
+    ("yaw_error_deg.rms", "yaw RMS (°)"),
+    ("cross_track_m.max", "cross-track max (m)"),
+    ("cross_track_m.rms", "cross-track RMS (m)"),
+    ("energy_Wh", "energy (Wh)"),
+]
+
+
+def amps(a):
+    return f"{a:.1f} A" if a < 10 else f"{a:.0f} A"
+
+
+def table1(path):
+    j = json.load(open(path))
+    rows = {r["name"]: r for r in j["rows"]}
+    control = j["control_u"]
+    current = rows["uncorrected"]["current_A"]
+    head = " | ".join(f"{u:g} ({amps(a)})" for u, a in zip(control, current))
+    out = [f"| control amount (battery current) | {head} | paper |", "|---" * (len(control) + 2) + "|"]
+    for name, label, paper in TABLE1_ROWS:
+        if name not in rows:
+            sys.exit(f"readme_tables: {path}: rows: no '{name}'")
+        r = rows[name]
+        cells = " | ".join(f"{m:.2f} / {s:.2f}" for m, s in zip(r["max_deg"], r["rms_deg"]))
+        out.append(f"| {label} | {cells} | {paper} |")
+    return "\n".join(out) + "\n"
+
+
+def compare(path):
+    j = json.load(open(path))
+    out = ["| calibration | " + " | ".join(c[1] for c in COMPARE_COLUMNS) + " |",
+           "|---" * (len(COMPARE_COLUMNS) + 1) + "|"]
+    means = {}
+    for g in j["groups"]:
+        cells = []
+        for key, _ in COMPARE_COLUMNS:
+            m = g["metrics"].get(key)
+            cells.append("–" if m is None else f"{m['mean']:.2f} ± {m['std']:.2f}")
+            if m is not None:
+                means[(g["calibration"], key)] = m["mean"]
+        out.append(f"| {g['calibration']} | " + " | ".join(cells) + " |")
+    text = "\n".join(out) + "\n"
+    a, t = means.get(("adaptive", "cross_track_m.rms")), means.get(("traditional", "cross_track_m.rms"))
+    if a is not None and t:
+        text += f"\nAdaptive / traditional cross-track RMS ratio: {a / t:.2f}.\n"
+    return text
+
+
+def pct(x):
+    return "–" if x is None else f"{100 * x:.0f} %"
+
+
+def per_effect(cls):
+    pe = cls.get("per_effect", {})
+    return ", ".join(f"{e.replace('_', ' ')} {v['top1']}/{v['trials']}" for e, v in sorted(pe.items()))
+
+
+def selftest(path, machine, date):
+    j = json.load(open(path))
+    c = {k["class"]: k for k in j["classes"]}
+    clean, one, two = c.get("clean", {}), c.get("one_effect", {}), c.get("two_effects", {})
+    ool, dyn = c.get("out_of_library", {}), c.get("dynamics_one_effect", {})
+    thr = (j.get("detection_threshold", {}).get("current_hard_iron", {}) or {}).get("uT_per_A")
+    thr_text = "not reached" if thr is None else f"{thr:.2g} µT/A ({10 * thr:.2g} mG/A)"
+    rows = [
+        ("clean", f"false alarms {pct(clean.get('false_alarm_rate'))}", "≤ 5 %"),
+        ("one effect", f"top-1 {pct(one.get('top1_rate'))}, 95 % interval covers the truth "
+                       f"{pct(one.get('coverage_95'))}, median held-out shrink {pct(one.get('median_heldout_shrink'))}",
+         "≥ 90 %, ≥ 90 %, ≥ 50 %"),
+        ("two effects", f"top-1 {pct(two.get('top1_rate'))}; overall top-1 {pct(j.get('overall_top1_rate'))}",
+         "overall ≥ 70 %"),
+        ("out of library", f"\"unexplained\" {pct(ool.get('unexplained_rate'))}", "≥ 80 %"),
+        ("detection threshold, current hard iron", thr_text, "≤ 0.1 µT/A"),
+        ("dynamics channel, clean logs", f"false alarms {pct(clean.get('dynamics_false_alarm_rate'))}", "≤ 5 %"),
+        ("dynamics channel, one effect", f"top-1 {pct(dyn.get('top1_rate'))} ({per_effect(dyn)}), interval coverage "
+                                         f"{pct(dyn.get('coverage_95'))}, median held-out shrink "
+                                         f"{pct(dyn.get('median_heldout_shrink'))}", "≥ 90 %, ≥ 90 %, ≥ 50 %"),
+    ]
+    out = [f"`hexsim gap selftest --trials {j.get('trials_per_class')} --seed {j.get('seed')}` on {machine}, {date}; "
+           f"targets {'met' if j.get('targets_met') else 'missed'}:", "",
+           "| class | result | target |", "|---|---|---|"]
+    out += [f"| {a} | {b} | {t} |" for a, b, t in rows]
+    return "\n".join(out) + "\n"
+
+
+def fmt_time(ns):
+    for unit, scale in (("s", 1e9), ("ms", 1e6), ("µs", 1e3)):
+        if ns >= scale:
+            return f"{ns / scale:.3g} {unit}"
+    return f"{ns:.3g} ns"
+
+
+def speed(machine, date, paths):
+    scale = {"ns": 1, "us": 1e3, "ms": 1e6, "s": 1e9}
+    out = [f"Measured on {machine}, {date} (`scripts/readme_figures.sh speed`; Release build, median of 3 "
+           "repetitions, CPU time):", "", "| benchmark | CPU time | wall time | counters |", "|---|---|---|---|"]
+    for p in paths:
+        for b in json.load(open(p))["benchmarks"]:
+            if b.get("aggregate_name", "median") != "median":
+                continue
+            s = scale[b.get("time_unit", "ns")]
+            name = b.get("run_name", b["name"])
+            skip = {"name", "run_name", "run_type", "repetitions", "repetition_index", "threads", "iterations",
+                    "real_time", "cpu_time", "time_unit", "family_index", "per_family_instance_index",
+                    "aggregate_name", "aggregate_unit", "error_occurred", "error_message"}
+            counters = ", ".join(f"{k} {v:.3g}" for k, v in b.items() if k not in skip and isinstance(v, (int, float)))
+            out.append(f"| `{name}` | {fmt_time(b['cpu_time'] * s)} | {fmt_time(b['real_time'] * s)} | {counters} |")
+    return "\n".join(out) + "\n"
+
+
+def markers(name):
+    return f"<!-- readme_figures:{name} -->", f"<!-- /readme_figures:{name} -->"
+
+
+def block(readme, name):
+    text = open(readme, encoding="utf-8").read()
+    begin, end = markers(name)
+    i, k = text.find(begin), text.find(end)
+    if i < 0 or k < i:
+        sys.exit(f"readme_tables: {readme}: no block '{name}' (markers {begin} ... {end})")
+    return text, i + len(begin) + 1, k
+
+
+def splice(readme, name, table):
+    text, i, k = block(readme, name)
+    new = text[:i] + open(table, encoding="utf-8").read() + text[k:]
+    tmp = readme + ".tmp"
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write(new)
+    os.replace(tmp, readme)
+
+
+def check(readme, name, table):
+    text, i, k = block(readme, name)
+    have, want = text[i:k], open(table, encoding="utf-8").read()
+    if have == want:
+        print(f"readme_figures: {name}: README agrees with a fresh run")
+        return 0
+    sys.stdout.writelines(difflib.unified_diff(have.splitlines(True), want.splitlines(True),
+                                               f"README.md ({name})", f"fresh run ({name})"))
+    print(f"readme_figures: {name}: README disagrees with a fresh run: "
+          f"run scripts/readme_figures.sh {name} and commit README.md", file=sys.stderr)
+    return 1
+
+
+def main(argv):
+    cmd = argv[1] if len(argv) > 1 else ""
+    if cmd == "table1" and len(argv) == 3:
+        sys.stdout.write(table1(argv[2]))
+    elif cmd == "compare" and len(argv) == 3:
+        sys.stdout.write(compare(argv[2]))
+    elif cmd == "selftest" and len(argv) == 5:
+        sys.stdout.write(selftest(argv[2], argv[3], argv[4]))
+    elif cmd == "speed" and len(argv) >= 5:
+        sys.stdout.write(speed(argv[2], argv[3], argv[4:]))
+    elif cmd == "splice" and len(argv) == 5:
+        splice(argv[2], argv[3], argv[4])
+    elif cmd == "check" and len(argv) == 5:
+        return check(argv[2], argv[3], argv[4])
+    else:
+        sys.exit(__doc__)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv))
