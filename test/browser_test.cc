@@ -42,7 +42,7 @@ std::string FindChromium() {
   for (const char* name : {"chromium", "chromium-browser", "google-chrome"}) {
     std::string path;
     if (Shell(std::string("command -v ") + name, &path) == 0 && !path.empty()) {
-      path.erase(path.find_last_not_of("\n") + 1);
+      path.erase(path.find_last_not_of('\n') + 1);
       return path;
     }
   }
