@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <ostream>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -94,6 +95,9 @@ class NoAbortSweep : public ::testing::TestWithParam<Case> {
 
 fs::path NoAbortSweep::dir_;
 
+// Readable test names and failure messages: a case prints as its name.
+void PrintTo(const Case& c, std::ostream* os) { *os << c.name; }
+
 int Lines(const std::string& s) {
   int n = 0;
   for (char c : s) n += c == '\n';
@@ -136,6 +140,7 @@ const Case kCases[] = {
     {"import", "import {} --out {out}/log.csv"},
     {"import_info", "import --info {}"},
     {"gap_diagnose_real", "gap diagnose --real {} --sim quad_x --out {out}"},
+    {"identify", "identify {} --out {out}/v.yaml"},
     {"plot", "plot {} --out {out}"},
     {"step_vehicle", "step --axis roll --size 5 --vehicle {} --out {out}"},
     {"freqresp_vehicle", "freqresp --axis roll --vehicle {} --out {out}"},

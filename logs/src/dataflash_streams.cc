@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include "hexsim/logs/dataflash_plausibility.h"
+
 namespace hexsim::logs::internal {
 namespace {
 
@@ -101,7 +103,9 @@ std::vector<std::pair<std::string, FlightLog>> DataFlashStreams(std::string_view
   std::vector<std::pair<std::string, std::string>> rcou_labels;  // C<i> / Ch<i> present, in order
   DataFlashReader reader(bytes);
   DataFlashMessage m;
+  RecordPlausibility plausibility;  // the same records as the table drops (dataflash_plausibility.h)
   while (reader.Next(&m)) {
+    if (!plausibility.Accept(m)) continue;
     const std::string& name = m.name();
     if (NameIs(name, "IMU")) {
       const int inst = InstanceOf(m, "IMU");

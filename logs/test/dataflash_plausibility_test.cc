@@ -75,6 +75,15 @@ TEST(DataFlashPlausibility, Given2000RandomBytesChanged_WhenImported_ThenNoColum
     ASSERT_TRUE(r.ok()) << r.status().message();
     const std::set<std::string> clean = Columns(CleanImport().log), damaged = Columns(r->log);
     for (const auto& c : damaged) EXPECT_TRUE(clean.count(c)) << "seed " << seed << ": damage created column " << c;
+    // ... nor streams, nor columns in them (the native-rate <log>.<stream>.csv tables).
+    for (const char* name : {"imu", "imu2", "imu3", "rcou", "batt", "baro", "gps", "mag", "mag2", "mag3", "ekf", "ctun"}) {
+      const FlightLog* d = r->log.Stream(name);
+      if (d == nullptr) continue;
+      const FlightLog* c = CleanImport().log.Stream(name);
+      ASSERT_NE(c, nullptr) << "seed " << seed << ": damage created stream " << name;
+      const std::set<std::string> cc = Columns(*c);
+      for (const auto& col : Columns(*d)) EXPECT_TRUE(cc.count(col)) << name << ": damage created column " << col;
+    }
     EXPECT_GT(r->records.range + r->records.type, 0u) << "seed " << seed;
     const double share = DamagedRecordShare(r->damage, r->records, r->records_accepted);
     EXPECT_GT(share, 0.0);
