@@ -1,5 +1,5 @@
-// hexsim gap diagnose --real LOG.csv --sim VEHICLE_OR_CONFIG --out DIR
-// hexsim gap selftest [--trials N] [--seed S] [--json FILE]
+// hexsim gap diagnose --real LOG.csv --sim VEHICLE_OR_CONFIG --out DIR [--from S --to S]
+// hexsim gap selftest [--profile real|ideal] [--trials N] [--seed S] [--json FILE]
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -21,6 +21,7 @@ namespace {
 struct DiagnoseArgs {
   std::string real, sim_config, out;
   uint64_t seed = 1;
+  double from_s = 0.0, to_s = 0.0;
 };
 
 Status DiagnoseCommand(const DiagnoseArgs& a) {
@@ -35,6 +36,11 @@ Status DiagnoseCommand(const DiagnoseArgs& a) {
   if (!vehicle.ok()) return vehicle.status();
   gap::DiagnoseOptions opt;
   opt.seed = a.seed;
+  if (a.from_s != 0.0 || a.to_s != 0.0) {
+    if (!(a.to_s > a.from_s)) return Status::BadInput("--from/--to: --to must be after --from");
+    opt.from_s = a.from_s;
+    opt.to_s = a.to_s;
+  }
   auto report = gap::Diagnose(*log, *vehicle, opt);
   if (!report.ok()) return report.status().WithContext(a.real);
   report->log_name = a.real;
@@ -61,6 +67,9 @@ void Progress(int done, int total) {
 }
 
 Status SelftestCommand(const SelftestArgs& a, int* exit_code) {
+  if (a.options.profile != "real" && a.options.profile != "ideal") {
+    return Status::BadInput("--profile: '" + a.options.profile + "': expected real or ideal");
+  }
   auto r = gap::RunSelftest(a.options, isatty(2) ? &Progress : nullptr);
   if (!r.ok()) return r.status();
   if (!a.json.empty()) HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(a.json, r->json.dump(2) + "\n"));
@@ -80,6 +89,8 @@ void AddGapCommand(CLI::App& app, int* exit_code) {
   diag->add_option("--sim", d->sim_config, "Vehicle name under worlds/vehicles or a vehicle YAML")->required();
   diag->add_option("--out", d->out, "Output directory (gap.json, gap.html, <vehicle>.updated.yaml)")->required();
   diag->add_option("--seed", d->seed, "Bootstrap seed")->capture_default_str();
+  diag->add_option("--from", d->from_s, "Diagnose only from this log time (s), overriding the flight windows");
+  diag->add_option("--to", d->to_s, "Diagnose only up to this log time (s)");
   diag->callback([d, exit_code] {
     const Status s = DiagnoseCommand(*d);
     *exit_code = s.ok() ? 0 : Report(s);
@@ -88,6 +99,9 @@ void AddGapCommand(CLI::App& app, int* exit_code) {
   CLI::App* self = gap->add_subcommand("selftest", "Blind check on pseudo-real simulated logs with withheld effects");
   self->add_option("--trials", st->options.trials, "Trials per class")->capture_default_str();
   self->add_option("--seed", st->options.seed, "Seed")->capture_default_str();
+  self->add_option("--profile", st->options.profile, "real: logs at real rates with nuisance terms and out-of-library "
+                   "forms; ideal: the first wave's logs")
+      ->capture_default_str();
   self->add_option("--threshold-trials", st->options.threshold_trials, "Trials per magnitude in the threshold sweep")
       ->capture_default_str();
   self->add_option("--json", st->json, "Also write hexsim.gap_selftest/1 JSON here");

@@ -9,6 +9,7 @@
 
 #include "hexsim/gap/diagnose.h"
 #include "hexsim/magnetics/current_field.h"
+#include "hexsim/realdata/windows.h"
 
 namespace hexsim::gap::internal {
 
@@ -61,6 +62,34 @@ struct ChannelData {
   // structured residual but little of the whole one (noise included).
   bool explain_above_noise = false;
   std::string note;  // appended to the channel's explanation (e.g. fitted nuisance parameters)
+  // Compass channels (second wave): the nuisance baseline fitted under every candidate (its
+  // coefficients are findings, never effects), the WMM prior, the currents and throttle per sample.
+  bool compass = false;
+  Candidate baseline;
+  Vec3 field_N_uT = Vec3::Zero();
+  bool undone_compensation = false;
+  std::vector<double> current_A, throttle;
+};
+
+// The log columns the replay reads (pointers into the log).
+struct LogInputs {
+  std::vector<const std::vector<double>*> q;
+  const std::vector<double>* current = nullptr;
+  std::vector<const std::vector<double>*> motor_A;
+  std::vector<const std::vector<double>*> motor_u;
+  const std::vector<double>* control_u = nullptr;
+  const std::vector<double>* temp = nullptr;
+  bool has_attitude = false;
+};
+
+// How a compass is replayed: its timing, which rows, how much is built.
+struct CompassReplayOptions {
+  double latency_s = 0.0;        // the sample stamped t measured the field at t − latency_s
+  double current_shift_s = 0.0;  // the aligned current is I(t − latency_s + current_shift_s)
+  const std::vector<realdata::RowKind>* row_kind = nullptr;  // null: every row
+  realdata::RowKind want = realdata::RowKind::kFlight;
+  bool baseline_only = false;   // the timing scan: baseline and the aligned current_hard_iron only
+  bool calibrated_log = false;  // the autopilot calibrated the logged values: no configured hard/soft iron
 };
 
 // Builds every channel the log and the vehicle support; the rest go to not_diagnosed.
@@ -71,6 +100,8 @@ struct ReplayResult {
   std::string contaminated;  // compass column prefix fused by the attitude reference, or empty
   std::string field_model;
   Vec3 earth_field_N_uT = Vec3::Zero();
+  std::vector<size_t> compasses;  // vehicle compass indices with log columns and a usable field
+  LogInputs inputs;
 };
 
 ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, const DiagnoseOptions& options);
@@ -82,6 +113,9 @@ void AddAxisCandidates(const std::vector<double>& t, const std::vector<Vec3>& h,
 // stream); false when the log has no imu stream (the row-based channels run instead).
 bool ReplayGyroStream(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, ReplayResult* out);
 bool ReplayAccelStream(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, ReplayResult* out);
+// One compass (index c of the vehicle's compasses) on the given timing and rows.
+ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
+                          const Vec3& B_N_uT, const CompassReplayOptions& options);
 // The open-loop dynamics channel ("dynamics": accelerometer against the specific force predicted
 // from motor commands, bus voltage, attitude and velocity); appends it or a not_diagnosed line.
 double HoverRotorTimeConstant_s(const vehicle::VehicleParams& vehicle);

@@ -9,74 +9,12 @@
 #include <fmt/format.h>
 
 #include "channels.h"
+#include "replay_util.h"
 #include "hexsim/common/rotation.h"
 #include "hexsim/magnetics/compass_model.h"
 #include "hexsim/magnetics/wmm.h"
 
 namespace hexsim::gap::internal {
-namespace {
-
-constexpr double kThrottleFullScale = 1000.0;  // control_u units per full throttle
-// Lag grid for the current_lag candidate (s): ESC/current filtering to slow magnetisation.
-constexpr double kLagGrid_s[] = {0.01, 0.02, 0.03, 0.05, 0.07, 0.1, 0.14, 0.2, 0.28, 0.4, 0.56, 0.8, 1.1, 1.6, 2.2};
-
-const std::vector<double>* Col(const logs::FlightLog& log, const std::string& name) {
-  return log.Has(name) ? &log.Column(name) : nullptr;
-}
-
-bool ColumnHasData(const logs::FlightLog& log, const std::string& name) {
-  if (!log.Has(name)) return false;
-  for (double v : log.Column(name)) {
-    if (std::isfinite(v)) return true;
-  }
-  return false;
-}
-
-// Linear interpolation of the log's rows at time tq (rows ascending in t). Returns false outside.
-struct RowCursor {
-  const std::vector<double>& t;
-  size_t i = 0;
-  // Sets (i, w) so that value = (1 − w)·v[i] + w·v[i + 1].
-  bool Seek(double tq, double* w) {
-    if (t.size() < 2 || tq < t.front() || tq > t.back()) return false;
-    while (i + 2 < t.size() && t[i + 1] < tq) ++i;
-    while (i > 0 && t[i] > tq) --i;
-    const double dt = t[i + 1] - t[i];
-    *w = dt > 0 ? std::clamp((tq - t[i]) / dt, 0.0, 1.0) : 0.0;
-    return true;
-  }
-};
-
-double Lerp(const std::vector<double>& v, size_t i, double w) {
-  if (w <= 0) return v[i];
-  return (1 - w) * v[i] + w * v[i + 1];
-}
-
-Eigen::Quaterniond QuatRow(const std::vector<const std::vector<double>*>& q, size_t i) {
-  return Eigen::Quaterniond((*q[0])[i], (*q[1])[i], (*q[2])[i], (*q[3])[i]);
-}
-
-Eigen::Quaterniond QuatLerp(const std::vector<const std::vector<double>*>& q, size_t i, double w) {
-  Eigen::Quaterniond a = QuatRow(q, i);
-  if (w <= 0) return a.normalized();
-  Eigen::Quaterniond b = QuatRow(q, i + 1);
-  if (a.dot(b) < 0) b.coeffs() *= -1.0;
-  Eigen::Quaterniond r;
-  r.coeffs() = (1 - w) * a.coeffs() + w * b.coeffs();
-  return r.normalized();
-}
-
-struct LogInputs {
-  std::vector<const std::vector<double>*> q;
-  const std::vector<double>* current = nullptr;
-  std::vector<const std::vector<double>*> motor_A;
-  std::vector<const std::vector<double>*> motor_u;
-  const std::vector<double>* control_u = nullptr;
-  const std::vector<double>* temp = nullptr;
-  bool has_attitude = false;
-};
-
-Mat3X Diag3(double v) { return Mat3X(Eigen::Matrix3d::Identity() * v); }
 
 // Central-difference derivative of a sample series (one-sided at the ends).
 std::vector<Vec3> Derivative(const std::vector<double>& t, const std::vector<Vec3>& v) {
@@ -89,8 +27,6 @@ std::vector<Vec3> Derivative(const std::vector<double>& t, const std::vector<Vec
   }
   return d;
 }
-
-}  // namespace
 
 // Generic sensor-axis candidates for any vector channel whose prediction is h (sensor frame).
 void AddAxisCandidates(const std::vector<double>& t, const std::vector<Vec3>& h, const std::string& unit,
@@ -113,220 +49,6 @@ void AddAxisCandidates(const std::vector<double>& t, const std::vector<Vec3>& h,
 }
 
 namespace {
-
-std::string MagPrefix(size_t c) { return c == 0 ? "mag" : fmt::format("mag{}", c + 1); }
-
-void ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
-                   const Vec3& B_N_uT, ReplayResult* out) {
-  const std::string pre = MagPrefix(c);
-  const vehicle::CompassParams& cp = v.compasses[c];
-  const auto& t_row = log.Column("t_s");
-  const auto& mx = log.Column(pre + "_x_uT");
-  const auto& my = log.Column(pre + "_y_uT");
-  const auto& mz = log.Column(pre + "_z_uT");
-  const std::vector<double>* mt = Col(log, pre + "_t_s");
-  const size_t n_motor = v.rotors.size();
-
-  magnetics::CurrentFieldParams wiring = v.wiring;
-  if (cp.current_lag_tau_s >= 0) wiring.lag_tau_s = cp.current_lag_tau_s;
-
-  ChannelData ch;
-  ch.name = pre;
-  ch.unit = "uT";
-  ch.bias_nuisance = cp.noise.bias_std > 0 || cp.noise.bias_walk_per_sqrt_s > 0;
-
-  // Sample selection: a new compass sample where its time stamp (or, without one, its value) changes.
-  std::vector<double> ts;
-  std::vector<Vec3> meas;
-  std::vector<int> rows;
-  double last_t = -1e300;
-  Vec3 last_v(std::nan(""), std::nan(""), std::nan(""));
-  for (size_t i = 0; i < log.rows(); ++i) {
-    const Vec3 m(mx[i], my[i], mz[i]);
-    if (!m.allFinite()) continue;
-    double tm = t_row[i];
-    if (mt) {
-      if (!std::isfinite((*mt)[i]) || (*mt)[i] <= last_t) continue;
-      tm = (*mt)[i];
-      last_t = tm;
-    } else {
-      if (m == last_v) continue;
-      last_v = m;
-    }
-    ts.push_back(tm);
-    meas.push_back(m);
-    rows.push_back(static_cast<int>(i));
-  }
-
-  RowCursor cur{t_row};
-  magnetics::CurrentLagState lag;
-  double prev_t = 0;
-  bool first = true;
-  std::vector<Vec3> h;                       // predicted field before hard iron, sensor frame
-  std::vector<Eigen::Matrix3d> Msens, Rt;    // R_SB·scale·K(I), R_NBᵀ
-  std::vector<double> I, u, temp;
-  std::vector<magnetics::Currents> currents;
-  const bool has_current = in.current != nullptr;
-  const bool has_throttle = in.control_u != nullptr || !in.motor_u.empty();
-  for (size_t k = 0; k < ts.size(); ++k) {
-    double w = 0;
-    if (!cur.Seek(ts[k], &w)) continue;
-    const size_t i = cur.i;
-    const Eigen::Quaterniond q = QuatLerp(in.q, i, w);
-    if (!q.coeffs().allFinite()) continue;
-    magnetics::Currents cu;
-    cu.battery_A = has_current ? Lerp(*in.current, i, w) : 0.0;
-    cu.motor_A.assign(n_motor, 0.0);
-    if (!in.motor_A.empty()) {
-      for (size_t m = 0; m < n_motor; ++m) cu.motor_A[m] = Lerp(*in.motor_A[m], i, w);
-    } else if (has_current) {
-      const double each = std::max(0.0, cu.battery_A - v.avionics_current_A) / static_cast<double>(n_motor);
-      std::fill(cu.motor_A.begin(), cu.motor_A.end(), each);
-    }
-    double thr = std::nan("");
-    if (in.control_u) {
-      thr = Lerp(*in.control_u, i, w) / kThrottleFullScale;
-    } else if (!in.motor_u.empty()) {
-      thr = 0;
-      for (auto* mu : in.motor_u) thr += Lerp(*mu, i, w) / static_cast<double>(in.motor_u.size());
-    }
-    bool ok = std::isfinite(cu.battery_A);
-    // Between two log rows the current is unknown; where it jumps (motor spin-up, touchdown) the
-    // interpolated current cannot predict the wiring field, so such samples are left out.
-    constexpr double kMaxCurrentStep_A = 2.0;
-    if (has_current && w > 0 && std::fabs((*in.current)[i + 1] - (*in.current)[i]) > kMaxCurrentStep_A) continue;
-    for (double a : cu.motor_A) ok = ok && std::isfinite(a);
-    if (!ok) continue;
-    const double dt = first ? 0.0 : std::max(0.0, ts[k] - prev_t);
-    first = false;
-    prev_t = ts[k];
-    const magnetics::Currents& lagged = magnetics::StepCurrentLag(wiring, cu, dt, &lag);
-    const Eigen::Matrix3d R_NB = q.toRotationMatrix();
-    const Vec3 pred = magnetics::NoiselessCompassReading_uT(cp.error, wiring, cp.position_B_m, R_NB, B_N_uT, lagged);
-    const Eigen::Matrix3d M = cp.error.R_SB * (cp.error.scale * (cp.error.soft_iron + lagged.battery_A * cp.error.soft_iron_per_A));
-    ch.t.push_back(ts[k]);
-    ch.y.emplace_back(meas[k] - pred);
-    ch.row.push_back(rows[k]);
-    h.emplace_back(pred - cp.error.hard_iron_uT);
-    Msens.push_back(M);
-    Rt.emplace_back(R_NB.transpose());
-    I.push_back(cu.battery_A);
-    u.push_back(thr);
-    temp.push_back(in.temp ? Lerp(*in.temp, i, w) : std::nan(""));
-    currents.push_back(cu);
-  }
-  const size_t n = ch.t.size();
-
-  Candidate hi = MakeCandidate("hard_iron_offset", {"b_x_uT", "b_y_uT", "b_z_uT"}, {1, 1, 1}, "uT");
-  Candidate an = MakeCandidate("local_anomaly", {"anomaly_N_uT", "anomaly_E_uT", "anomaly_D_uT"}, {1, 1, 1}, "uT");
-  for (size_t k = 0; k < n; ++k) {
-    hi.X.push_back(Diag3(1.0));
-    an.X.emplace_back(Msens[k] * Rt[k]);
-  }
-  if (!ch.bias_nuisance) ch.candidates.push_back(std::move(hi));
-  ch.candidates.push_back(std::move(an));
-  AddAxisCandidates(ch.t, h, "uT", &ch);
-
-  if (has_current) {
-    Candidate chi = MakeCandidate("current_hard_iron", {"d_x_uT_per_A", "d_y_uT_per_A", "d_z_uT_per_A"}, {1, 1, 1},
-                                  "uT/A", "current_A");
-    Candidate csi = MakeCandidate("current_soft_iron",
-                                  {"dK_xx_per_A", "dK_xy_per_A", "dK_xz_per_A", "dK_yx_per_A", "dK_yy_per_A",
-                                   "dK_yz_per_A", "dK_zx_per_A", "dK_zy_per_A", "dK_zz_per_A"},
-                                  std::vector<double>(9, 1.0), "1/A", "current_A");
-    for (size_t k = 0; k < n; ++k) {
-      chi.X.push_back(Diag3(I[k]));
-      chi.regressor.push_back(I[k]);
-      Mat3X x = Mat3X::Zero(3, 9);
-      for (int r = 0; r < 3; ++r) {
-        for (int j = 0; j < 3; ++j) x(r, 3 * r + j) = I[k] * h[k][j];  // r_i = Σ_j E_ij·I·h_j
-      }
-      csi.X.push_back(x);
-      csi.regressor.push_back(I[k]);
-    }
-    ch.candidates.push_back(std::move(chi));
-    ch.candidates.push_back(std::move(csi));
-
-    // current_lag: the configured wiring field arrives through a first-order lag τ instead of the
-    // configured one: r = a·M·(W(lp_τ(I)) − W(lp_τcfg(I))), a ≈ 1, τ profiled over a grid.
-    double wiring_energy = 0;
-    for (size_t k = 0; k < n; ++k) {
-      wiring_energy += magnetics::CurrentDrivenField_uT(wiring, cp.position_B_m, currents[k]).squaredNorm();
-    }
-    if (n > 0 && std::sqrt(wiring_energy / static_cast<double>(n)) > 0.05) {
-      for (double tau : kLagGrid_s) {
-        if (tau <= wiring.lag_tau_s) continue;
-        magnetics::CurrentFieldParams lagged_wiring = wiring;
-        lagged_wiring.lag_tau_s = tau;
-        magnetics::CurrentLagState s_new, s_cfg;
-        Candidate cl = MakeCandidate("current_lag", {"amplitude"}, {1.0}, "s", "current_A");
-        cl.grid_value = tau;
-        cl.grid_name = "tau_s";
-        for (size_t k = 0; k < n; ++k) {
-          const double dt = k == 0 ? 0.0 : ch.t[k] - ch.t[k - 1];
-          const Vec3 a = magnetics::CurrentDrivenField_uT(
-              wiring, cp.position_B_m, magnetics::StepCurrentLag(lagged_wiring, currents[k], dt, &s_new));
-          const Vec3 b = magnetics::CurrentDrivenField_uT(
-              wiring, cp.position_B_m, magnetics::StepCurrentLag(wiring, currents[k], dt, &s_cfg));
-          cl.X.emplace_back(Msens[k] * (a - b));
-          cl.regressor.push_back(I[k]);
-        }
-        ch.candidates.push_back(std::move(cl));
-      }
-    } else {
-      ch.not_available.emplace_back("current_lag (configured wiring field at this compass too small to show a lag)");
-    }
-  } else {
-    ch.not_available.emplace_back("current_hard_iron, current_soft_iron, current_lag (no current_A column)");
-  }
-  bool throttle_ok = has_throttle && n > 0;
-  for (double x : u) throttle_ok = throttle_ok && std::isfinite(x);
-  if (throttle_ok) {
-    Candidate thi = MakeCandidate("throttle_hard_iron", {"d_x_uT_per_throttle", "d_y_uT_per_throttle",
-                                                         "d_z_uT_per_throttle"},
-                                  {1, 1, 1}, "uT/throttle", "throttle");
-    for (size_t k = 0; k < n; ++k) {
-      thi.X.push_back(Diag3(u[k]));
-      thi.regressor.push_back(u[k]);
-    }
-    ch.candidates.push_back(std::move(thi));
-  } else {
-    ch.not_available.emplace_back("throttle_hard_iron (no control_u or motor_i_u)");
-  }
-  bool temp_ok = in.temp != nullptr && n > 0;
-  double tmean = 0;
-  for (double x : temp) {
-    temp_ok = temp_ok && std::isfinite(x);
-    tmean += x;
-  }
-  if (temp_ok) {
-    tmean /= static_cast<double>(n);
-    double tvar = 0;
-    for (double x : temp) tvar += (x - tmean) * (x - tmean);
-    temp_ok = tvar / static_cast<double>(n) > 0.01;  // needs > 0.1 °C of variation
-  }
-  if (temp_ok) {
-    // B = d·(T − T_ref), T_ref the board temperature at the start of the log (the sensor is taken as
-    // calibrated where the flight starts). No offset term: a constant field error is the separate
-    // hard_iron_offset candidate, so a drift cannot absorb the calibration's hard iron; where both
-    // are present the forward step selects the pair.
-    // T_ref: the median of the first 10 samples (a fraction of a second: robust to the temperature
-    // sensor's noise, short against the warm-up).
-    std::vector<double> first(temp.begin(), temp.begin() + static_cast<std::ptrdiff_t>(std::min<size_t>(10, n)));
-    std::nth_element(first.begin(), first.begin() + static_cast<std::ptrdiff_t>(first.size() / 2), first.end());
-    const double tref = first[first.size() / 2];
-    Candidate td = MakeCandidate("temperature_drift", {"d_x_uT_per_C", "d_y_uT_per_C", "d_z_uT_per_C"}, {1, 1, 1},
-                                 "uT/C", "imu_temp_C");
-    for (size_t k = 0; k < n; ++k) {
-      td.X.push_back(Diag3(temp[k] - tref));
-      td.regressor.push_back(temp[k]);
-    }
-    ch.candidates.push_back(std::move(td));
-  } else {
-    ch.not_available.emplace_back("temperature_drift (no imu_temp_C column with varying temperature)");
-  }
-  out->channels.push_back(std::move(ch));
-}
 
 // Gyro and accelerometer from the attitude and velocity derivatives (rows).
 void ReplayInertial(const logs::FlightLog& log, const vehicle::VehicleParams& v, const LogInputs& in,
@@ -506,12 +228,13 @@ ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& v,
           out.not_diagnosed.emplace_back(MagPrefix(c), fmt::format("the vehicle '{}' configures no compass {}", v.name, c + 1));
           continue;
         }
-        ReplayCompass(log, v, c, in, field->B_N_uT, &out);
+        out.compasses.push_back(c);
       }
     }
   }
   ReplayInertial(log, v, in, &out);
   ReplayDynamics(log, v, options, &out);
+  out.inputs = in;
   return out;
 }
 

@@ -46,19 +46,39 @@ Status WriteGapHtml(const GapReport& r, const std::string& dir) {
   html += "<h1>Sim-to-real gap diagnosis</h1><p>Log: " + Escape(r.log_name) + "<br>Attitude taken as truth: " +
           Escape(r.attitude_source) + "<br>Field model: " + Escape(r.field_model) + "</p>";
   html += "<pre>" + Escape(Summary(r)) + "</pre>";
-  static const char* kPhaseColours[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2"};
-  static const char* kPhases[] = {"ground", "takeoff", "hover", "climb", "cruise", "descent", "landing"};
+  if (!r.windows.empty()) {
+    html += "<h2>Windows</h2><p>" + Escape(r.windows_source) + "</p><table><tr><th>kind</th><th>from (s)</th><th>to (s)</th><th>why</th></tr>";
+    for (const auto& w : r.windows) {
+      html += fmt::format("<tr><td>{}</td><td>{:.1f}</td><td>{:.1f}</td><td>{}</td></tr>", Escape(w.kind), w.start_s, w.end_s,
+                          Escape(w.why));
+    }
+    html += "</table>";
+  }
+  static const char* kPhaseColours[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"};
+  static const char* kPhases[] = {"ground", "takeoff", "hover", "climb", "cruise", "descent", "landing", "excluded"};
   for (const auto& c : r.channels) {
     html += "<h2>" + Escape(c.channel) + " (" + Escape(c.unit) + ")</h2>";
     html += fmt::format("<p>verdict <b>{}</b>; RMS before {:.4g}, noise {:.3g}, p = {:.3g}, held-out shrink {:.0f} %{}</p>",
                         Escape(c.verdict), c.rms_before, c.noise_rms, c.p_value, 100 * c.heldout_shrink,
                         c.reference_contaminated ? " &mdash; <b>reference-contaminated</b>" : "");
+    if (!c.headline.empty()) html += "<p><b>" + Escape(c.headline) + "</b></p>";
     if (!c.explanation.empty()) html += "<p>" + Escape(c.explanation) + "</p>";
-    html += "<table><tr><th>effect</th><th>probability</th><th>held-out shrink</th><th>magnitude [95 % CI]</th><th>selected</th></tr>";
+    if (!c.findings.empty()) {
+      html += "<ul>";
+      for (const auto& f : c.findings) html += "<li>" + Escape(f) + "</li>";
+      html += "</ul>";
+    }
+    if (!c.timing.empty()) html += "<p>timing: <code>" + Escape(c.timing.dump()) + "</code></p>";
+    if (!c.nuisance.empty()) html += "<p>nuisance: <code>" + Escape(c.nuisance.dump()) + "</code></p>";
+    if (!c.residual_left.empty()) html += "<p>residual left: <code>" + Escape(c.residual_left.dump()) + "</code></p>";
+    html += "<table><tr><th>effect</th><th>probability</th><th>explained share</th><th>magnitude [95 % CI]</th>"
+            "<th>physical range</th><th>plausible</th><th>selected</th></tr>";
     for (const auto& k : c.candidates) {
-      html += fmt::format("<tr><td>{}</td><td>{:.2f}</td><td>{:.0f} %</td><td>{:.4g} [{:.4g}, {:.4g}] {}</td><td>{}</td></tr>",
-                          k.effect, k.probability, 100 * k.heldout_shrink, k.magnitude, k.magnitude_ci95[0],
-                          k.magnitude_ci95[1], Escape(k.magnitude_unit), k.selected ? "yes" : "");
+      html += fmt::format("<tr><td>{}</td><td>{:.2f}</td><td>{:.0f} %</td><td>{:.4g} [{:.4g}, {:.4g}] {}</td><td>{}</td>"
+                          "<td>{}</td><td>{}</td></tr>",
+                          k.effect, k.probability, 100 * k.explained_share, k.magnitude, k.magnitude_ci95[0],
+                          k.magnitude_ci95[1], Escape(k.magnitude_unit), Escape(k.physical_range),
+                          k.plausible ? "yes" : "<b>no: model mismatch</b>", k.selected ? "yes" : "");
     }
     html += "</table>";
     // Residual vs time with phases.
@@ -69,7 +89,7 @@ Status WriteGapHtml(const GapReport& r, const std::string& dir) {
     p.series.push_back(MakeSeries("before", c.t_s, Norms(c.residual_before)));
     p.series.push_back(MakeSeries("after", c.t_s, Norms(c.residual_after)));
     for (const auto& ph : r.phases) {
-      for (int i = 0; i < 7; ++i) {
+      for (int i = 0; i < 8; ++i) {
         if (ph.phase == kPhases[i] && ph.t1_s > ph.t0_s) {
           p.spans.push_back({ph.t0_s, ph.t1_s, "", render::Hex(kPhaseColours[i], 0.12f)});
         }
@@ -78,7 +98,7 @@ Status WriteGapHtml(const GapReport& r, const std::string& dir) {
     const std::string f1 = "gap_" + c.channel + "_time.png";
     HEXSIM_RETURN_IF_ERROR(Png(p, fmt::format("{}/{}", dir, f1)));
     html += "<p><img src=\"" + f1 + "\"><br>Shading: ";
-    for (int i = 0; i < 7; ++i) html += fmt::format("<span style=\"color:{}\">{}</span> ", kPhaseColours[i], kPhases[i]);
+    for (int i = 0; i < 8; ++i) html += fmt::format("<span style=\"color:{}\">{}</span> ", kPhaseColours[i], kPhases[i]);
     html += "</p>";
     // Per-axis before/after.
     render::Plot2D q;

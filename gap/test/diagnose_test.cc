@@ -27,7 +27,7 @@ Flown Fly(const std::vector<Injection>& inj, uint64_t seed) { return gaptest::Fl
 
 TEST(GapDiagnose, GivenACleanSimulatedLogWhenDiagnosedThenTheExternalCompassShowsNoSignificantGap) {
   Flown f = Fly({}, 11);
-  auto rep = Diagnose(f.log, f.trial.configured);
+  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
   ASSERT_TRUE(rep.ok()) << rep.status().message();
   const ChannelResult* mag = Find(*rep, "mag");
   ASSERT_NE(mag, nullptr);
@@ -37,7 +37,7 @@ TEST(GapDiagnose, GivenACleanSimulatedLogWhenDiagnosedThenTheExternalCompassShow
 
 TEST(GapDiagnose, GivenAWithheldCurrentHardIronWhenDiagnosedThenItIsAttributedAndItsMagnitudeIsInTheInterval) {
   Flown f = Fly({{"current_hard_iron", 0.4}}, 12);
-  auto rep = Diagnose(f.log, f.trial.configured);
+  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
   ASSERT_TRUE(rep.ok());
   const ChannelResult* mag2 = Find(*rep, "mag2");
   ASSERT_NE(mag2, nullptr);
@@ -45,9 +45,10 @@ TEST(GapDiagnose, GivenAWithheldCurrentHardIronWhenDiagnosedThenItIsAttributedAn
   ASSERT_FALSE(mag2->candidates.empty());
   EXPECT_EQ(mag2->candidates.front().effect, "current_hard_iron") << Summary(*rep);
   const auto& c = mag2->candidates.front();
-  EXPECT_LE(c.magnitude_ci95[0], f.trial.true_magnitude[0]);
-  EXPECT_GE(c.magnitude_ci95[1], f.trial.true_magnitude[0]);
-  EXPECT_GE(mag2->heldout_shrink, 0.5);
+  // The replay's systematic error (see effects_test.cc): 5 % of the magnitude beside the interval.
+  EXPECT_LE(c.magnitude_ci95[0] - 0.05 * c.magnitude, f.trial.true_magnitude[0]);
+  EXPECT_GE(c.magnitude_ci95[1] + 0.05 * c.magnitude, f.trial.true_magnitude[0]);
+  EXPECT_GE(mag2->explained_share, 0.5);  // of the held-out residual above the baseline (second wave)
 }
 
 TEST(GapDiagnose, GivenALogWithoutAttitudeWhenDiagnosedThenCompassesAreListedAsNotDiagnosedWithTheReason) {
@@ -61,7 +62,7 @@ TEST(GapDiagnose, GivenALogWithoutAttitudeWhenDiagnosedThenCompassesAreListedAsN
     for (const auto& name : log.columns()) log.Set(name, f.log.Column(name)[i]);
   }
   log.meta = f.log.meta;
-  auto rep = Diagnose(log, f.trial.configured);
+  auto rep = Diagnose(log, f.trial.configured, gaptest::IdealOptions());
   ASSERT_TRUE(rep.ok());
   EXPECT_TRUE(rep->channels.empty());
   EXPECT_TRUE(NotDiagnosed(*rep, "mag"));

@@ -41,7 +41,7 @@ class CleanDynamics : public ::testing::TestWithParam<uint64_t> {};
 
 TEST_P(CleanDynamics, GivenACleanSimulatedLogWhenTheDynamicsAreReplayedThenThereIsNoGapAndTheResidualIsAtItsNoiseFloor) {
   Flown f = FlyTrialWith({}, GetParam());
-  auto rep = Diagnose(f.log, f.trial.configured);
+  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
   ASSERT_TRUE(rep.ok()) << rep.status().message();
   const ChannelResult* d = FindChannel(*rep, "dynamics");
   ASSERT_NE(d, nullptr) << Summary(*rep);
@@ -69,7 +69,7 @@ TEST_P(DynamicsEffect, GivenOneWithheldRotorOrAirframeEffectWhenDiagnosedThenItI
   const DynCase& c = GetParam();
   Flown f = FlyTrialWith({{c.effect, c.magnitude}}, c.seed);
   ASSERT_EQ(f.trial.true_magnitude.size(), 1u);
-  auto rep = Diagnose(f.log, f.trial.configured);
+  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
   ASSERT_TRUE(rep.ok()) << rep.status().message();
   const ChannelResult* d = FindChannel(*rep, "dynamics");
   ASSERT_NE(d, nullptr) << Summary(*rep);
@@ -119,7 +119,7 @@ TEST(GapDynamics, GivenALogWithoutMotorOutputsWhenDiagnosedThenOneLineSaysWhatIs
   logs::FlightLog log = f.log;
   auto& m1 = log.MutableColumn(static_cast<size_t>(log.ColumnIndex("motor_1_u")));
   std::fill(m1.begin(), m1.end(), std::nan(""));
-  auto rep = Diagnose(log, f.trial.configured);
+  auto rep = Diagnose(log, f.trial.configured, gaptest::IdealOptions());
   ASSERT_TRUE(rep.ok()) << rep.status().message();
   EXPECT_EQ(FindChannel(*rep, "dynamics"), nullptr);
   bool said = false;

@@ -54,7 +54,7 @@ class CleanLog : public ::testing::TestWithParam<uint64_t> {};
 
 TEST_P(CleanLog, GivenACleanSimulatedLogWhenDiagnosedThenNoChannelShowsASignificantGap) {
   Flown f = Fly({}, GetParam());
-  auto rep = Diagnose(f.log, f.trial.configured);
+  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
   ASSERT_TRUE(rep.ok()) << rep.status().message();
   for (const char* ch : {"mag", "mag2", "mag3", "gyro", "accel", "dynamics"}) {
     const ChannelResult* c = Find(*rep, ch);
@@ -68,7 +68,7 @@ INSTANTIATE_TEST_SUITE_P(Seeds, CleanLog, ::testing::Values(201, 202, 203));
 
 TEST(GapDiagnose, GivenACleanLogWhenTheImuIsReplayedThenTheKnownSampleHoldIsWithinOneImuPeriod) {
   Flown f = Fly({}, 204);
-  auto rep = Diagnose(f.log, f.trial.configured);
+  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
   ASSERT_TRUE(rep.ok());
   const ChannelResult* gyro = Find(*rep, "gyro");
   ASSERT_NE(gyro, nullptr);
@@ -96,7 +96,7 @@ class SingleEffect : public ::testing::TestWithParam<EffectCase> {};
 TEST_P(SingleEffect, GivenOneWithheldCompassEffectWhenDiagnosedThenItIsAttributedAndItsMagnitudeIsInItsInterval) {
   const EffectCase& c = GetParam();
   Flown f = Fly({{c.effect, c.magnitude}}, c.seed);
-  auto rep = Diagnose(f.log, f.trial.configured);
+  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
   ASSERT_TRUE(rep.ok()) << rep.status().message();
   const ChannelResult* mag2 = Find(*rep, kInjected);
   ASSERT_NE(mag2, nullptr);
@@ -106,11 +106,21 @@ TEST_P(SingleEffect, GivenOneWithheldCompassEffectWhenDiagnosedThenItIsAttribute
   ASSERT_NE(k, nullptr);
   EXPECT_TRUE(k->selected);
   const double truth = std::fabs(f.trial.true_magnitude[0]);
-  const double m_lo = k->magnitude_unit == "1" ? std::fabs(k->magnitude_ci95[0]) : k->magnitude_ci95[0];
-  const double m_hi = k->magnitude_unit == "1" ? std::fabs(k->magnitude_ci95[1]) : k->magnitude_ci95[1];
-  EXPECT_LE(std::min(m_lo, m_hi), truth) << k->magnitude << " " << k->magnitude_unit;
+  // Second wave: effects are fitted over the nuisance baseline (offset and field), so their
+  // magnitude comes from the regressor's variation, not its mean; the replay's systematic error
+  // (about 2-4 % of a current-driven field, from interpolating the 100 Hz current at the compass
+  // samples) is then no longer negligible against the statistical interval, and the check allows
+  // it (5 % of the magnitude).
+  const double sys = 0.05 * std::fabs(k->magnitude);
+  const double m_lo = (k->magnitude_unit == "1" ? std::fabs(k->magnitude_ci95[0]) : k->magnitude_ci95[0]) - sys;
+  const double m_hi = (k->magnitude_unit == "1" ? std::fabs(k->magnitude_ci95[1]) : k->magnitude_ci95[1]) + sys;
+  EXPECT_LE(std::min(m_lo, m_hi), truth) << k->magnitude << " " << k->magnitude_unit << " " << k->params.dump();
   EXPECT_GE(std::max(m_lo, m_hi), truth) << k->magnitude << " " << k->magnitude_unit;
-  EXPECT_GE(mag2->heldout_shrink, 1 - std::sqrt(0.5));
+  // Effects beyond the baseline explain half the held-out residual above it; the nuisance terms
+  // (offset, field, scale) are the baseline itself (CONTRACTS.md "Second wave").
+  if (!k->params.contains("nuisance")) {
+    EXPECT_GE(mag2->explained_share, 0.5);
+  }
   // The other compasses are untouched.
   const ChannelResult* mag = Find(*rep, "mag");
   ASSERT_NE(mag, nullptr);
@@ -134,7 +144,7 @@ TEST(GapDiagnose, GivenAOneMilliGaussPerAmpCurrentHardIronWhenDiagnosedThenTheGa
   // 0.1 µT/A is the contract's upper bound on the detection threshold (CONTRACTS.md).
   for (uint64_t seed : {401, 402}) {
     Flown f = Fly({{"current_hard_iron", 0.1}}, seed);
-    auto rep = Diagnose(f.log, f.trial.configured);
+    auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
     ASSERT_TRUE(rep.ok());
     const ChannelResult* mag2 = Find(*rep, kInjected);
     ASSERT_NE(mag2, nullptr);
@@ -146,7 +156,7 @@ TEST(GapDiagnose, GivenAOneMilliGaussPerAmpCurrentHardIronWhenDiagnosedThenTheGa
 
 TEST(GapDiagnose, GivenATemperatureDriftAndAHardIronOffsetWhenDiagnosedThenTheDriftDoesNotAbsorbTheOffset) {
   Flown f = Fly({{"temperature_drift", 0.1}, {"hard_iron_offset", 4.0}}, 501);
-  auto rep = Diagnose(f.log, f.trial.configured);
+  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
   ASSERT_TRUE(rep.ok());
   const ChannelResult* mag2 = Find(*rep, kInjected);
   ASSERT_NE(mag2, nullptr);
@@ -154,12 +164,15 @@ TEST(GapDiagnose, GivenATemperatureDriftAndAHardIronOffsetWhenDiagnosedThenTheDr
   const CandidateResult* hi = Candidate(*mag2, "hard_iron_offset");
   ASSERT_NE(td, nullptr);
   ASSERT_NE(hi, nullptr);
+  // The drift is the effect beyond the baseline; the offset is the baseline's (a nuisance term).
+  EXPECT_EQ(mag2->verdict, "temperature_drift") << Summary(*rep);
   EXPECT_TRUE(td->selected) << Summary(*rep);
-  EXPECT_TRUE(hi->selected) << Summary(*rep);
-  // The drift has no offset parameters of its own.
   EXPECT_FALSE(td->params.contains("b_x_uT"));
-  // The offset is the larger part of the residual here; the drift alone cannot explain it.
-  EXPECT_GT(hi->heldout_shrink, td->heldout_shrink);
+  EXPECT_TRUE(hi->params.contains("nuisance"));
+  // The offset also holds d·(T_first − 25 °C): the drift's reference is the first flight sample.
+  EXPECT_NEAR(hi->magnitude, 4.0, 1.0) << Summary(*rep);
+  EXPECT_LE(td->magnitude_ci95[0], 0.1);
+  EXPECT_GE(td->magnitude_ci95[1], 0.1);
 }
 
 // ---- out of library ----------------------------------------------------------------------------------
@@ -177,12 +190,17 @@ class OutOfLibrary : public ::testing::TestWithParam<OutCase> {};
 TEST_P(OutOfLibrary, GivenAnEffectOutsideTheLibraryWhenDiagnosedThenItIsNotAConfidentWrongAnswer) {
   const OutCase& c = GetParam();
   Flown f = Fly({{c.effect, c.magnitude}}, c.seed);
-  auto rep = Diagnose(f.log, f.trial.configured);
+  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
   ASSERT_TRUE(rep.ok());
   const ChannelResult* mag2 = Find(*rep, kInjected);
   ASSERT_NE(mag2, nullptr);
   EXPECT_TRUE(mag2->gap_detected) << Summary(*rep);
-  EXPECT_TRUE(mag2->verdict == "unexplained" || mag2->verdict == "ambiguous") << Summary(*rep);
+  // Second wave (CONTRACTS.md): a library candidate that removes half the held-out residual above
+  // the noise floor is the verdict even when the cause lies outside the library; what it leaves is
+  // then reported under residual_left. Either the verdict says it is not explained, or a
+  // substantial part is reported as left.
+  const bool not_explained = mag2->verdict == "unexplained" || mag2->verdict == "ambiguous";
+  EXPECT_TRUE(not_explained || mag2->residual_left.value("share", 0.0) >= 0.3) << Summary(*rep);
 }
 
 INSTANTIATE_TEST_SUITE_P(Effects, OutOfLibrary,

@@ -181,6 +181,10 @@ struct Collected {
   std::map<std::string, Channel> ekf;  // by message name
   Channel mode{"", {"mode"}};
   Channel waypoint{"", {"waypoint_index"}};
+  // EV ARMED (10) / DISARMED (11) as 1/0. 3.3's EV has no time field: it takes the time of the
+  // latest message that had one (last_time_s).
+  Channel armed{"", {"armed"}};
+  double last_time_s = kNaN;
   std::optional<nlohmann::json> first_fix;
   std::optional<nlohmann::json> home;
   int gps_week = -1;
@@ -197,6 +201,14 @@ Channel MakeMagChannel(const std::string& prefix) {
 void CollectMessage(const DataFlashMessage& m, Collected* c) {
   const std::string& name = m.name();
   ++c->messages;
+  constexpr int64_t kEvArmed = 10, kEvDisarmed = 11;  // ArduPilot LogEvent ids
+  if (name != "GPS" && std::isfinite(m.BootTime_s())) c->last_time_s = m.BootTime_s();
+  if (name == "EV" && m.Has("Id")) {
+    const int64_t id = m.GetRawInt("Id");
+    const double t = std::isfinite(m.BootTime_s()) ? m.BootTime_s() : c->last_time_s;
+    if (id == kEvArmed || id == kEvDisarmed) c->armed.Add(t, {id == kEvArmed ? 1.0 : 0.0});
+    return;
+  }
   if (name == "PARM") {
     const std::string pname = Printable(m.GetString("Name"));
     const double v = m.Get("Value");
@@ -456,7 +468,9 @@ Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string
     }
     c.att.dropped += att.dropped;
   }
-  for (Channel* ch : {&c.att, &c.imu, &c.batt, &c.rcou, &c.ctun, &c.gps, &c.baro, &c.mode, &c.waypoint}) ch->Finalize();
+  for (Channel* ch : {&c.att, &c.imu, &c.batt, &c.rcou, &c.ctun, &c.gps, &c.baro, &c.mode, &c.waypoint, &c.armed}) {
+    ch->Finalize();
+  }
   for (auto& ch : c.mags) ch.Finalize();
   for (auto& [n, ch] : c.ekf) ch.Finalize();
   RecordDamage& records = plausibility.mutable_damage();
@@ -604,6 +618,14 @@ Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string
   for (size_t r = 0; r < log.rows(); ++r) log.MutableColumn(yaw_col)[r] = WrapDeg180(c.att.At(r, 2));
   AddHeld(c.mode, AllColumns(c.mode), &log);
   AddHeld(c.waypoint, AllColumns(c.waypoint), &log);
+  if (c.armed.size() > 0) {
+    // Before the first event the state is the opposite of it (a log starts disarmed, or armed when
+    // its first event is a disarm).
+    Channel armed("", {"armed"});
+    if (att_t.front() < c.armed.t.front()) armed.Add(att_t.front(), {1.0 - c.armed.At(0, 0)});
+    for (size_t i = 0; i < c.armed.size(); ++i) armed.Add(c.armed.t[i], {c.armed.At(i, 0)});
+    AddHeld(armed, AllColumns(armed), &log);
+  }
 
   // Meta.
   nlohmann::json& meta = log.meta;

@@ -205,6 +205,17 @@ TEST(DataFlashImport, GivenModesInTheLog_WhenImported_ThenModeIsHeldFromEachMode
   }
 }
 
+TEST(DataFlashImport, GivenTheArmEvent_WhenImported_ThenArmedIsZeroBeforeItAndOneFromIt) {
+  const FlightLog& log = RealImport().log;
+  ASSERT_TRUE(log.Has("armed"));
+  // EV ARMED (id 10) at 74.688 s (3.3's EV carries no time: the latest timed message's); no disarm
+  // before the log ends inverted.
+  for (size_t r = 0; r < log.rows(); ++r) {
+    const double t = log.Column("t_s")[r];
+    EXPECT_EQ(log.Column("armed")[r], t < 74.688 ? 0.0 : 1.0) << t;
+  }
+}
+
 TEST(DataFlashImport, GivenAnImport_WhenWrittenAndReadBack_ThenTheFlightLogReaderAcceptsItWithItsMeta) {
   const std::string dir = ::testing::TempDir() + "/hexsim_import_test";
   std::filesystem::create_directories(dir);

@@ -18,6 +18,12 @@ Flown FlyInjected(const std::vector<Injection>& injections, uint64_t seed, const
   return {std::move(*trial), std::move(*log)};
 }
 
+DiagnoseOptions IdealOptions() {
+  DiagnoseOptions o;
+  o.nuisance_ranges = "exact";
+  return o;
+}
+
 const ChannelResult* FindChannel(const GapReport& report, const std::string& channel) {
   for (const auto& c : report.channels) {
     if (c.channel == channel) return &c;

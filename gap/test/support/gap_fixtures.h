@@ -21,6 +21,10 @@ struct Flown {
 // file keeps its own sequence for a given seed. Failures are reported as test failures.
 Flown FlyInjected(const std::vector<Injection>& injections, uint64_t seed, const std::string& stream);
 
+// The diagnosis options of the ideal profile: the configured vehicle is the calibrated truth, so a
+// significant nuisance term (offset, field, scale) is a finding (CONTRACTS.md "Second wave").
+DiagnoseOptions IdealOptions();
+
 const ChannelResult* FindChannel(const GapReport& report, const std::string& channel);
 const CandidateResult* FindCandidate(const ChannelResult& channel, const std::string& effect);
 

@@ -48,6 +48,16 @@ struct DiagnoseOptions {
   // Dynamics channel: height of the rotor plane above the ground when the vehicle stands on it
   // (ground effect uses z = CG height above the take-off point + this).
   double rotor_height_at_rest_m = 0.2;
+  // Second wave (compass channels). Windows: --from/--to override the flight windows when from_s <
+  // to_s. Nuisance terms: "normal" judges them against the plausibility table's normal ranges (real
+  // logs); "exact" treats the configured vehicle as the calibrated truth, so any significant offset,
+  // field or scale term is a finding (the ideal selftest).
+  double from_s = 0.0, to_s = 0.0;
+  std::string nuisance_ranges = "normal";
+  // Structure counts when the held-out residual's power exceeds the noise floor by this fraction:
+  // below a tenth of the noise power a structured part moves no heading by more than the noise does.
+  double materiality = 0.1;
+  bool timing_scan = true;  // compass latency and current staleness before fitting
 };
 
 struct CandidateResult {
@@ -62,6 +72,11 @@ struct CandidateResult {
   nlohmann::json params = nlohmann::json::object();  // named physical parameters
   nlohmann::json ci95 = nlohmann::json::object();    // same names, [lo, hi]
   bool selected = false;             // part of the chosen model
+  // Second wave: held-out share over the baseline, plausibility against realdata's table.
+  double explained_share = 0.0;      // 1 − MS_after/MS_baseline on held-out blocks
+  bool plausible = true;
+  std::string physical_range;        // "lo..hi unit"
+  int parameters = 0;
 };
 
 struct ChannelResult {
@@ -85,6 +100,19 @@ struct ChannelResult {
   std::vector<double> t_s, chosen_regressor;
   std::string chosen_regressor_name;
   std::vector<Eigen::Vector3d> residual_before, residual_after;
+  // Second wave (compass channels; CONTRACTS.md "Second wave").
+  double explained_share = 0.0;  // of the reported model
+  nlohmann::json nuisance = nlohmann::json::object();
+  nlohmann::json timing = nlohmann::json::object();
+  nlohmann::json residual_left = nlohmann::json::object();
+  nlohmann::json ground_vs_flight = nlohmann::json::object();
+  std::vector<std::string> findings;  // nuisance and timing findings in plain language
+  std::string headline;               // one line: the verdict and what to do
+};
+
+struct WindowSpan {
+  double start_s = 0.0, end_s = 0.0;
+  std::string kind, why;  // kind: flight | ground | excluded
 };
 
 struct PhaseSpan {
@@ -101,9 +129,12 @@ struct GapReport {
   std::vector<std::pair<std::string, std::string>> not_diagnosed;  // channel, why
   std::vector<PhaseSpan> phases;
   std::vector<std::string> effects_not_built;
+  std::vector<WindowSpan> windows;
+  std::string windows_source;
 };
 
-// Flight phases per log row: ground, takeoff, hover, climb, cruise, descent, landing.
+// Flight phases per log row: ground, takeoff, hover, climb, cruise, descent, landing, excluded
+// (realdata's flight windows and phase labels, segments of at least 2 s).
 std::vector<std::string> ClassifyPhases(const logs::FlightLog& log);
 
 // The whole diagnosis. Bad input (no rows, no t_s) is kBadInput; missing channels or a short log are
@@ -119,6 +150,8 @@ double HoverRotorTimeConstant_s(const vehicle::VehicleParams& vehicle);
 nlohmann::json ToJson(const GapReport& report);
 // The plain-language summary for stdout.
 std::string Summary(const GapReport& report);
+// One line per channel: the verdict with its magnitude, interval and share, and what to do.
+std::string Headline(const ChannelResult& channel);
 // The vehicle YAML text with the chosen effects added (compass keys, wiring segments, lag), and a
 // comment block for those the vehicle schema cannot express.
 Result<std::string> UpdatedVehicleYaml(const std::string& vehicle_yaml_text, const vehicle::VehicleParams& vehicle,

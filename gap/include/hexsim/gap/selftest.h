@@ -36,6 +36,8 @@ struct EffectRange {
   bool signed_magnitude;
 };
 const std::vector<EffectRange>& InjectableEffects();
+// The real profile's magnitudes: real aircraft sizes, nuisance-like effects beyond their normal ranges.
+const std::vector<EffectRange>& RealInjectableEffects();
 // Effects on the open-loop dynamics channel ("dynamics"), in the unit the diagnosis reports:
 // rotor_drag N/((rad/s)(m/s)) (vehicle aero key in the truth), ground_effect effective radius m
 // (per-rotor Cheeseman–Bennett in the truth, clamped at z = R/2), battery_sag Ω (log level: the
@@ -56,6 +58,11 @@ struct Trial {
 };
 
 struct SelftestOptions {
+  // real: logs at real rates (10 Hz compass, attitude and current), a reference attitude with a slow
+  // estimator error, residual calibration offsets and field-norm errors inside their normal ranges,
+  // a stale current channel, compass latency, and out-of-library effect families drawn per trial;
+  // ideal: the first wave's logs (100 Hz rows, exact timing, the configured vehicle exact).
+  std::string profile = "real";
   int trials = 100;                 // per class
   uint64_t seed = 1;
   std::string vehicle = "quad_x";

@@ -1,0 +1,108 @@
+// Which and how much (private to gap/): every candidate fitted as a linear model of the residual over
+// the channel's nuisance baseline (nested models), with per-block normal equations so that blocked
+// cross-validation, the block bootstrap and cluster-robust intervals are cheap.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "channels.h"
+#include "hexsim/common/rng.h"
+
+namespace hexsim::gap::internal {
+
+// Per-block normal equations of one model: A = Σ XᵀX, g = Σ Xᵀy, s = Σ yᵀy, n = 3·samples.
+struct Block {
+  Eigen::MatrixXd A;
+  Eigen::VectorXd g;
+  double s = 0, n = 0;
+};
+
+struct Fit {
+  Eigen::VectorXd beta;
+  double sse = 0, n = 0;
+  bool ok = false;
+};
+
+Fit Solve(const std::vector<Block>& blocks, const std::vector<double>& w, int p);
+
+struct Evaluated {
+  const Candidate* cand = nullptr;  // null: the baseline alone
+  int off = 0;                      // the candidate's parameters start here (after the baseline's)
+  std::vector<Block> blocks;
+  Fit full;
+  double cv_sse = 0;
+  std::vector<double> fold_sse;  // held-out SSE per CV fold
+  double p_value = 1;
+  double bic = 0;
+  double wald_p = 1;    // cluster-robust Wald test of the candidate's parameters (Hotelling T², F(q, G − q))
+  Eigen::MatrixXd cov;  // cluster-robust covariance of beta
+  int p() const { return static_cast<int>(full.beta.size()); }
+};
+
+// Cluster-robust Wald test that the parameters `idx` are zero.
+double WaldP(const Eigen::VectorXd& beta, const Eigen::MatrixXd& cov, const std::vector<int>& idx, int G);
+std::vector<int> Range(int a, int b);
+// Stacks two candidates' regressors side by side.
+Candidate Join(const Candidate& a, const Candidate& b);
+
+class Analyzer {
+ public:
+  Analyzer(const ChannelData& ch, const DiagnoseOptions& o);
+  int G() const { return G_; }
+  double base_sse() const { return total_base_; }  // in-sample residual SSE after the baseline
+  double total_n() const { return total_n_; }
+  const std::vector<double>& base_blocks() const { return base_; }
+  const std::vector<double>& base_n() const { return base_n_; }
+  // The residual the candidates explain: y with the baseline's full-data fit removed.
+  const std::vector<Vec3>& y() const { return y_; }
+  const std::vector<int>& block() const { return block_; }
+  bool nested() const { return baseline_ != nullptr; }
+  const Evaluated& baseline() const { return base_eval_; }
+  // c fitted over the baseline (nested) or alone (first-wave channels).
+  Evaluated Evaluate(const Candidate& c) const;
+  // Residual after subtracting the full-data fit of e (baseline included).
+  std::vector<Vec3> After(const Evaluated& e) const;
+  // Residual after the baseline alone, per sample.
+  std::vector<Vec3> AfterBaseline() const;
+
+ private:
+  Evaluated EvaluateX(const Candidate* c) const;
+  const ChannelData& ch_;
+  const Candidate* baseline_ = nullptr;
+  size_t n_ = 0;
+  int G_ = 0;
+  std::vector<int> block_;
+  std::vector<Vec3> y_raw_, y_;
+  std::vector<double> base_, base_n_;
+  double total_base_ = 0, total_n_ = 0;
+  Evaluated base_eval_;
+};
+
+// Every candidate evaluated, grouped into families (one member per family: the smallest in-sample
+// SSE), with block-bootstrap attribution probabilities and the reported figures per family.
+struct Attribution {
+  std::vector<Evaluated> all;
+  std::vector<std::string> fam_names;
+  std::vector<size_t> fam_best;  // index into all
+  std::map<std::string, std::vector<size_t>> family;
+  std::vector<CandidateResult> results;  // per family, in fam_names order
+  std::vector<size_t> order;             // families by held-out shrink, best first
+};
+// noise_sse: the noise floor's share of the baseline's held-out SSE (nested channels: explained
+// shares are of the held-out residual above it; 0 for first-wave channels).
+Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseOptions& o, RngStream* rng,
+                      double noise_sse = 0.0);
+
+// Fills the reported parameters, intervals and magnitude of a candidate fit.
+void Describe(const Evaluated& e, const std::vector<double>& grid_boot, CandidateResult* r);
+
+double Shrink(double after_sse, double before_sse);
+// (MS_baseline − MS_after) / (MS_baseline − MS_noise) on held-out blocks: the share of the residual
+// above the noise floor that a model removes (white noise alone cannot be explained).
+double ExplainedShare(double cv_base, double cv_after, double noise_sse);
+
+}  // namespace hexsim::gap::internal

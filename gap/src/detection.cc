@@ -1,0 +1,286 @@
+// Detection independent of the candidate library, and where the residual sits (private to gap/):
+// noise floor, structure above it, and the description of what is left.
+#include "detection.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+
+#include <fmt/format.h>
+
+#include "stats.h"
+
+namespace hexsim::gap::internal {
+
+// High-frequency noise variance per component: mean |e_k − e_{k−1}|² / 6 over close pairs.
+double NoiseVariance(const std::vector<double>& t, const std::vector<Vec3>& e) {
+  if (e.size() < 3) return 0.0;
+  std::vector<double> dts;
+  for (size_t k = 1; k < t.size(); ++k) dts.push_back(t[k] - t[k - 1]);
+  std::nth_element(dts.begin(), dts.begin() + dts.size() / 2, dts.end());
+  const double med = dts[dts.size() / 2];
+  double s = 0;
+  size_t m = 0;
+  for (size_t k = 1; k < e.size(); ++k) {
+    if (t[k] - t[k - 1] > 3 * med) continue;
+    s += (e[k] - e[k - 1]).squaredNorm();
+    ++m;
+  }
+  return m > 0 ? s / (6.0 * static_cast<double>(m)) : 0.0;
+}
+
+// The floor of a replay whose unresolvable part is not white (the dynamics channel: commands
+// between log rows): per-component variance of the residual minus its centred moving average over
+// window_s, corrected for the average's own share of white noise (1 − 1/m, m samples per window).
+double HighPassVariance(const std::vector<double>& t, const std::vector<Vec3>& e, double window_s) {
+  const size_t n = e.size();
+  if (n < 3) return 0.0;
+  size_t a = 0, b = 0;
+  Vec3 sum = Vec3::Zero();
+  double s = 0, m_sum = 0;
+  for (size_t k = 0; k < n; ++k) {
+    while (b < n && t[b] <= t[k] + window_s / 2) sum += e[b++];
+    while (a < b && t[a] < t[k] - window_s / 2) sum -= e[a++];
+    const double m = static_cast<double>(std::max<size_t>(1, b - a));
+    s += (e[k] - sum / m).squaredNorm();
+    m_sum += m;
+  }
+  const double m_mean = m_sum / static_cast<double>(n);
+  if (!(m_mean > 1.5)) return 0.0;
+  return s / (3.0 * static_cast<double>(n)) / (1.0 - 1.0 / m_mean);
+}
+
+double MeanSquare(const std::vector<Vec3>& e) {
+  double s = 0;
+  for (const auto& v : e) s += v.squaredNorm();
+  return e.empty() ? 0.0 : s / (3.0 * static_cast<double>(e.size()));
+}
+
+namespace {
+
+std::string Quartile(int q) {
+  static const char* names[] = {"low", "mid-low", "mid-high", "high"};
+  return names[std::clamp(q, 0, 3)];
+}
+
+}  // namespace
+
+// Where: phase, regime bins and frequency band of the residual.
+nlohmann::json Where(const ChannelData& ch, const std::vector<Vec3>& y, const logs::FlightLog& log,
+                     const std::vector<std::string>& phases) {
+  nlohmann::json w;
+  const size_t n = y.size();
+  const double total_ms = MeanSquare(y);
+  // Phase.
+  std::map<std::string, std::pair<double, double>> by_phase;
+  for (size_t k = 0; k < n; ++k) {
+    auto& a = by_phase[phases[ch.row[k]]];
+    a.first += y[k].squaredNorm() / 3;
+    a.second += 1;
+  }
+  nlohmann::json rms_phase = nlohmann::json::object();
+  std::string worst_phase;
+  double worst = -1;
+  for (const auto& [ph, a] : by_phase) {
+    const double rms = std::sqrt(a.first / a.second);
+    rms_phase[ph] = rms;
+    if (a.second >= 0.03 * static_cast<double>(n) && rms > worst) {
+      worst = rms;
+      worst_phase = ph;
+    }
+  }
+  w["phase"] = {{"rms_by_phase", rms_phase}, {"concentrated", worst_phase}};
+  // Regimes: quartile bins of current, throttle, speed, tilt.
+  auto column_at_rows = [&](const std::string& name, auto fn) {
+    std::vector<double> v(n, std::nan(""));
+    for (size_t k = 0; k < n; ++k) v[k] = fn(static_cast<size_t>(ch.row[k]));
+    (void)name;
+    return v;
+  };
+  std::vector<std::pair<std::string, std::vector<double>>> regs;
+  if (log.Has("current_A")) {
+    const auto& c = log.Column("current_A");
+    regs.emplace_back("current", column_at_rows("current_A", [&](size_t i) { return c[i]; }));
+  }
+  if (log.Has("control_u")) {
+    const auto& c = log.Column("control_u");
+    regs.emplace_back("throttle", column_at_rows("control_u", [&](size_t i) { return c[i]; }));
+  }
+  if (log.Has("vel_N_mps") && log.Has("vel_E_mps")) {
+    const auto& vn = log.Column("vel_N_mps");
+    const auto& ve = log.Column("vel_E_mps");
+    regs.emplace_back("speed", column_at_rows("speed", [&](size_t i) { return std::hypot(vn[i], ve[i]); }));
+  }
+  if (log.Has("q_w")) {
+    const auto& qw = log.Column("q_w");
+    const auto& qx = log.Column("q_x");
+    const auto& qy = log.Column("q_y");
+    const auto& qz = log.Column("q_z");
+    regs.emplace_back("tilt", column_at_rows("tilt", [&](size_t i) {
+                        // cos(tilt) = R_NB(2,2) = 1 − 2(qx² + qy²)
+                        return std::acos(std::clamp(1 - 2 * (qx[i] * qx[i] + qy[i] * qy[i]), -1.0, 1.0)) * 57.29577951308232 +
+                               0 * qw[i] * qz[i];
+                      }));
+  }
+  nlohmann::json regime = nlohmann::json::object();
+  std::string conc;
+  double best_ratio = 0;
+  for (const auto& [name, v] : regs) {
+    std::vector<double> sorted;
+    for (double x : v) {
+      if (std::isfinite(x)) sorted.push_back(x);
+    }
+    if (sorted.size() < 40) continue;
+    std::sort(sorted.begin(), sorted.end());
+    double edges[3];
+    for (int q = 0; q < 3; ++q) edges[q] = sorted[(q + 1) * sorted.size() / 4];
+    double s[4] = {0, 0, 0, 0}, m[4] = {0, 0, 0, 0};
+    for (size_t k = 0; k < n; ++k) {
+      if (!std::isfinite(v[k])) continue;
+      int q = 0;
+      while (q < 3 && v[k] > edges[q]) ++q;
+      s[q] += y[k].squaredNorm() / 3;
+      m[q] += 1;
+    }
+    nlohmann::json bins = nlohmann::json::array();
+    double lo = 1e300, hi = 0;
+    int hi_q = 0;
+    for (int q = 0; q < 4; ++q) {
+      const double rms = m[q] > 0 ? std::sqrt(s[q] / m[q]) : 0.0;
+      bins.push_back({{"bin", Quartile(q)}, {"rms", rms}, {"samples", m[q]}});
+      if (m[q] > 0) {
+        lo = std::min(lo, rms);
+        if (rms > hi) {
+          hi = rms;
+          hi_q = q;
+        }
+      }
+    }
+    regime[name] = {{"edges", {edges[0], edges[1], edges[2]}}, {"bins", bins}};
+    const double ratio = lo > 0 ? hi / lo : 0;
+    if (ratio > best_ratio) {
+      best_ratio = ratio;
+      conc = Quartile(hi_q) + " " + name;
+    }
+  }
+  regime["concentrated"] = best_ratio > 1.2 ? conc : "uniform";
+  w["regime"] = regime;
+  // Band: moving averages split low (< ~0.1 Hz), mid, high (> ~1 Hz) parts.
+  auto moving_avg = [&](double window_s) {
+    std::vector<Vec3> out(n, Vec3::Zero());
+    size_t a = 0, b = 0;
+    Vec3 sum = Vec3::Zero();
+    for (size_t k = 0; k < n; ++k) {
+      while (b < n && ch.t[b] <= ch.t[k] + window_s / 2) sum += y[b++];
+      while (a < b && ch.t[a] < ch.t[k] - window_s / 2) sum -= y[a++];
+      out[k] = sum / static_cast<double>(std::max<size_t>(1, b - a));
+    }
+    return out;
+  };
+  const auto slow = moving_avg(5.0);
+  const auto mid = moving_avg(0.5);
+  double e_lo = 0, e_mid = 0, e_hi = 0;
+  for (size_t k = 0; k < n; ++k) {
+    e_lo += slow[k].squaredNorm();
+    e_mid += (mid[k] - slow[k]).squaredNorm();
+    e_hi += (y[k] - mid[k]).squaredNorm();
+  }
+  const double e_sum = e_lo + e_mid + e_hi;
+  nlohmann::json band = {{"below_0.2Hz", e_sum > 0 ? e_lo / e_sum : 0.0},
+                         {"0.2_to_2Hz", e_sum > 0 ? e_mid / e_sum : 0.0},
+                         {"above_2Hz", e_sum > 0 ? e_hi / e_sum : 0.0}};
+  std::string dom = "below_0.2Hz";
+  if (e_mid >= e_lo && e_mid >= e_hi) dom = "0.2_to_2Hz";
+  if (e_hi >= e_lo && e_hi >= e_mid) dom = "above_2Hz";
+  band["concentrated"] = dom;
+  w["band"] = band;
+  w["rms"] = std::sqrt(total_ms);
+  return w;
+}
+
+
+Structure DetectStructure(const std::vector<double>& t, const std::vector<Vec3>& r, double heldout_sse, double materiality) {
+  Structure s;
+  const size_t n = r.size();
+  if (n < 20) return s;
+  s.noise_var = NoiseVariance(t, r);
+  const double m = 3.0 * static_cast<double>(n);
+  s.power_ratio = s.noise_var > 0 ? heldout_sse / m / s.noise_var : 0.0;
+  // Under the null (white residual at its floor) the ratio of the two mean-square estimates has a
+  // standard deviation of about √(2/m)·√2 (each estimate √(2/m)); one-sided z test of
+  // ratio > 1 + materiality.
+  const double sd0 = std::sqrt(4.0 / m);
+  s.p_value = s.noise_var > 0 ? NormalSf((s.power_ratio - 1.0 - materiality) / sd0) : 1.0;
+  s.present = s.p_value < 0.01;
+  constexpr int kLjungBoxLags = 20;
+  double p_lb = 1.0;
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double> x;
+    for (const auto& v : r) x.push_back(v[axis]);
+    p_lb = std::min(p_lb, 3.0 * LjungBoxP(x, kLjungBoxLags));
+  }
+  s.whiteness_p = std::min(1.0, p_lb);
+  return s;
+}
+
+nlohmann::json ResidualLeft(const std::vector<double>& t, const std::vector<Vec3>& after, double share_left,
+                            const nlohmann::json& where_after) {
+  nlohmann::json j;
+  j["share"] = std::clamp(share_left, 0.0, 1.0);
+  const size_t n = after.size();
+  // Dominant frequency: periodogram on the sample index (median spacing), at most 2048 samples
+  // (evenly decimated), summed over the three axes.
+  double f_dom = 0;
+  if (n >= 32) {
+    std::vector<double> dts;
+    for (size_t k = 1; k < n; ++k) dts.push_back(t[k] - t[k - 1]);
+    std::nth_element(dts.begin(), dts.begin() + static_cast<std::ptrdiff_t>(dts.size() / 2), dts.end());
+    const size_t step = std::max<size_t>(1, n / 2048);
+    const double dt = dts[dts.size() / 2] * static_cast<double>(step);
+    std::vector<Vec3> x;
+    for (size_t k = 0; k < n; k += step) x.push_back(after[k]);
+    const size_t m = x.size();
+    Vec3 mean = Vec3::Zero();
+    for (const auto& v : x) mean += v;
+    mean /= static_cast<double>(m);
+    double best = -1;
+    for (size_t f = 1; f <= m / 2; ++f) {
+      const double w = 2.0 * 3.141592653589793 * static_cast<double>(f) / static_cast<double>(m);
+      Vec3 re = Vec3::Zero(), im = Vec3::Zero();
+      for (size_t k = 0; k < m; ++k) {
+        re += (x[k] - mean) * std::cos(w * static_cast<double>(k));
+        im += (x[k] - mean) * std::sin(w * static_cast<double>(k));
+      }
+      const double p = re.squaredNorm() + im.squaredNorm();
+      if (p > best) {
+        best = p;
+        f_dom = static_cast<double>(f) / (static_cast<double>(m) * dt);
+      }
+    }
+  }
+  j["dominant_freq_Hz"] = f_dom;
+  // Trend: share of the residual mean square a straight line in time explains (per axis).
+  double trend_ss = 0, total_ss = 0;
+  if (n >= 3) {
+    const double tm = std::accumulate(t.begin(), t.end(), 0.0) / static_cast<double>(n);
+    double stt = 0;
+    for (double v : t) stt += (v - tm) * (v - tm);
+    Vec3 ym = Vec3::Zero(), sty = Vec3::Zero();
+    for (const auto& v : after) ym += v;
+    ym /= static_cast<double>(n);
+    for (size_t k = 0; k < n; ++k) {
+      sty += (t[k] - tm) * (after[k] - ym);
+      total_ss += after[k].squaredNorm();
+    }
+    if (stt > 0) trend_ss = sty.squaredNorm() / stt;
+  }
+  j["trend"] = total_ss > 0 ? trend_ss / total_ss : 0.0;
+  std::string conc = where_after.value("phase", nlohmann::json::object()).value("concentrated", std::string());
+  const std::string regime = where_after.value("regime", nlohmann::json::object()).value("concentrated", std::string());
+  if (!regime.empty() && regime != "uniform") conc += (conc.empty() ? "" : ", ") + regime;
+  j["concentrated"] = conc;
+  return j;
+}
+
+}  // namespace hexsim::gap::internal

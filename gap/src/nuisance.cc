@@ -1,0 +1,278 @@
+// Nuisance baseline findings and the timing scan of compass channels (private to gap/).
+//
+// Nuisance: the baseline fit r = β + M·R_NBᵀ·δB_N gives the residual offset β (sensor frame), the
+// fitted Earth field B_fit = B_wmm + δB_N, its norm ratio field_scale = |B_fit|/|B_wmm| (a uniform
+// sensor scale and a norm error look the same), and the part of δB_N across the WMM direction
+// (an anomaly or a declination/inclination error). Judged against realdata's normal ranges, or, with
+// nuisance_ranges = "exact" (a configured model that is the calibrated truth), by Wald tests.
+// Timing: the compass latency L from a lag scan of the baseline (+ the aligned current term) fit over
+// the flight samples; the current staleness S from a lag scan of current against throttle.
+#include "nuisance.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <fmt/format.h>
+
+#include "detection.h"
+#include "hexsim/realdata/plausibility.h"
+#include "stats.h"
+
+namespace hexsim::gap::internal {
+namespace {
+
+constexpr double kMilliGaussPerMicroTesla = 10.0;
+
+nlohmann::json Vec(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
+
+double WaldSub(const Eigen::VectorXd& b, const Eigen::MatrixXd& V, int G) {
+  const int q = static_cast<int>(b.size());
+  const double tr = V.trace();
+  if (!(tr > 0)) return 1.0;
+  const double t2 = b.dot((V + Eigen::MatrixXd::Identity(q, q) * 1e-9 * tr / q).ldlt().solve(b));
+  if (G - q < 1) return ChiSquareSf(t2, q);
+  return FSf(t2 * static_cast<double>(G - q) / (static_cast<double>(q) * (G - 1)), q, G - q);
+}
+
+CandidateResult Term(const std::string& effect, double value, double sd, double t975, const std::string& unit, bool norm) {
+  CandidateResult r;
+  r.effect = effect;
+  r.magnitude = value;
+  r.magnitude_ci95[0] = norm ? std::max(0.0, value - t975 * sd) : value - t975 * sd;
+  r.magnitude_ci95[1] = value + t975 * sd;
+  r.magnitude_unit = unit;
+  r.plausible = realdata::IsPlausible(effect, value);
+  r.physical_range = realdata::RangeText(effect);
+  r.parameters = 3;
+  r.probability = std::nan("");
+  r.params["nuisance"] = true;
+  return r;
+}
+
+}  // namespace
+
+NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, const DiagnoseOptions& o) {
+  NuisanceReport nr;
+  if (base.p() < 6 || !base.full.ok) return nr;
+  const int G = static_cast<int>(base.blocks.size());
+  const double t975 = StudentT975(static_cast<double>(G - 1));
+  const Vec3 b = base.full.beta.head<3>();
+  const Vec3 d = base.full.beta.segment<3>(3);
+  const Eigen::Matrix3d Vb = base.cov.block<3, 3>(0, 0), Vd = base.cov.block<3, 3>(3, 3);
+  const Vec3 B = ch.field_N_uT;
+  const double Bn = B.norm();
+  const Vec3 Bhat = Bn > 0 ? Vec3(B / Bn) : Vec3::UnitZ();
+  const Vec3 Bfit = B + d;
+  const double scale = Bn > 0 ? Bfit.norm() / Bn : 1.0;
+  const double s_along = Bn > 0 ? d.dot(B) / (Bn * Bn) : 0.0;  // δ along the WMM field, as a scale
+  const Vec3 d_perp = d - d.dot(Bhat) * Bhat;
+  const double b_norm = b.norm();
+  const double b_sd = b_norm > 0 ? std::sqrt(std::max(0.0, (b / b_norm).dot(Vb * (b / b_norm)))) : 0.0;
+  const double d_norm = d.norm();
+  const double d_sd = d_norm > 0 ? std::sqrt(std::max(0.0, (d / d_norm).dot(Vd * (d / d_norm)))) : 0.0;
+  const double s_sd = Bn > 0 ? std::sqrt(std::max(0.0, Bhat.dot(Vd * Bhat))) / Bn : 0.0;
+  const double perp_norm = d_perp.norm();
+  const double perp_sd = perp_norm > 0 ? std::sqrt(std::max(0.0, (d_perp / perp_norm).dot(Vd * (d_perp / perp_norm)))) : 0.0;
+  nr.json = {{"offset_uT", Vec(b)},
+             {"offset_ci95_uT", {std::max(0.0, b_norm - t975 * b_sd), b_norm + t975 * b_sd}},
+             {"field_scale", scale},
+             {"field_vector_N_uT", Vec(Bfit)},
+             {"field_prior_N_uT", Vec(B)},
+             {"field_correction_N_uT", Vec(d)},
+             {"field_direction_error_uT", perp_norm},
+             {"undone_compensation", ch.undone_compensation},
+             {"ranges", o.nuisance_ranges}};
+  nr.terms.push_back(Term("hard_iron_offset", b_norm, b_sd, t975, "uT", true));
+  nr.terms.back().params["b_x_uT"] = b.x();
+  nr.terms.back().params["b_y_uT"] = b.y();
+  nr.terms.back().params["b_z_uT"] = b.z();
+  nr.terms.push_back(Term("local_anomaly", d_norm, d_sd, t975, "uT", true));
+  nr.terms.back().params["anomaly_N_uT"] = Vec(d);
+  nr.terms.push_back(Term("scale_error", s_along, s_sd, t975, "1", false));
+  nr.terms.back().parameters = 1;
+  nr.terms.back().params["scale_minus_1"] = s_along;
+  // Which term is out of its range.
+  if (o.nuisance_ranges == "exact") {
+    const double p_off = WaldSub(b, Vb, G);
+    Eigen::Matrix<double, 3, 2> E;
+    E.col(0) = Bhat.unitOrthogonal();
+    E.col(1) = Bhat.cross(E.col(0));
+    const Eigen::Vector2d dp = E.transpose() * d;
+    const double p_perp = WaldSub(dp, E.transpose() * Vd * E, G);
+    const double p_scale = s_sd > 0 ? 2 * NormalSf(std::fabs(s_along) / s_sd) : 1.0;
+    const double a = o.alpha / 3.0;  // Bonferroni over the three terms
+    double p_best = a;
+    if (p_off < p_best) {
+      p_best = p_off;
+      nr.out_of_range = "hard_iron_offset";
+    }
+    if (p_perp < p_best) {
+      p_best = p_perp;
+      nr.out_of_range = "local_anomaly";
+    }
+    if (p_perp >= a && p_scale < p_best) nr.out_of_range = "scale_error";
+  } else {
+    const realdata::PhysicalRange* off = realdata::FindRange("hard_iron_offset");
+    const realdata::PhysicalRange* an = realdata::FindRange("local_anomaly");
+    const realdata::PhysicalRange* sc = realdata::FindRange("field_scale");
+    if (b_norm - t975 * b_sd > off->normal_hi) {
+      nr.out_of_range = "hard_iron_offset";
+      nr.findings.push_back(fmt::format("{}: residual offset ({:.0f}, {:.0f}, {:.0f}) mG, beyond the normal {:.0f} mG: "
+                                        "recalibrate the compass",
+                                        ch.name, kMilliGaussPerMicroTesla * b.x(), kMilliGaussPerMicroTesla * b.y(),
+                                        kMilliGaussPerMicroTesla * b.z(), kMilliGaussPerMicroTesla * off->normal_hi));
+    }
+    if (scale < sc->normal_lo || scale > sc->normal_hi) {
+      if (nr.out_of_range.empty()) nr.out_of_range = "scale_error";
+      nr.findings.push_back(fmt::format("{}: fitted field norm {:.1f} % {} the WMM field: recalibrate (scale) or check "
+                                        "for a local anomaly",
+                                        ch.name, 100 * std::fabs(scale - 1), scale < 1 ? "below" : "above"));
+    }
+    if (perp_norm - t975 * perp_sd > an->normal_hi) {
+      if (nr.out_of_range.empty()) nr.out_of_range = "local_anomaly";
+      nr.findings.push_back(fmt::format("{}: fitted field direction differs from WMM by {:.1f} uT ({:.1f} deg): a local "
+                                        "anomaly, or a yaw misalignment of the compass",
+                                        ch.name, perp_norm, std::atan2(perp_norm, Bn) * 57.29577951308232));
+    }
+  }
+  return nr;
+}
+
+realdata::LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::vector<realdata::RowKind>& kinds,
+                                       const DiagnoseOptions& o) {
+  if (!log.Has("current_A") || !log.Has("control_u")) return {};
+  const auto& t = log.Column("t_s");
+  // Each logged sample once, at its own time stamp where the log has one.
+  auto samples = [&](const std::string& col, const std::string& tcol, std::vector<double>* ts, std::vector<double>* v) {
+    const auto& c = log.Column(col);
+    const std::vector<double>* tc = log.Has(tcol) ? &log.Column(tcol) : nullptr;
+    double last = -1e300;
+    for (size_t i = 0; i < log.rows(); ++i) {
+      if (kinds[i] != realdata::RowKind::kFlight || !std::isfinite(c[i])) continue;
+      const double ti = tc ? (*tc)[i] : t[i];
+      if (!std::isfinite(ti) || ti <= last) continue;
+      last = ti;
+      ts->push_back(ti);
+      v->push_back(c[i]);
+    }
+  };
+  std::vector<double> tu, u, ti, I;
+  samples("control_u", "ctun_t_s", &tu, &u);
+  samples("current_A", "batt_t_s", &ti, &I);
+  realdata::StalenessOptions so;
+  so.seed = o.seed;
+  so.resamples = o.bootstrap_samples;
+  return realdata::StalenessScan(tu, u, ti, I, so);
+}
+
+CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
+                                const Vec3& B_N_uT, const CompassReplayOptions& base, const realdata::LagEstimate& stale,
+                                double shift_s, const DiagnoseOptions& o) {
+  CompassTiming tm;
+  tm.staleness_s = stale.ok() ? stale.value_s : 0.0;
+  nlohmann::json st = nlohmann::json::object();
+  if (stale.ok()) {
+    st["current_A"] = {{"value", stale.value_s}, {"ci95", {stale.ci95_s[0], stale.ci95_s[1]}},
+                       {"against", "control_u"}, {"resolved", !stale.at_grid_edge},
+                       {"plausible", realdata::IsPlausible("current_staleness", stale.value_s)},
+                       {"applied_shift_s", shift_s}};
+  }
+  tm.json["regressor_staleness_s"] = st;
+  // Latency grid: −0.1…0.3 s in 10 ms steps; every lag on the same compass samples.
+  const std::vector<double> grid = realdata::LagGrid(-0.1, 0.3, 0.01);
+  std::vector<ChannelData> runs;
+  std::map<double, int> count;
+  for (double L : grid) {
+    CompassReplayOptions ro = base;
+    ro.latency_s = L;
+    ro.current_shift_s = shift_s;
+    ro.baseline_only = true;
+    runs.push_back(ReplayCompass(log, v, c, in, B_N_uT, ro));
+    for (double t : runs.back().t) ++count[t];
+  }
+  const int G = std::max(4, o.blocks);
+  std::vector<std::vector<double>> sse(grid.size(), std::vector<double>(static_cast<size_t>(G), 0.0));
+  size_t common = 0;
+  for (const auto& [t, k] : count) common += k == static_cast<int>(grid.size());
+  if (common < 100) return tm;
+  for (size_t g = 0; g < grid.size(); ++g) {
+    const ChannelData& ch = runs[g];
+    const int p = ch.baseline.p() + (ch.candidates.empty() ? 0 : ch.candidates[0].p());
+    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(p, p);
+    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(p);
+    std::vector<Mat3X> X;
+    std::vector<Vec3> y;
+    for (size_t k = 0; k < ch.t.size(); ++k) {
+      if (count[ch.t[k]] != static_cast<int>(grid.size())) continue;
+      Mat3X x(3, p);
+      x.leftCols(ch.baseline.p()) = ch.baseline.X[k];
+      if (!ch.candidates.empty()) x.rightCols(ch.candidates[0].p()) = ch.candidates[0].X[k];
+      A.noalias() += x.transpose() * x;
+      rhs.noalias() += x.transpose() * ch.y[k];
+      X.push_back(x);
+      y.push_back(ch.y[k]);
+    }
+    const Eigen::VectorXd beta = (A + Eigen::MatrixXd::Identity(p, p) * 1e-12 * A.trace()).ldlt().solve(rhs);
+    for (size_t k = 0; k < y.size(); ++k) sse[g][k * static_cast<size_t>(G) / y.size()] += (y[k] - X[k] * beta).squaredNorm();
+  }
+  const realdata::LagEstimate lat = realdata::ProfileLag(grid, sse, o.bootstrap_samples, o.seed);
+  if (!lat.ok()) return tm;
+  tm.latency_ok = !lat.at_grid_edge;
+  tm.latency_s = lat.value_s;
+  tm.latency_ci95_s[0] = lat.ci95_s[0];
+  tm.latency_ci95_s[1] = lat.ci95_s[1];
+  tm.json["latency_s"] = {{"value", lat.value_s}, {"ci95", {lat.ci95_s[0], lat.ci95_s[1]}}, {"against", "attitude (q_*)"},
+                          {"resolved", !lat.at_grid_edge}, {"plausible", realdata::IsPlausible("latency", lat.value_s)}};
+  // Held-out share of the unaligned baseline residual that the alignment removes, and whether the
+  // unaligned residual has structure at all.
+  CompassReplayOptions r0 = base, r1 = base;
+  r0.baseline_only = r1.baseline_only = true;
+  r0.current_shift_s = r1.current_shift_s = shift_s;
+  r1.latency_s = lat.value_s;
+  const ChannelData c0 = ReplayCompass(log, v, c, in, B_N_uT, r0);
+  const ChannelData c1 = ReplayCompass(log, v, c, in, B_N_uT, r1);
+  if (c0.t.size() < 100 || c1.t.size() < 100) return tm;
+  const Analyzer a0(c0, o), a1(c1, o);
+  const double cv0 = a0.baseline().cv_sse / static_cast<double>(c0.t.size());
+  const double cv1 = a1.baseline().cv_sse / static_cast<double>(c1.t.size());
+  const double noise = 3.0 * NoiseVariance(c1.t, a1.y());
+  tm.latency_share = std::max(0.0, ExplainedShare(cv0, cv1, noise));
+  tm.json["latency_s"]["explained_share"] = tm.latency_share;
+  tm.unaligned_structure = DetectStructure(c0.t, a0.y(), a0.baseline().cv_sse, o.materiality).present;
+  return tm;
+}
+
+nlohmann::json GroundVsFlight(const ChannelData& flight, const ChannelData& ground, const nlohmann::json& nuisance) {
+  nlohmann::json j = nlohmann::json::object();
+  constexpr size_t kMinSamples = 20;
+  constexpr double kMinCurrentStep_A = 1.0;  // below this the ratio is noise
+  if (ground.t.size() < kMinSamples || flight.t.size() < kMinSamples || !nuisance.contains("offset_uT")) return j;
+  Eigen::VectorXd beta(6);
+  for (int i = 0; i < 3; ++i) {
+    beta[i] = nuisance["offset_uT"][i].get<double>();
+    beta[3 + i] = nuisance["field_correction_N_uT"][i].get<double>();
+  }
+  auto mean_residual = [&](const ChannelData& ch, double* mean_I) {
+    Vec3 m = Vec3::Zero();
+    double I = 0;
+    for (size_t k = 0; k < ch.t.size(); ++k) {
+      m += ch.y[k] - ch.baseline.X[k] * beta;
+      I += ch.current_A[k];
+    }
+    *mean_I = I / static_cast<double>(ch.t.size());
+    return Vec3(m / static_cast<double>(ch.t.size()));
+  };
+  double I_f = 0, I_g = 0;
+  const Vec3 r_f = mean_residual(flight, &I_f);
+  const Vec3 r_g = mean_residual(ground, &I_g);
+  const Vec3 dB = r_f - r_g;
+  const double dI = I_f - I_g;
+  j = {{"ground_samples", ground.t.size()}, {"delta_B_uT", Vec(dB)}, {"delta_I_A", dI}};
+  if (std::fabs(dI) >= kMinCurrentStep_A) j["mG_per_A"] = kMilliGaussPerMicroTesla * dB.norm() / std::fabs(dI);
+  return j;
+}
+
+}  // namespace hexsim::gap::internal

@@ -1,0 +1,329 @@
+// Compass replay: the configured compass model driven by the log's attitude and currents, on the
+// aligned time base of the timing scan, with the nuisance baseline and the candidate effects'
+// regressors (CONTRACTS.md "Second wave").
+//
+// Timing: a compass sample stamped t measured the field at t − L (L: compass latency against the
+// attitude); the current logged at t is the current of t − S (S: its staleness beyond the configured
+// vehicle's own throttle-to-current response). The prediction uses the attitude at t − L and the
+// aligned current I(t − L + S); the candidates' current regressors come in two members, the aligned
+// and the logged current, and the better member wins its family.
+// Baseline (always fitted, never a finding by itself): r = β + M·R_NBᵀ·δB_N, a constant offset β in
+// the sensor frame and a correction δB_N of the NED Earth field (WMM prior), which also absorbs a
+// uniform scale of the sensor.
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+
+#include "channels.h"
+#include "hexsim/common/rotation.h"
+#include "hexsim/magnetics/compass_model.h"
+#include "replay_util.h"
+
+namespace hexsim::gap::internal {
+namespace {
+
+// ArduPilot's per-motor compensation scales each motor's field by output^exp (COMPASS_PMOT_EXP,
+// default 0.65).
+constexpr double kPerMotorExponent = 0.65;
+// throttle^r (pymavlink magfit_compassmot fits r): the grid the throttle family is profiled over.
+constexpr double kThrottleExponents[] = {0.5, 1.0, 1.5, 2.0, 3.0};
+
+struct Sample {
+  double t;
+  Vec3 m;
+  int row;
+};
+
+// New compass samples: where the time stamp (or, without one, the value) changes; the autopilot's
+// logged per-sample motor compensation is subtracted where the log has it.
+std::vector<Sample> CompassSamples(const logs::FlightLog& log, const std::string& pre, bool* undone) {
+  const auto& t_row = log.Column("t_s");
+  const auto& mx = log.Column(pre + "_x_uT");
+  const auto& my = log.Column(pre + "_y_uT");
+  const auto& mz = log.Column(pre + "_z_uT");
+  const std::vector<double>* mt = Col(log, pre + "_t_s");
+  const std::vector<double>* ox = Col(log, pre + "_mot_x_uT");
+  const std::vector<double>* oy = Col(log, pre + "_mot_y_uT");
+  const std::vector<double>* oz = Col(log, pre + "_mot_z_uT");
+  *undone = ox && oy && oz;
+  std::vector<Sample> out;
+  double last_t = -1e300;
+  Vec3 last_v(std::nan(""), std::nan(""), std::nan(""));
+  for (size_t i = 0; i < log.rows(); ++i) {
+    Vec3 m(mx[i], my[i], mz[i]);
+    if (!m.allFinite()) continue;
+    double tm = t_row[i];
+    if (mt) {
+      if (!std::isfinite((*mt)[i]) || (*mt)[i] <= last_t) continue;
+      tm = (*mt)[i];
+      last_t = tm;
+    } else {
+      if (m == last_v) continue;
+      last_v = m;
+    }
+    if (*undone) {
+      const Vec3 o((*ox)[i], (*oy)[i], (*oz)[i]);
+      if (o.allFinite()) m -= o;  // logged = M·(raw + offsets) + motor offsets
+    }
+    out.push_back({tm, m, static_cast<int>(i)});
+  }
+  return out;
+}
+
+magnetics::Currents CurrentsAt(const LogInputs& in, const vehicle::VehicleParams& v, size_t i, double w) {
+  magnetics::Currents cu;
+  const size_t n_motor = v.rotors.size();
+  cu.battery_A = in.current ? Lerp(*in.current, i, w) : 0.0;
+  cu.motor_A.assign(n_motor, 0.0);
+  if (!in.motor_A.empty()) {
+    for (size_t m = 0; m < n_motor; ++m) cu.motor_A[m] = Lerp(*in.motor_A[m], i, w);
+  } else if (in.current) {
+    const double each = std::max(0.0, cu.battery_A - v.avionics_current_A) / static_cast<double>(n_motor);
+    std::fill(cu.motor_A.begin(), cu.motor_A.end(), each);
+  }
+  return cu;
+}
+
+}  // namespace
+
+ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
+                          const Vec3& B_N_uT, const CompassReplayOptions& o) {
+  const std::string pre = MagPrefix(c);
+  const vehicle::CompassParams& cp = v.compasses[c];
+  const auto& t_row = log.Column("t_s");
+  magnetics::CurrentFieldParams wiring = v.wiring;
+  if (cp.current_lag_tau_s >= 0) wiring.lag_tau_s = cp.current_lag_tau_s;
+  // A log whose compass values the autopilot calibrated carries no hard or soft iron of its own:
+  // the configured sensor errors are not applied to it (orientation and wiring field are).
+  magnetics::CompassErrorParams err = cp.error;
+  if (o.calibrated_log) {
+    err.hard_iron_uT.setZero();
+    err.soft_iron.setIdentity();
+    err.scale = 1.0;
+  }
+
+  ChannelData ch;
+  ch.name = pre;
+  ch.unit = "uT";
+  ch.compass = true;
+  ch.bias_nuisance = false;  // the baseline's offset holds any bias
+  ch.field_N_uT = B_N_uT;
+  const std::vector<Sample> samples = CompassSamples(log, pre, &ch.undone_compensation);
+
+  RowCursor cur{t_row}, cur_i{t_row};
+  magnetics::CurrentLagState lag;
+  double prev_t = 0;
+  bool first = true;
+  std::vector<Vec3> h;                     // predicted field before hard iron, sensor frame
+  std::vector<Eigen::Matrix3d> Msens, Rt;  // R_SB·scale·K(I), R_NBᵀ
+  std::vector<double> I_log, u, temp;
+  std::vector<std::vector<double>> mu;     // per-motor outputs
+  std::vector<magnetics::Currents> currents;
+  const bool has_current = in.current != nullptr;
+  const bool has_throttle = in.control_u != nullptr || !in.motor_u.empty();
+  for (const Sample& s : samples) {
+    if (o.row_kind && (*o.row_kind)[static_cast<size_t>(s.row)] != o.want) continue;
+    const double ta = s.t - o.latency_s;  // when the field was measured
+    double w = 0, wi = 0;
+    if (!cur.Seek(ta, &w) || !cur_i.Seek(ta + o.current_shift_s, &wi)) continue;
+    const size_t i = cur.i;
+    const Eigen::Quaterniond q = QuatLerp(in.q, i, w);
+    if (!q.coeffs().allFinite()) continue;
+    const magnetics::Currents cu = CurrentsAt(in, v, cur_i.i, wi);  // on the aligned time base
+    const double i_logged = has_current ? Lerp(*in.current, i, w) : 0.0;
+    double thr = std::nan("");
+    std::vector<double> motors;
+    for (auto* m : in.motor_u) motors.push_back(Lerp(*m, i, w));
+    if (in.control_u) {
+      thr = Lerp(*in.control_u, i, w) / kThrottleFullScale;
+    } else if (!motors.empty()) {
+      thr = 0;
+      for (double m : motors) thr += m / static_cast<double>(motors.size());
+    }
+    bool ok = std::isfinite(cu.battery_A) && std::isfinite(i_logged);
+    // Between two log rows the current is unknown; where it jumps (motor spin-up, touchdown) the
+    // interpolated current cannot predict the wiring field, so such samples are left out.
+    constexpr double kMaxCurrentStep_A = 2.0;
+    const size_t ic = cur_i.i;
+    if (has_current && wi > 0 && std::fabs((*in.current)[ic + 1] - (*in.current)[ic]) > kMaxCurrentStep_A) continue;
+    for (double a : cu.motor_A) ok = ok && std::isfinite(a);
+    if (!ok) continue;
+    const double dt = first ? 0.0 : std::max(0.0, s.t - prev_t);
+    first = false;
+    prev_t = s.t;
+    const magnetics::Currents& lagged = magnetics::StepCurrentLag(wiring, cu, dt, &lag);
+    const Eigen::Matrix3d R_NB = q.toRotationMatrix();
+    const Vec3 pred = magnetics::NoiselessCompassReading_uT(err, wiring, cp.position_B_m, R_NB, B_N_uT, lagged);
+    const Eigen::Matrix3d M = err.R_SB * (err.scale * (err.soft_iron + lagged.battery_A * err.soft_iron_per_A));
+    ch.t.push_back(s.t);
+    ch.y.emplace_back(s.m - pred);
+    ch.row.push_back(s.row);
+    ch.current_A.push_back(cu.battery_A);
+    ch.throttle.push_back(thr);
+    h.emplace_back(pred - err.hard_iron_uT);
+    Msens.push_back(M);
+    Rt.emplace_back(R_NB.transpose());
+    I_log.push_back(i_logged);
+    u.push_back(thr);
+    mu.push_back(motors);
+    temp.push_back(in.temp ? Lerp(*in.temp, i, w) : std::nan(""));
+    currents.push_back(cu);
+  }
+  const size_t n = ch.t.size();
+
+  ch.baseline = MakeCandidate("baseline", {"offset_x_uT", "offset_y_uT", "offset_z_uT", "dB_N_uT", "dB_E_uT", "dB_D_uT"},
+                              {1, 1, 1, 1, 1, 1}, "uT");
+  for (size_t k = 0; k < n; ++k) {
+    Mat3X x(3, 6);
+    x << Eigen::Matrix3d::Identity(), Msens[k] * Rt[k];
+    ch.baseline.X.push_back(x);
+  }
+  if (o.baseline_only) {
+    if (has_current) {
+      Candidate chi = MakeCandidate("current_hard_iron", {"d_x_uT_per_A", "d_y_uT_per_A", "d_z_uT_per_A"}, {1, 1, 1}, "uT/A");
+      for (size_t k = 0; k < n; ++k) chi.X.push_back(Diag3(currents[k].battery_A));
+      ch.candidates.push_back(std::move(chi));
+    }
+    return ch;
+  }
+  // Misalignment only (scale and latency are the baseline's and the timing scan's).
+  {
+    Candidate mis = MakeCandidate("misalignment", {"phi_x_deg", "phi_y_deg", "phi_z_deg"}, {kRadToDeg, kRadToDeg, kRadToDeg},
+                                  "deg");
+    for (size_t k = 0; k < n; ++k) mis.X.emplace_back(-Skew(h[k]));  // φ × h = −[h]×·φ
+    ch.candidates.push_back(std::move(mis));
+  }
+  if (has_current) {
+    for (int aligned = 0; aligned < 2; ++aligned) {
+      if (aligned == 1 && o.current_shift_s == 0 && o.latency_s == 0) break;
+      Candidate chi = MakeCandidate("current_hard_iron", {"d_x_uT_per_A", "d_y_uT_per_A", "d_z_uT_per_A"}, {1, 1, 1},
+                                    "uT/A", "current_A");
+      Candidate csi = MakeCandidate("current_soft_iron",
+                                    {"dK_xx_per_A", "dK_xy_per_A", "dK_xz_per_A", "dK_yx_per_A", "dK_yy_per_A",
+                                     "dK_yz_per_A", "dK_zx_per_A", "dK_zy_per_A", "dK_zz_per_A"},
+                                    std::vector<double>(9, 1.0), "1/A", "current_A");
+      chi.grid_name = csi.grid_name = "current_aligned";
+      chi.grid_value = csi.grid_value = aligned;
+      for (size_t k = 0; k < n; ++k) {
+        const double Ik = aligned ? currents[k].battery_A : I_log[k];
+        chi.X.push_back(Diag3(Ik));
+        chi.regressor.push_back(Ik);
+        Mat3X x = Mat3X::Zero(3, 9);
+        for (int r = 0; r < 3; ++r) {
+          for (int j = 0; j < 3; ++j) x(r, 3 * r + j) = Ik * h[k][j];  // r_i = Σ_j E_ij·I·h_j
+        }
+        csi.X.push_back(x);
+        csi.regressor.push_back(Ik);
+      }
+      ch.candidates.push_back(std::move(chi));
+      ch.candidates.push_back(std::move(csi));
+    }
+    // current_lag: the configured wiring field arrives through a first-order lag τ instead of the
+    // configured one: r = a·M·(W(lp_τ(I)) − W(lp_τcfg(I))), a ≈ 1, τ profiled over a grid.
+    double wiring_energy = 0;
+    for (size_t k = 0; k < n; ++k) {
+      wiring_energy += magnetics::CurrentDrivenField_uT(wiring, cp.position_B_m, currents[k]).squaredNorm();
+    }
+    if (n > 0 && std::sqrt(wiring_energy / static_cast<double>(n)) > 0.05) {
+      for (double tau : kLagGrid_s) {
+        if (tau <= wiring.lag_tau_s) continue;
+        magnetics::CurrentFieldParams lagged_wiring = wiring;
+        lagged_wiring.lag_tau_s = tau;
+        magnetics::CurrentLagState s_new, s_cfg;
+        Candidate cl = MakeCandidate("current_lag", {"amplitude"}, {1.0}, "s", "current_A");
+        cl.grid_value = tau;
+        cl.grid_name = "tau_s";
+        for (size_t k = 0; k < n; ++k) {
+          const double dt = k == 0 ? 0.0 : ch.t[k] - ch.t[k - 1];
+          const Vec3 a = magnetics::CurrentDrivenField_uT(
+              wiring, cp.position_B_m, magnetics::StepCurrentLag(lagged_wiring, currents[k], dt, &s_new));
+          const Vec3 b = magnetics::CurrentDrivenField_uT(
+              wiring, cp.position_B_m, magnetics::StepCurrentLag(wiring, currents[k], dt, &s_cfg));
+          cl.X.emplace_back(Msens[k] * (a - b));
+          cl.regressor.push_back(currents[k].battery_A);
+        }
+        ch.candidates.push_back(std::move(cl));
+      }
+    } else {
+      ch.not_available.emplace_back("current_lag (configured wiring field at this compass too small to show a lag)");
+    }
+  } else {
+    ch.not_available.emplace_back("current_hard_iron, current_soft_iron, current_lag (no current_A column)");
+  }
+  bool throttle_ok = has_throttle && n > 0;
+  for (double x : u) throttle_ok = throttle_ok && std::isfinite(x);
+  if (throttle_ok) {
+    for (double r : kThrottleExponents) {
+      Candidate thi = MakeCandidate("throttle_hard_iron",
+                                    {"d_x_uT_per_throttle", "d_y_uT_per_throttle", "d_z_uT_per_throttle"}, {1, 1, 1},
+                                    "uT/throttle", "throttle");
+      thi.grid_name = "exponent";
+      thi.grid_value = r;
+      for (size_t k = 0; k < n; ++k) {
+        thi.X.push_back(Diag3(std::pow(std::max(0.0, u[k]), r)));
+        thi.regressor.push_back(u[k]);
+      }
+      ch.candidates.push_back(std::move(thi));
+    }
+  } else {
+    ch.not_available.emplace_back("throttle_hard_iron (no control_u or motor_i_u)");
+  }
+  const size_t n_motor = in.motor_u.size();
+  if (n_motor > 0 && n > 0) {
+    // B = Σ_i c_i·u_i^0.65 (ArduPilot's per-motor compensation form), 3 parameters per motor.
+    std::vector<std::string> names;
+    for (size_t m = 0; m < n_motor; ++m) {
+      for (const char* a : {"x", "y", "z"}) names.push_back(fmt::format("c{}_{}_uT", m + 1, a));
+    }
+    Candidate pm = MakeCandidate("per_motor_current_hard_iron", names, std::vector<double>(names.size(), 1.0), "uT",
+                                 "throttle");
+    bool finite = true;
+    for (size_t k = 0; k < n; ++k) {
+      Mat3X x(3, static_cast<Eigen::Index>(3 * n_motor));
+      for (size_t m = 0; m < n_motor; ++m) {
+        const double um = mu[k][m];
+        finite = finite && std::isfinite(um);
+        x.block(0, static_cast<Eigen::Index>(3 * m), 3, 3) = Eigen::Matrix3d::Identity() * std::pow(std::max(0.0, um), kPerMotorExponent);
+      }
+      pm.X.push_back(x);
+      pm.regressor.push_back(u[k]);
+    }
+    if (finite) ch.candidates.push_back(std::move(pm));
+  } else {
+    ch.not_available.emplace_back("per_motor_current_hard_iron (no motor_i_u columns)");
+  }
+  bool temp_ok = in.temp != nullptr && n > 0;
+  double tmean = 0;
+  for (double x : temp) {
+    temp_ok = temp_ok && std::isfinite(x);
+    tmean += x;
+  }
+  if (temp_ok) {
+    tmean /= static_cast<double>(n);
+    double tvar = 0;
+    for (double x : temp) tvar += (x - tmean) * (x - tmean);
+    temp_ok = tvar / static_cast<double>(n) > 0.01;  // needs > 0.1 °C of variation
+  }
+  if (temp_ok) {
+    // B = d·(T − T_ref), T_ref the median of the first 10 samples (the sensor is taken as calibrated
+    // where the flight starts; the baseline's offset holds any constant part).
+    std::vector<double> first10(temp.begin(), temp.begin() + static_cast<std::ptrdiff_t>(std::min<size_t>(10, n)));
+    std::nth_element(first10.begin(), first10.begin() + static_cast<std::ptrdiff_t>(first10.size() / 2), first10.end());
+    const double tref = first10[first10.size() / 2];
+    Candidate td = MakeCandidate("temperature_drift", {"d_x_uT_per_C", "d_y_uT_per_C", "d_z_uT_per_C"}, {1, 1, 1}, "uT/C",
+                                 "imu_temp_C");
+    for (size_t k = 0; k < n; ++k) {
+      td.X.push_back(Diag3(temp[k] - tref));
+      td.regressor.push_back(temp[k]);
+    }
+    ch.candidates.push_back(std::move(td));
+  } else {
+    ch.not_available.emplace_back("temperature_drift (no imu_temp_C column with varying temperature)");
+  }
+  return ch;
+}
+
+}  // namespace hexsim::gap::internal

@@ -1,0 +1,242 @@
+// The compass verdict in CONTRACTS.md's order (see verdict.h).
+#include "verdict.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Cholesky>
+#include <fmt/format.h>
+
+#include "detection.h"
+#include "hexsim/realdata/plausibility.h"
+
+namespace hexsim::gap::internal {
+namespace {
+
+// Σ_f (a_f − b_f) and its standard error √(F·var(a_f − b_f)) over the CV folds.
+struct FoldDiff {
+  double sum = 0.0, se = 0.0;
+};
+FoldDiff Diff(const std::vector<double>& a, const std::vector<double>& b) {
+  FoldDiff d;
+  const size_t F = std::min(a.size(), b.size());
+  if (F < 2) return d;
+  double mean = 0;
+  for (size_t f = 0; f < F; ++f) mean += a[f] - b[f];
+  d.sum = mean;
+  mean /= static_cast<double>(F);
+  double var = 0;
+  for (size_t f = 0; f < F; ++f) var += (a[f] - b[f] - mean) * (a[f] - b[f] - mean);
+  d.se = std::sqrt(static_cast<double>(F) * var / static_cast<double>(F - 1));
+  return d;
+}
+
+// Does a's column space (over the samples) hold b's? Residual of b's Gram matrix on a's below 0.1 %.
+bool Nests(const Candidate& a, const Candidate& b) {
+  const int pa = a.p(), pb = b.p();
+  if (pb > pa || a.X.size() != b.X.size()) return false;
+  Eigen::MatrixXd Aaa = Eigen::MatrixXd::Zero(pa, pa), Aab = Eigen::MatrixXd::Zero(pa, pb), Abb = Eigen::MatrixXd::Zero(pb, pb);
+  for (size_t k = 0; k < a.X.size(); ++k) {
+    Aaa.noalias() += a.X[k].transpose() * a.X[k];
+    Aab.noalias() += a.X[k].transpose() * b.X[k];
+    Abb.noalias() += b.X[k].transpose() * b.X[k];
+  }
+  const double tr = Abb.trace();
+  if (!(tr > 0)) return true;
+  const Eigen::MatrixXd reg = Aaa + Eigen::MatrixXd::Identity(pa, pa) * 1e-12 * Aaa.trace();
+  const Eigen::MatrixXd left = Abb - Aab.transpose() * reg.ldlt().solve(Aab);
+  return left.trace() < 1e-3 * tr;
+}
+
+std::string Percent(double x) { return fmt::format("{:.0f} %", 100 * x); }
+
+}  // namespace
+
+ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
+                             const DiagnoseOptions& o, const CompassTiming& timing, RngStream* rng) {
+  ChannelResult res;
+  res.channel = ch.name;
+  res.unit = ch.unit;
+  res.samples = static_cast<int>(ch.t.size());
+  res.not_available = ch.not_available;
+  res.timing = timing.json;
+  Analyzer an(ch, o);
+  res.t_s = ch.t;
+  res.residual_before = an.y();
+  res.rms_before = std::sqrt(MeanSquare(an.y()));
+  const NuisanceReport nu = DescribeNuisance(ch, an.baseline(), o);
+  res.nuisance = nu.json;
+  res.findings = nu.findings;
+
+  const double noise_sse = NoiseVariance(ch.t, an.y()) * an.total_n();
+  Attribution at = Attribute(ch, an, o, rng, noise_sse);
+  const size_t F = at.fam_names.size();
+  for (CandidateResult& r : at.results) {
+    r.plausible = realdata::IsPlausible(r.effect, r.magnitude);
+    r.physical_range = realdata::RangeText(r.effect);
+  }
+  const Structure st = DetectStructure(ch.t, an.y(), an.baseline().cv_sse, o.materiality);
+  res.noise_rms = std::sqrt(st.noise_var);
+  res.noise_floor_ratio = st.power_ratio;
+  res.ljung_box_p = st.whiteness_p;
+  res.p_value = st.p_value;
+  res.gap_detected = st.present || timing.unaligned_structure;
+  const double cv0 = an.baseline().cv_sse;
+
+  // The one-standard-error rule among plausible, significant effects.
+  size_t best = F;
+  for (size_t f = 0; f < F; ++f) {
+    const Evaluated& e = at.all[at.fam_best[f]];
+    const double pf = std::min(1.0, e.wald_p * static_cast<double>(at.family[at.fam_names[f]].size()) * static_cast<double>(F));
+    at.results[f].p_value = pf;
+    if (!at.results[f].plausible || pf > o.alpha) continue;
+    if (best == F || e.cv_sse < at.all[at.fam_best[best]].cv_sse) best = f;
+  }
+  size_t chosen = best;
+  if (best < F) {
+    const Evaluated& eb = at.all[at.fam_best[best]];
+    for (size_t f = 0; f < F; ++f) {
+      if (f == best || !at.results[f].plausible || at.results[f].p_value > o.alpha) continue;
+      const Evaluated& e = at.all[at.fam_best[f]];
+      const FoldDiff d = Diff(e.fold_sse, eb.fold_sse);
+      const Evaluated& ec = at.all[at.fam_best[chosen]];
+      if (d.sum <= d.se && (e.cand->p() < ec.cand->p() || (e.cand->p() == ec.cand->p() && e.cv_sse < ec.cv_sse))) chosen = f;
+    }
+  }
+  // Timing term: the latency alignment competes on the share of the unaligned baseline residual.
+  CandidateResult lat;
+  if (timing.latency_ok) {
+    lat.effect = "latency";
+    lat.magnitude = timing.latency_s;
+    lat.magnitude_ci95[0] = timing.latency_ci95_s[0];
+    lat.magnitude_ci95[1] = timing.latency_ci95_s[1];
+    lat.magnitude_unit = "s";
+    lat.params["latency_s"] = timing.latency_s;
+    lat.ci95["latency_s"] = {timing.latency_ci95_s[0], timing.latency_ci95_s[1]};
+    lat.explained_share = timing.latency_share;
+    lat.heldout_shrink = 1.0 - std::sqrt(std::max(0.0, 1.0 - timing.latency_share));
+    lat.plausible = realdata::IsPlausible("latency", timing.latency_s);
+    lat.physical_range = realdata::RangeText("latency");
+    lat.parameters = 1;
+    lat.probability = std::nan("");
+  }
+  const double effect_share = chosen < F ? at.results[chosen].explained_share : 0.0;
+  const bool latency_wins = timing.latency_ok && lat.plausible && timing.latency_share >= 0.5 &&
+                            timing.latency_share > (1.0 - timing.latency_share) * effect_share;
+
+  std::vector<Vec3> after = an.y();
+  double cv_after = cv0;
+  std::string second;
+  if (!res.gap_detected) {
+    res.verdict = nu.out_of_range.empty() ? "none" : nu.out_of_range;
+    res.gap_detected = !nu.out_of_range.empty();  // a gap, and it is that term
+    res.explanation = nu.out_of_range.empty()
+                          ? fmt::format("no structure above the noise floor after the nuisance baseline (power ratio {:.2f})",
+                                        st.power_ratio)
+                          : "nothing beyond the baseline; the " + nu.out_of_range + " term is outside its normal range";
+  } else if (latency_wins) {
+    res.verdict = "latency";
+    lat.selected = true;
+    res.explained_share = timing.latency_share;
+    res.explanation = fmt::format("the compass is {:.0f} ms late against the attitude; aligning it removes {} of the "
+                                  "baseline residual",
+                                  1000 * timing.latency_s, Percent(timing.latency_share));
+  } else if (chosen < F && effect_share >= 0.5) {
+    CandidateResult& top = at.results[chosen];
+    top.selected = true;
+    res.verdict = top.effect;
+    const Evaluated& e1 = at.all[at.fam_best[chosen]];
+    Evaluated model = e1;
+    Candidate joint;
+    // A second effect earns its place when the pair beats the first by more than one standard error.
+    size_t b2 = F;
+    for (size_t f = 0; f < F; ++f) {
+      if (f == chosen || !at.results[f].plausible || at.results[f].p_value > o.alpha) continue;
+      Candidate j = Join(*e1.cand, *at.all[at.fam_best[f]].cand);
+      Evaluated ej = an.Evaluate(j);
+      if (!ej.full.ok) continue;
+      const FoldDiff d = Diff(ej.fold_sse, model.fold_sse);
+      const double p_partial = WaldP(ej.full.beta, ej.cov, Range(ej.off + e1.cand->p(), ej.p()), an.G()) * static_cast<double>(F);
+      if (d.sum < -d.se && p_partial < o.alpha && ej.cv_sse < model.cv_sse) {
+        b2 = f;
+        joint = std::move(j);
+        model = std::move(ej);
+        model.cand = &joint;
+      }
+    }
+    if (b2 < F) {
+      at.results[b2].selected = true;
+      second = at.fam_names[b2];
+      model = an.Evaluate(joint);
+    }
+    after = an.After(model);
+    cv_after = model.cv_sse;
+    res.explained_share = ExplainedShare(cv0, cv_after, noise_sse);
+    res.chosen_regressor_name = e1.cand->regressor_name;
+    res.chosen_regressor = e1.cand->regressor;
+    // Ambiguity: an as-simple, non-nested rival within one standard error.
+    for (size_t f = 0; f < F; ++f) {
+      if (f == chosen || f == b2 || !at.results[f].plausible || at.results[f].p_value > o.alpha) continue;
+      const Evaluated& e = at.all[at.fam_best[f]];
+      if (e.cand->p() > e1.cand->p()) continue;
+      const FoldDiff d = Diff(e.fold_sse, e1.fold_sse);
+      if (d.sum > d.se || Nests(*e.cand, *e1.cand) || Nests(*e1.cand, *e.cand)) continue;
+      res.verdict = "ambiguous";
+      res.explanation = fmt::format("{} and {} explain the held-out residual equally well ({} and {}): {}", top.effect,
+                                    at.fam_names[f], Percent(top.explained_share), Percent(at.results[f].explained_share),
+                                    SeparatingManoeuvre(top.effect, at.fam_names[f]));
+      break;
+    }
+    if (res.verdict != "ambiguous" && !second.empty()) res.explanation = "together with " + second;
+  } else {
+    res.verdict = "unexplained";
+    std::string best_txt = "no plausible, significant candidate";
+    if (chosen < F) {
+      best_txt = fmt::format("best: {}, explained share {}", at.fam_names[chosen], Percent(effect_share));
+      after = an.After(at.all[at.fam_best[chosen]]);
+      cv_after = at.all[at.fam_best[chosen]].cv_sse;
+    }
+    res.explanation = "structure above the noise floor that no plausible candidate explains to half (" + best_txt + ")";
+  }
+  for (const CandidateResult& r : at.results) {
+    if (!r.plausible) {
+      res.findings.push_back(fmt::format("{} fits {:.3g} {}, outside its physical range {}: implausible, model mismatch",
+                                         r.effect, r.magnitude, r.magnitude_unit, r.physical_range));
+    }
+  }
+  res.heldout_shrink = Shrink(cv_after, cv0);
+  if (res.verdict == "latency") res.heldout_shrink = lat.heldout_shrink;
+  res.residual_after = after;
+  res.where = Where(ch, an.y(), log, phases);
+  if (res.gap_detected) {
+    res.residual_left =
+        ResidualLeft(ch.t, after, 1.0 - std::max(0.0, ExplainedShare(cv0, cv_after, noise_sse)), Where(ch, after, log, phases));
+  }
+  // Best first: selected, then by explained share; nuisance terms and the timing term after effects.
+  std::vector<CandidateResult> sorted;
+  if (lat.selected) sorted.push_back(lat);
+  for (const CandidateResult& t : nu.terms) {
+    if (t.effect == res.verdict) {
+      sorted.push_back(t);
+      sorted.back().selected = true;
+    }
+  }
+  std::vector<size_t> order(F);
+  for (size_t f = 0; f < F; ++f) order[f] = f;
+  std::sort(order.begin(), order.end(),
+            [&](size_t a, size_t b) { return at.results[a].explained_share > at.results[b].explained_share; });
+  for (size_t i : order) {
+    if (at.results[i].selected) sorted.push_back(at.results[i]);
+  }
+  for (size_t i : order) {
+    if (!at.results[i].selected) sorted.push_back(at.results[i]);
+  }
+  if (timing.latency_ok && !lat.selected) sorted.push_back(lat);
+  for (const CandidateResult& t : nu.terms) {
+    if (t.effect != res.verdict) sorted.push_back(t);
+  }
+  res.candidates = std::move(sorted);
+  return res;
+}
+
+}  // namespace hexsim::gap::internal

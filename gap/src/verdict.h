@@ -1,0 +1,51 @@
+// Verdicts (private to gap/). CONTRACTS.md "Second wave" orders the compass verdict: (1) no
+// structure above the noise floor after the baseline: the out-of-range nuisance term, else none;
+// (2) structure: the candidate (an effect or a timing term) with the largest held-out
+// explained_share, if it reaches 0.5 and is plausible, chosen by the one-standard-error rule over
+// the CV folds (the fewest parameters among the candidates within one standard error of the best);
+// ambiguous when another candidate as simple is within one standard error and neither nests the
+// other; (3) otherwise unexplained, with residual_left.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "attribution.h"
+#include "channels.h"
+#include "hexsim/common/rng.h"
+
+namespace hexsim::gap::internal {
+
+// Which manoeuvre separates two collinear candidates.
+std::string SeparatingManoeuvre(const std::string& a, const std::string& b);
+
+// The first wave's rule, for the gyro, accel and dynamics channels.
+ChannelResult AnalyzeFirstWave(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
+                               const DiagnoseOptions& o, RngStream* rng);
+
+// What the timing scan found for one compass (nuisance.cc).
+struct CompassTiming {
+  nlohmann::json json = nlohmann::json::object();  // reported under `timing`
+  bool latency_ok = false;
+  double latency_s = 0.0, latency_ci95_s[2] = {0.0, 0.0};
+  double latency_share = 0.0;        // held-out share of the unaligned baseline residual the alignment removes
+  bool unaligned_structure = false;  // the baseline residual before alignment has structure
+  double staleness_s = 0.0;
+};
+
+// The nuisance baseline's estimates as findings (nuisance.cc).
+struct NuisanceReport {
+  nlohmann::json json = nlohmann::json::object();  // reported under `nuisance`
+  std::vector<CandidateResult> terms;  // hard_iron_offset, local_anomaly, scale_error as candidates
+  std::string out_of_range;            // the term named as the verdict when nothing else is found
+  std::vector<std::string> findings;   // plain language
+};
+NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& baseline, const DiagnoseOptions& o);
+
+// The second wave's rule, for compass channels.
+ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
+                             const DiagnoseOptions& o, const CompassTiming& timing, RngStream* rng);
+
+}  // namespace hexsim::gap::internal

@@ -1,0 +1,107 @@
+#include "hexsim/realdata/windows.h"
+
+#include <cmath>
+#include <string>
+
+#include <gtest/gtest.h>
+
+namespace hexsim::realdata {
+namespace {
+
+// A synthetic flight at 10 Hz: 10 s disarmed, 5 s armed at idle, 60 s flying (height 5 m with a
+// vertical speed that flickers around zero near the ground at take-off), then a flip to 120 deg
+// roll held for 5 s, then disarmed lying inverted.
+logs::FlightLog SyntheticFlight(bool with_armed_column) {
+  logs::FlightLog log;
+  for (const char* c : {"t_s", "q_w", "q_x", "q_y", "q_z", "control_u", "pos_D_m", "vel_N_mps", "vel_E_mps", "vel_D_mps"}) {
+    log.AddColumn(c);
+  }
+  if (with_armed_column) log.AddColumn("armed");
+  for (int i = 0; i < 850; ++i) {
+    const double t = 0.1 * i;
+    log.AppendRow();
+    const bool armed = t >= 10 && t < 80;
+    const bool flying = t >= 15 && t < 75;
+    const double roll = t >= 75 ? 2.1 : 0.0;  // rad: inverted after the flip
+    log.Set("t_s", t);
+    log.Set("q_w", std::cos(roll / 2));
+    log.Set("q_x", std::sin(roll / 2));
+    log.Set("q_y", 0.0);
+    log.Set("q_z", 0.0);
+    log.Set("control_u", flying ? 450.0 : (armed ? 80.0 : 0.0));
+    const double h = flying ? std::min(5.0, 0.5 * (t - 15)) : 0.0;
+    log.Set("pos_D_m", -h);
+    log.Set("vel_N_mps", 0.0);
+    log.Set("vel_E_mps", 0.0);
+    log.Set("vel_D_mps", flying && h < 5 ? -0.5 : 0.05 * std::sin(7.0 * t));
+    if (with_armed_column) log.Set("armed", armed ? 1.0 : 0.0);
+  }
+  return log;
+}
+
+TEST(FlightWindows, GivenAFlightEndingInAFlip_WhenWindowed_ThenFlightIsArmedAboveIdleAndTheFlipAndAfterAreExcluded) {
+  const logs::FlightLog log = SyntheticFlight(true);
+  const FlightWindows fw = FindFlightWindows(log);
+  ASSERT_EQ(fw.windows.size(), 3u);
+  EXPECT_EQ(fw.windows[0].kind, "ground");
+  EXPECT_EQ(fw.windows[1].kind, "flight");
+  EXPECT_EQ(fw.windows[2].kind, "excluded");
+  EXPECT_NEAR(fw.windows[1].start_s, 15.0, 0.15);
+  EXPECT_LT(fw.windows[1].end_s, 75.0);
+  EXPECT_NEAR(fw.cut_at_s, 74.5, 0.15);  // where the tilt was last sane, lead_s earlier
+  EXPECT_NEAR(fw.idle_throttle, 0.08, 1e-9);
+  EXPECT_NE(fw.armed_source.find("armed column"), std::string::npos);
+}
+
+TEST(FlightWindows, GivenNoArmedColumn_WhenWindowed_ThenThrottleStandsInAndTheSourceSaysSo) {
+  const FlightWindows fw = FindFlightWindows(SyntheticFlight(false));
+  EXPECT_NE(fw.armed_source.find("no armed state"), std::string::npos);
+  EXPECT_GT(fw.Count(RowKind::kFlight), 550u);
+  EXPECT_GT(fw.Count(RowKind::kExcluded), 100u);
+}
+
+TEST(FlightWindows, GivenFlickeringVerticalSpeedOnTheGround_WhenPhasesAreLabelled_ThenGroundIsNeverLanding) {
+  const logs::FlightLog log = SyntheticFlight(true);
+  const auto ph = PhaseLabels(log, FindFlightWindows(log));
+  const auto& t = log.Column("t_s");
+  for (size_t i = 0; i < ph.size(); ++i) {
+    if (t[i] < 15) {
+      EXPECT_EQ(ph[i], "ground") << t[i];
+    }
+    if (t[i] >= 75) {
+      EXPECT_EQ(ph[i], "excluded") << t[i];
+    }
+    EXPECT_NE(ph[i], "landing") << t[i];
+  }
+  // Every segment lasts at least 2 s (hysteresis), except at the ends of the log.
+  for (size_t i = 1; i < ph.size();) {
+    size_t j = i;
+    while (j < ph.size() && ph[j] == ph[i]) ++j;
+    if (j < ph.size()) {
+      EXPECT_GE(t[j] - t[i], 2.0 - 1e-9) << ph[i] << " at " << t[i];
+    }
+    i = j;
+  }
+}
+
+TEST(FlightWindows, GivenFromAndTo_WhenOverridden_ThenOnlyThatRangeIsFlight) {
+  const FlightWindows fw = WindowsFromRange(SyntheticFlight(true), 19.95, 30.05);
+  EXPECT_TRUE(fw.overridden);
+  EXPECT_EQ(fw.Count(RowKind::kFlight), 101u);
+}
+
+TEST(MergeShortSegments, GivenAOneSampleBlip_WhenMerged_ThenItJoinsItsLongerNeighbourButFixedLabelsStay) {
+  std::vector<double> t;
+  for (int i = 0; i < 100; ++i) t.push_back(0.1 * i);
+  std::vector<std::string> l(100, "hover");
+  l[40] = "landing";
+  for (int i = 90; i < 100; ++i) l[i] = "excluded";
+  l[89] = "climb";
+  const auto m = MergeShortSegments(t, l, 2.0, {"excluded"});
+  EXPECT_EQ(m[40], "hover");
+  EXPECT_EQ(m[89], "hover");
+  EXPECT_EQ(m[95], "excluded");
+}
+
+}  // namespace
+}  // namespace hexsim::realdata
