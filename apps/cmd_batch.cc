@@ -13,7 +13,6 @@
 
 #include <fmt/format.h>
 
-#include "calibration_setup.h"
 #include "cli_util.h"
 #include "commands.h"
 #include "hexsim/batch/batch_spec.h"
@@ -23,9 +22,9 @@
 #include "hexsim/batch/setup_cache.h"
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/paths.h"
-#include "hexsim/logs/flight_log.h"
-#include "hexsim/render/plot.h"
-#include "hexsim/sim/run_config.h"
+#include "hexsim/experiments/ground_calibration.h"
+#include "hexsim/experiments/point_runner.h"
+#include "hexsim/reports/batch_report.h"
 
 namespace hexsim::app {
 
@@ -63,7 +62,7 @@ Status ValidatePoints(const std::string& batch_file, const std::vector<batch::Ru
                                           setup.status().message()));
     }
     if (new_calibration) {
-      const Status s = AttachCalibration(p.calibration, &*setup);
+      const Status s = experiments::AttachCalibration(p.calibration, &*setup);
       if (!s.ok()) return Status::BadInput(fmt::format("{}: calibrations: {}", batch_file, s.message()));
     }
   }
@@ -72,12 +71,10 @@ Status ValidatePoints(const std::string& batch_file, const std::vector<batch::Ru
 
 // The worker's job (in its own process): one mission, its summary; the log too with --keep-logs.
 Result<json> RunOne(const batch::RunPoint& p, batch::SetupCache* cache, const std::string& run_dir, bool keep_log) {
-  auto setup = cache->Get(p);
-  if (!setup.ok()) return setup.status();
-  HEXSIM_RETURN_IF_ERROR(AttachCalibration(p.calibration, &*setup));
-  sim::RunOutput out = sim::RunMission(*setup);
-  if (keep_log) HEXSIM_RETURN_IF_ERROR(logs::WriteFlightLog(out.log, run_dir + "/log.csv"));
-  return std::move(out.summary);
+  auto out = experiments::FlyPoint(p, cache);
+  if (!out.ok()) return out.status();
+  if (keep_log) HEXSIM_RETURN_IF_ERROR(experiments::WriteRunLog(*out, run_dir));
+  return std::move(out->summary);
 }
 
 Status BatchCommand(const BatchArgs& args, int* exit_code) {
@@ -149,60 +146,6 @@ Status BatchCommand(const BatchArgs& args, int* exit_code) {
 
 // ---- batch-report ----
 
-render::Plot2D MetricPlot(const std::vector<batch::GroupReport>& groups, const std::string& metric,
-                          const std::string& title) {
-  render::Plot2D plot;
-  plot.title = title;
-  plot.x_label = "group (numbered as in the table)";
-  plot.y_label = metric;
-  plot.legend = render::LegendPosition::kTopRight;
-  render::Series runs, means, ci;
-  runs.label = "runs";
-  runs.style = render::SeriesStyle::kScatter;
-  runs.marker_px = 3.0f;
-  runs.colour = render::Colour{0.6f, 0.6f, 0.6f, 1.0f};
-  means.label = "mean";
-  means.style = render::SeriesStyle::kScatter;
-  means.marker_px = 7.0f;
-  ci.label = "95% CI";
-  ci.width_px = 2.5f;
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  for (size_t g = 0; g < groups.size(); ++g) {
-    const double x = static_cast<double>(g + 1);
-    for (double v : groups[g].values.at(metric)) {
-      runs.x.push_back(x + 0.15);
-      runs.y.push_back(v);
-    }
-    const auto& s = groups[g].metrics.at(metric);
-    if (s.n == 0) continue;
-    means.x.push_back(x);
-    means.y.push_back(s.mean);
-    if (s.ci95_lo) {
-      ci.x.insert(ci.x.end(), {x, x, nan});
-      ci.y.insert(ci.y.end(), {*s.ci95_lo, *s.ci95_hi, nan});
-    }
-  }
-  plot.x_range = render::Range{0.5, static_cast<double>(groups.size()) + 0.5};
-  if (!ci.x.empty()) plot.series.push_back(ci);
-  if (!runs.x.empty()) plot.series.push_back(runs);
-  if (!means.x.empty()) plot.series.push_back(means);
-  return plot;
-}
-
-Status WriteReportPlots(const std::vector<batch::GroupReport>& groups, const std::string& path) {
-  render::Figure fig;
-  fig.title = "hexsim batch report: mean and 95% CI per group";
-  fig.rows = 2;
-  fig.cols = 2;
-  fig.panels.emplace_back(MetricPlot(groups, "cross_track_rms_m", "cross-track error RMS [m]"));
-  fig.panels.emplace_back(MetricPlot(groups, "yaw_error_rms_deg", "yaw error RMS [deg]"));
-  fig.panels.emplace_back(MetricPlot(groups, "energy_Wh", "energy [Wh]"));
-  fig.panels.emplace_back(MetricPlot(groups, "current_mean_A", "mean battery current [A]"));
-  auto image = render::Render(fig, 1400, 1000);
-  if (!image.ok()) return image.status();
-  return render::WritePng(*image, path);
-}
-
 struct ReportArgs {
   std::string dir;
   std::string json_path;
@@ -219,25 +162,13 @@ Status ReportCommand(const ReportArgs& args, int* exit_code) {
   if (!rows.ok()) return rows.status();
   if (rows->empty()) return Status::BadInput(db_path + ": holds no runs");
   const auto groups = batch::AggregateRuns(*rows);
-  const std::string table = batch::ReportTable(groups);
-  // Number the groups as the plots do.
-  std::string numbered;
-  size_t g = 0;
-  size_t pos = 0;
-  while (pos < table.size()) {
-    const size_t eol = table.find('\n', pos);
-    const std::string line = table.substr(pos, eol == std::string::npos ? std::string::npos : eol - pos + 1);
-    numbered += (line.rfind("  ", 0) == 0 ? "" : fmt::format("[{}] ", ++g)) + line;
-    if (eol == std::string::npos) break;
-    pos = eol + 1;
-  }
-  std::fputs(numbered.c_str(), stdout);
+  std::fputs(reports::NumberedReportTable(groups).c_str(), stdout);
   const std::string dir = fs::is_directory(args.dir) ? args.dir : DirName(db_path);
   const std::string json_path = args.json_path.empty() ? dir + "/report.json" : args.json_path;
   HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(json_path, batch::ReportJson(groups).dump(2) + "\n"));
   *exit_code = 0;
   if (args.plots) {
-    const Status s = WriteReportPlots(groups, dir + "/report.png");
+    const Status s = reports::WriteBatchReportFigure(groups, dir + "/report.png");
     if (!s.ok()) {
       std::fprintf(stderr, "hexsim: batch-report: plots not written: %s\n", s.message().c_str());
       *exit_code = 1;

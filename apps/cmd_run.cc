@@ -3,11 +3,10 @@
 #include <string>
 #include <vector>
 
-#include "calibration_setup.h"
 #include "cli_util.h"
 #include "commands.h"
 #include "hexsim/common/atomic_file.h"
-#include "hexsim/logs/flight_log.h"
+#include "hexsim/experiments/point_runner.h"
 #include "hexsim/sim/run_config.h"
 
 namespace hexsim::app {
@@ -23,12 +22,13 @@ struct RunArgs {
 Status RunCommand(const RunArgs& args, int* exit_code) {
   auto setup = sim::LoadRunSetup(args.request);
   if (!setup.ok()) return setup.status();
-  HEXSIM_RETURN_IF_ERROR(AttachCalibration(args.calibration, &*setup));
-  OutputDirectory out;
+  OutputDirectory out;  // removed again unless committed: a bad calibration leaves nothing
   HEXSIM_RETURN_IF_ERROR(out.Open(args.out));
-  sim::RunOutput result = sim::RunMission(*setup);
-  HEXSIM_RETURN_IF_ERROR(logs::WriteFlightLog(result.log, out.File("log.csv")));
-  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out.File("summary.json"), result.summary.dump(2) + "\n"));
+  auto flown = experiments::FlyPoint(std::move(*setup), args.calibration);
+  if (!flown.ok()) return flown.status();
+  const sim::RunOutput& result = *flown;
+  HEXSIM_RETURN_IF_ERROR(experiments::WriteRunLog(result, out.path()));
+  HEXSIM_RETURN_IF_ERROR(experiments::WriteRunSummary(result, out.path()));
   out.Commit();
   const auto& s = result.summary;
   std::fprintf(stdout, "%s: %s in %.1f s, cross-track rms %.2f m, yaw error rms %.2f deg, energy %.2f Wh -> %s\n",

@@ -3,10 +3,9 @@
 // turntable, THEN the flight shows the paper's finding (its Figs. 8–9: yaw error up to 15° → < 3°).
 #include <gtest/gtest.h>
 
-#include "hexsim/magnetics/compensator.h"
+#include "hexsim/experiments/point_runner.h"
 #include "hexsim/sim/run_config.h"
 #include "hexsim/sim/simulation.h"
-#include "hexsim/sim/turntable.h"
 
 namespace hexsim::sim {
 namespace {
@@ -24,14 +23,10 @@ Flight Fly(const std::string& method, uint64_t seed) {
   req.seed = seed;
   auto setup = LoadRunSetup(req);
   EXPECT_TRUE(setup.ok()) << setup.status().message();
-  TurntableOptions tt;
-  tt.seed = seed * 1000003ULL + 17;  // as `hexsim compare` does
-  auto rows = RunTurntable(setup->vehicle, setup->world, tt);
-  EXPECT_TRUE(rows.ok());
-  auto comp = magnetics::LearnCompensator(method, ToMagSamples(*rows, 0), magnetics::LearnOptions{}, nullptr);
-  EXPECT_TRUE(comp.ok()) << comp.status().message();
-  setup->compensator = std::shared_ptr<const magnetics::Compensator>(std::move(*comp));
-  const RunOutput out = RunMission(*setup);
+  // The calibration learnt on the ground session of this seed, as `hexsim compare` does.
+  auto flown = experiments::FlyPoint(std::move(*setup), method);
+  EXPECT_TRUE(flown.ok()) << flown.status().message();
+  const RunOutput& out = *flown;
   Flight f;
   f.status = out.summary["status"];
   f.yaw_max_deg = out.summary["yaw_error_deg"]["max"];

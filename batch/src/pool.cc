@@ -31,7 +31,9 @@ double NowS() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-std::string RunDir(const std::string& out_dir, const std::string& id) { return out_dir + "/runs/" + id; }
+std::string RunDir(const PoolOptions& options, const RunPoint& point) {
+  return options.run_dir ? options.run_dir(point) : options.out_dir + "/runs/" + point.RunId();
+}
 
 // The worker: runs one point, leaves summary.json or error.txt, never returns.
 [[noreturn]] void WorkerMain(const RunPoint& point, const RunFn& fn, const std::string& dir) {
@@ -52,14 +54,14 @@ std::string RunDir(const std::string& out_dir, const std::string& id) { return o
 
 struct Running {
   RunPoint point;
-  std::string id;
+  std::string dir;
   double start_s = 0.0;
   bool timed_out = false;
 };
 
-// The row for a reaped worker.
-RunRow Collect(const Running& r, int wait_status, double wall_s, const std::string& out_dir) {
-  const std::string dir = RunDir(out_dir, r.id);
+// The row for a reaped worker, and the summary it left (null when none).
+RunRow Collect(const Running& r, int wait_status, double wall_s, json* summary) {
+  const std::string& dir = r.dir;
   if (r.timed_out) return FailedRow(r.point, "timeout", fmt::format("killed after {:.1f} s wall time", wall_s), wall_s);
   if (WIFSIGNALED(wait_status)) {
     const int sig = WTERMSIG(wait_status);
@@ -70,8 +72,10 @@ RunRow Collect(const Running& r, int wait_status, double wall_s, const std::stri
     auto text = ReadFile(dir + "/summary.json");
     if (text.ok()) {
       try {
-        return RowFromSummary(r.point, json::parse(*text), wall_s);
+        *summary = json::parse(*text);
+        return RowFromSummary(r.point, *summary, wall_s);
       } catch (const json::exception& e) {
+        *summary = nullptr;
         return FailedRow(r.point, "crashed", std::string("unreadable summary.json: ") + e.what(), wall_s);
       }
     }
@@ -87,6 +91,11 @@ RunRow Collect(const Running& r, int wait_status, double wall_s, const std::stri
 
 Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, const PoolOptions& options,
                           ResultsDb* db) {
+  return RunPool(runs, fn, options, [db](const RunRow& row, const json& /*summary*/) { return db->Insert(row); });
+}
+
+Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, const PoolOptions& options,
+                          const RecordFn& record) {
   if (options.jobs < 1) return Status::BadInput("--jobs: must be at least 1");
   PoolStats stats;
   const double start = NowS();
@@ -100,8 +109,8 @@ Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, co
     while (error.ok() && !queue.empty() && static_cast<int>(running.size()) < options.jobs) {
       const RunPoint& p = *queue.front();
       queue.pop_front();
-      Running r{p, p.RunId(), NowS(), false};
-      const std::string dir = RunDir(options.out_dir, r.id);
+      Running r{p, RunDir(options, p), NowS(), false};
+      const std::string& dir = r.dir;
       std::error_code ec;
       std::filesystem::create_directories(dir, ec);
       std::filesystem::remove(dir + "/summary.json", ec);  // a result left by a killed earlier attempt
@@ -142,9 +151,10 @@ Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, co
     auto it = running.find(pid);
     if (it == running.end()) continue;  // not one of ours
     const double wall_s = NowS() - it->second.start_s;
-    const RunRow row = Collect(it->second, wait_status, wall_s, options.out_dir);
+    json summary;
+    const RunRow row = Collect(it->second, wait_status, wall_s, &summary);
     running.erase(it);
-    const Status s = db->Insert(row);
+    const Status s = record(row, summary);
     if (!s.ok() && error.ok()) error = s;
     ++stats.finished;
     if (IsFailure(row.status)) ++stats.failed;

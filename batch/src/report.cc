@@ -89,25 +89,4 @@ json ReportJson(const std::vector<GroupReport>& groups) {
   return out;
 }
 
-std::string ReportTable(const std::vector<GroupReport>& groups) {
-  std::string out;
-  for (const auto& g : groups) {
-    std::string status;
-    for (const auto& [s, n] : g.status_counts) status += fmt::format("{}{} {}", status.empty() ? "" : ", ", n, s);
-    out += fmt::format("{}  ({} runs: {})\n", g.label, g.runs, status);
-    out += fmt::format("  {:<20} {:>4} {:>12} {:>12} {:>27}\n", "metric", "n", "mean", "std", "95% CI of mean");
-    for (const auto& m : MetricColumns()) {
-      const MetricStats& s = g.metrics.at(m.column);
-      if (s.n == 0) {
-        out += fmt::format("  {:<20} {:>4} {:>12}\n", m.column, 0, "-");
-        continue;
-      }
-      out += fmt::format("  {:<20} {:>4} {:>12.4g} {:>12} {:>27}\n", m.column, s.n, s.mean,
-                         s.std ? fmt::format("{:.4g}", *s.std) : "-",
-                         s.ci95_lo ? fmt::format("[{:.4g}, {:.4g}]", *s.ci95_lo, *s.ci95_hi) : "-");
-    }
-  }
-  return out;
-}
-
 }  // namespace hexsim::batch

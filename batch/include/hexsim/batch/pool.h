@@ -18,9 +18,10 @@ namespace hexsim::batch {
 
 struct PoolOptions {
   int jobs = 1;
-  std::string out_dir;        // workers write out_dir/runs/<run_id>/summary.json
+  std::string out_dir;        // workers write out_dir/runs/<run_id>/summary.json, or under run_dir(point)
+  std::function<std::string(const RunPoint&)> run_dir;  // empty: out_dir/runs/<run_id>
   double run_timeout_s = 0.0; // > 0: a run still going after this long is killed, status "timeout"
-  // Progress on `progress_stream`: a bar when `progress_tty`, else one line per finished run.
+  // Progress on `progress_stream` (null: none): a bar when `progress_tty`, else one line per finished run.
   std::FILE* progress_stream = stderr;
   bool progress_tty = false;
   size_t already_done = 0;    // runs of this shard found finished before (resume), for the bar
@@ -35,7 +36,14 @@ struct PoolStats {
   double wall_s = 0.0;
 };
 
-// Runs every point (none of which may be in `db` already) and records each in `db` as it ends.
+// Runs in the parent as each run ends: its row, and the summary it left (null when it left none).
+// An error stops new runs from starting; the running ones are still collected.
+using RecordFn = std::function<Status(const RunRow& row, const nlohmann::json& summary)>;
+
+// Runs every point, at most options.jobs at a time, each in a forked worker, and records each as it ends.
+Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, const PoolOptions& options,
+                          const RecordFn& record);
+// The same, recording each run in `db` (none of the points may be in it already).
 Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, const PoolOptions& options,
                           ResultsDb* db);
 

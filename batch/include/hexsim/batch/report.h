@@ -33,7 +33,6 @@ std::vector<GroupReport> AggregateRuns(const std::vector<RunRow>& rows);
 
 // hexsim.batch_report/1: {schema, runs, groups: [{label, params, runs, status, metrics: {m: {n, mean, std, ci95}}}]}
 nlohmann::json ReportJson(const std::vector<GroupReport>& groups);
-// A fixed-width text table: one block per group, one line per metric.
-std::string ReportTable(const std::vector<GroupReport>& groups);
+// The text table and the figure: reports/batch_report.h.
 
 }  // namespace hexsim::batch

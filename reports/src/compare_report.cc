@@ -1,41 +1,28 @@
-#include "report.h"
+#include "hexsim/reports/compare_report.h"
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <filesystem>
 #include <map>
-#include <memory>
 #include <optional>
-#include <set>
 #include <string>
 #include <vector>
 
 #include <fmt/format.h>
 
-#include "compare_stats.h"
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/paths.h"
-#include "hexsim/common/yaml_reader.h"
-#include "hexsim/control/sequencer.h"
-#include "hexsim/logs/flight_log.h"
-#include "hexsim/magnetics/compensator.h"
-#include "hexsim/magnetics/ellipsoid_fit.h"
-#include "hexsim/magnetics/heading_error.h"
-#include "hexsim/magnetics/line_fit.h"
 #include "hexsim/render/figures.h"
 #include "hexsim/render/html.h"
 #include "hexsim/render/paper_figures.h"
 #include "hexsim/render/plot.h"
-#include "hexsim/sim/run_config.h"
-#include "hexsim/sim/turntable.h"
-#include "turntable_util.h"
 
-namespace hexsim::app {
+namespace hexsim::reports {
 
 namespace {
 
-using nlohmann::json;
+using experiments::Comparison;
+using experiments::CompareEvidence;
 
 // The paper's Table 1 (heading residual after one turn, deg) at control amounts 0 / 200 / 300.
 struct PaperRow {
@@ -46,12 +33,6 @@ constexpr double kPaperControl_u[3] = {0.0, 200.0, 300.0};
 constexpr PaperRow kPaperTable1[] = {
     {"none", {12.5, 13.3, 14.3}}, {"traditional", {2.5, 5.0, 7.6}}, {"adaptive", {2.4, 2.5, 2.6}}};
 constexpr double kPaperCurrent_A[3] = {0.0, 32.0, 53.0};
-
-// The turntable sessions the comparison used (cmd_compare.cc, calibration_setup.cc): the ground
-// calibration is learnt from a session seeded from the first flight seed; Table 1 is evaluated on
-// an independent level turn.
-constexpr uint64_t kHeadingEvalSeed = 7919;
-uint64_t CalibrationSessionSeed(uint64_t first_seed) { return first_seed * 1000003ULL + 17; }
 
 std::optional<double> PaperValue(const std::string& method, double control_u) {
   for (const auto& row : kPaperTable1) {
@@ -94,82 +75,31 @@ class FigureSink {
   std::vector<FigureEntry> entries_;
 };
 
-// ---- The paper's turntable figures (Figs. 3–7) ---------------------------------------------------
-
-std::vector<double> DistinctControls(const std::vector<magnetics::MagSample>& samples) {
-  std::vector<double> u;
-  for (const auto& s : samples) {
-    if (std::none_of(u.begin(), u.end(), [&](double v) { return std::fabs(v - s.control_u) < 0.5; })) {
-      u.push_back(s.control_u);
-    }
-  }
-  std::sort(u.begin(), u.end());
-  return u;
-}
-
-double MeanCurrent(const std::vector<magnetics::MagSample>& samples, double control_u) {
-  double sum = 0.0;
-  int n = 0;
-  for (const auto& s : samples) {
-    if (std::fabs(s.control_u - control_u) < 0.5) {
-      sum += s.current_A;
-      ++n;
-    }
-  }
-  return n > 0 ? sum / n : 0.0;
-}
-
-Result<std::shared_ptr<const magnetics::Compensator>> CompensatorFor(const std::string& calibration,
-                                                                     const std::vector<magnetics::MagSample>& ground) {
-  if (calibration == "none") return std::shared_ptr<const magnetics::Compensator>(magnetics::MakeNoneCompensator());
-  const auto names = magnetics::CompensatorNames();
-  if (std::find(names.begin(), names.end(), calibration) != names.end()) {
-    auto comp = magnetics::LearnCompensator(calibration, ground, magnetics::LearnOptions{}, nullptr);
-    if (!comp.ok()) return comp.status().WithContext("report: " + calibration);
-    return std::shared_ptr<const magnetics::Compensator>(std::move(*comp));
-  }
-  auto node = YamlReader::LoadFile(calibration);
-  if (!node.ok()) return node.status();
-  auto comp = magnetics::CompensatorFromYaml(*node, calibration);
-  if (!comp.ok()) return comp.status();
-  return std::shared_ptr<const magnetics::Compensator>(std::move(*comp));
-}
-
 render::Point3 ToPoint(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
+// ---- The paper's turntable figures (Figs. 3–7) ---------------------------------------------------
+
 // Fig. 3 and Fig. 4: per-control-amount ellipsoid fits of the ground session and the centres' line.
-Status EllipsoidFigures(const std::vector<magnetics::MagSample>& ground, FigureSink* sink) {
-  const std::vector<double> controls = DistinctControls(ground);
+Status EllipsoidFigures(const experiments::GroundSessionFits& g, FigureSink* sink) {
   std::vector<render::SampleCloud> clouds;
   std::vector<render::Ellipsoid3D> fits;
-  std::vector<Eigen::Vector3d> centres;
+  std::vector<render::Point3> centres;
   std::vector<std::string> labels;
   std::string residuals;
-  for (double u : controls) {
-    std::vector<Eigen::Vector3d> pts;
-    std::set<std::string> planes;
+  for (const auto& c : g.per_control) {
     render::SampleCloud cloud;
-    for (const auto& s : ground) {
-      if (std::fabs(s.control_u - u) >= 0.5) continue;
-      pts.push_back(s.mag_B_uT);
-      cloud.points_uT.push_back(ToPoint(s.mag_B_uT));
-      planes.insert(s.plane);
-    }
-    const std::string label = fmt::format("u = {:g} ({:.1f} A)", u, MeanCurrent(ground, u));
-    magnetics::EllipsoidFitOptions opt;
-    opt.planes_present = static_cast<int>(planes.size());
-    const magnetics::EllipsoidFit fit = magnetics::FitEllipsoid(pts, opt);
-    if (!fit.status.ok()) return fit.status.WithContext(fmt::format("report: ellipsoid fit at control {:g}", u));
+    for (const auto& m : c.mag_B_uT) cloud.points_uT.push_back(ToPoint(m));
+    const std::string label = fmt::format("u = {:g} ({:.1f} A)", c.control_u, c.mean_current_A);
     render::Ellipsoid3D e;
-    e.centre = ToPoint(fit.hard_iron_uT);
-    const Eigen::Matrix3d shape = fit.radius_uT * fit.soft_iron;  // {β + r·K·u : |u| = 1}
+    e.centre = ToPoint(c.fit.hard_iron_uT);
+    const Eigen::Matrix3d shape = c.fit.radius_uT * c.fit.soft_iron;  // {β + r·K·u : |u| = 1}
     for (int r = 0; r < 3; ++r) e.shape[static_cast<size_t>(r)] = ToPoint(shape.row(r).transpose());
     e.label = label;
     clouds.push_back(std::move(cloud));
     fits.push_back(e);
-    centres.push_back(fit.hard_iron_uT);
+    centres.push_back(ToPoint(c.fit.hard_iron_uT));
     labels.push_back(label);
-    residuals += fmt::format("{}{:g}: {:.1f} µT", residuals.empty() ? "" : ", ", u, fit.rms_residual_uT);
+    residuals += fmt::format("{}{:g}: {:.1f} µT", residuals.empty() ? "" : ", ", c.control_u, c.fit.rms_residual_uT);
   }
   HEXSIM_RETURN_IF_ERROR(sink->Add(
       render::RenderEllipsoidClouds(clouds, fits, 1300, 1080),
@@ -178,15 +108,12 @@ Status EllipsoidFigures(const std::vector<magnetics::MagSample>& ground, FigureS
                    "with the ellipsoid fitted to each (RMS geometric residual {}), in 3-D and projected on the "
                    "body planes; the ellipsoids keep their shape while their centres move with the motor current.",
                    residuals)}));
-  if (centres.size() < 2) return Status::Ok();
-  const magnetics::SvdLineFit line = magnetics::FitLineSvd(centres);
-  if (!line.status.ok()) return line.status.WithContext("report: centre line");
-  std::vector<render::Point3> c3;
-  c3.reserve(centres.size());
-  for (const auto& c : centres) c3.push_back(ToPoint(c));
-  const double shift_uT = (centres.back() - centres.front()).norm();
+  if (!g.has_line) return Status::Ok();
+  const magnetics::SvdLineFit& line = g.line;
+  const double shift_uT =
+      (g.per_control.back().fit.hard_iron_uT - g.per_control.front().fit.hard_iron_uT).norm();
   return sink->Add(
-      render::RenderCentreLine(c3, labels, ToPoint(line.line.point_uT), ToPoint(line.line.direction), 1300, 1080),
+      render::RenderCentreLine(centres, labels, ToPoint(line.line.point_uT), ToPoint(line.line.direction), 1300, 1080),
       {"fig4_centre_line.png", "Fig. 4 — ellipsoid centres and the fitted space line",
        fmt::format("The ellipsoid centres (hard iron) at each control amount and the total-least-squares space line "
                    "through them (direction ({:.2f}, {:.2f}, {:.2f}), RMS distance {:.3f} µT); the centre moves "
@@ -197,46 +124,26 @@ Status EllipsoidFigures(const std::vector<magnetics::MagSample>& ground, FigureS
 
 // Figs. 5–7 (and one per further method): heading residual over a level turn, one curve per control
 // amount. Also writes heading_residuals.csv with every point plotted.
-Status HeadingFigures(const std::vector<std::string>& calibrations, const std::vector<magnetics::MagSample>& ground,
-                      const std::vector<magnetics::MagSample>& turn, const std::string& out_dir, FigureSink* sink) {
-  const std::vector<double> controls = DistinctControls(turn);
+Status HeadingFigures(const std::vector<experiments::HeadingCurves>& all, const std::string& out_dir,
+                      FigureSink* sink) {
   std::string csv = "method,control_u,current_A,angle_deg,heading_error_deg\n";
-  struct MethodCurves {
-    std::string calibration;
-    std::vector<double> angle_deg;
-    std::vector<render::NamedCurve> curves;
-    std::vector<double> max_abs_deg;
-  };
-  std::vector<MethodCurves> all;
-  for (const auto& cal : calibrations) {
-    auto comp = CompensatorFor(cal, ground);
-    if (!comp.ok()) return comp.status();
-    MethodCurves m;
-    m.calibration = cal;
-    for (double u : controls) {
-      std::vector<std::pair<double, double>> pts;  // (angle, error)
-      for (const auto& s : turn) {
-        if (std::fabs(s.control_u - u) < 0.5) pts.emplace_back(s.angle_deg, magnetics::SampleHeadingErrorDeg(**comp, s));
+  for (const auto& m : all) {
+    for (size_t k = 0; k < m.control_u.size(); ++k) {
+      for (size_t i = 0; i < m.angle_deg.size(); ++i) {
+        csv += fmt::format("{},{:g},{:.6g},{:g},{:.17g}\n", DisplayName(m.calibration), m.control_u[k], m.current_A[k],
+                           m.angle_deg[i], m.error_deg[k][i]);
       }
-      std::sort(pts.begin(), pts.end());
-      std::vector<double> angles, errs;
-      double mx = 0.0;
-      for (const auto& [a, e] : pts) {
-        angles.push_back(a);
-        errs.push_back(e);
-        mx = std::max(mx, std::fabs(e));
-        csv += fmt::format("{},{:g},{:.6g},{:g},{:.17g}\n", DisplayName(cal), u, MeanCurrent(turn, u), a, e);
-      }
-      if (m.angle_deg.empty()) m.angle_deg = angles;
-      if (angles != m.angle_deg) return Status::BadInput("report: turntable turns differ in their table angles");
-      m.curves.push_back({fmt::format("u = {:g} ({:.1f} A), max {:.2f}°", u, MeanCurrent(turn, u), mx), errs});
-      m.max_abs_deg.push_back(mx);
     }
-    all.push_back(std::move(m));
   }
   HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out_dir + "/heading_residuals.csv", csv));
   for (const auto& m : all) {
-    render::Plot2D p = render::HeadingResidualPlot(m.angle_deg, m.curves);
+    std::vector<render::NamedCurve> curves;
+    for (size_t k = 0; k < m.control_u.size(); ++k) {
+      curves.push_back({fmt::format("u = {:g} ({:.1f} A), max {:.2f}°", m.control_u[k], m.current_A[k],
+                                    m.max_abs_deg[k]),
+                        m.error_deg[k]});
+    }
+    render::Plot2D p = render::HeadingResidualPlot(m.angle_deg, curves);
     const std::string shown = DisplayName(m.calibration);
     p.title = "Heading residual over one level turn — " + shown;
     double lim = 1.0;
@@ -253,11 +160,11 @@ Status HeadingFigures(const std::vector<std::string>& calibrations, const std::v
       title = "Heading residual, " + shown;
     }
     std::string maxes;
-    for (size_t k = 0; k < controls.size(); ++k) {
+    for (size_t k = 0; k < m.control_u.size(); ++k) {
       maxes += fmt::format("{}{:.2f}°", k == 0 ? "" : " / ", m.max_abs_deg[k]);
     }
     std::string ctl;
-    for (size_t k = 0; k < controls.size(); ++k) ctl += fmt::format("{}{:g}", k == 0 ? "" : "/", controls[k]);
+    for (size_t k = 0; k < m.control_u.size(); ++k) ctl += fmt::format("{}{:g}", k == 0 ? "" : "/", m.control_u[k]);
     HEXSIM_RETURN_IF_ERROR(sink->Add(
         render::Render(p, render::kFigureWidth_px, render::kFigureHeight_px),
         {file, title,
@@ -269,68 +176,30 @@ Status HeadingFigures(const std::vector<std::string>& calibrations, const std::v
   return Status::Ok();
 }
 
-Status PaperFigures(const json& c, const std::vector<std::string>& calibrations, uint64_t first_seed,
-                    const std::string& out_dir, FigureSink* sink) {
-  auto vw = LoadVehicleAndWorld(c.at("vehicle").get<std::string>(), c.at("world").get<std::string>());
-  if (!vw.ok()) return vw.status().WithContext("report");
-  sim::TurntableOptions ground_opt;
-  ground_opt.seed = CalibrationSessionSeed(first_seed);
-  auto ground_rows = sim::RunTurntable(vw->vehicle, vw->world, ground_opt);
-  if (!ground_rows.ok()) return ground_rows.status().WithContext("report: turntable");
-  const auto ground = sim::ToMagSamples(*ground_rows, 0);
-  HEXSIM_RETURN_IF_ERROR(EllipsoidFigures(ground, sink));
-  sim::TurntableOptions eval_opt;
-  eval_opt.planes = {"xy"};
-  eval_opt.seed = kHeadingEvalSeed;
-  if (c.contains("heading_error") && c["heading_error"].contains("control_u")) {
-    eval_opt.control_u = c["heading_error"]["control_u"].get<std::vector<double>>();
-  }
-  auto eval_rows = sim::RunTurntable(vw->vehicle, vw->world, eval_opt);
-  if (!eval_rows.ok()) return eval_rows.status().WithContext("report: turntable");
-  return HeadingFigures(calibrations, ground, sim::ToMagSamples(*eval_rows, 0), out_dir, sink);
-}
-
 // ---- Flight figures (Figs. 8–9, yaw error, current) ----------------------------------------------
 
-struct FlownRun {
-  std::string calibration;
-  uint64_t seed = 0;
-  logs::FlightLog log;
-};
-
-// The planned path of the mission, started where the first log starts (the vehicle at rest).
-std::optional<render::Track> PlannedTrack(const json& c, const logs::FlightLog& log) {
-  if (!c.contains("mission") || !log.Has("pos_N_m") || !log.Has("pos_D_m") || log.rows() == 0) return std::nullopt;
-  sim::RunRequest req;
-  req.mission = c.at("mission").get<std::string>();
-  if (c.contains("vehicle")) req.vehicle = c["vehicle"].get<std::string>();
-  if (c.contains("world")) req.world = c["world"].get<std::string>();
-  auto setup = sim::LoadRunSetup(req);
-  if (!setup.ok()) return std::nullopt;
-  const Eigen::Vector3d start(log.Column("pos_N_m")[0], log.Column("pos_E_m")[0], log.Column("pos_D_m")[0]);
-  if (!start.allFinite()) return std::nullopt;
-  render::Track t;
-  t.name = "planned";
-  for (const Eigen::Vector3d& p : control::PlannedPath(setup->mission, start, start.z())) {
-    t.north_m.push_back(p.x());
-    t.east_m.push_back(p.y());
-    t.down_m.push_back(p.z());
-  }
-  return t;
-}
-
-std::string SummaryFigure(const json& summary, const char* key, const char* sub) {
+std::string SummaryFigure(const nlohmann::json& summary, const char* key, const char* sub) {
   if (!summary.contains(key) || !summary[key].contains(sub)) return "–";
   return fmt::format("{:.2f}", summary[key][sub].get<double>());
 }
 
-Status FlightFigures(const json& c, const std::vector<FlownRun>& runs, FigureSink* sink) {
+Status FlightFigures(const Comparison& c, const CompareEvidence& ev, FigureSink* sink) {
+  const std::vector<experiments::FlownRun>& runs = ev.first_flights;
   if (runs.empty()) return Status::Ok();
-  const std::optional<render::Track> planned = PlannedTrack(c, runs.front().log);
+  std::optional<render::Track> planned;
+  if (ev.planned_path_N_m) {
+    planned.emplace();
+    planned->name = "planned";
+    for (const Eigen::Vector3d& p : *ev.planned_path_N_m) {
+      planned->north_m.push_back(p.x());
+      planned->east_m.push_back(p.y());
+      planned->down_m.push_back(p.z());
+    }
+  }
   const render::Track no_plan;
   std::vector<render::Track> all_tracks;
   int n = 0;
-  for (const FlownRun& r : runs) {
+  for (const experiments::FlownRun& r : runs) {
     auto flown = render::LogTrack(r.log, DisplayName(r.calibration));
     if (!flown) continue;
     flown->colour = render::PaletteColour(static_cast<size_t>(n++));
@@ -345,11 +214,9 @@ Status FlightFigures(const json& c, const std::vector<FlownRun>& runs, FigureSin
     view.title = "3-D view";
     view.legend = render::LegendPosition::kNone;
     f.panels = {top, view};
-    json summary;
-    for (const auto& run : c["runs"]) {
-      if (run.value("calibration", "") == r.calibration && run.value("seed", uint64_t{0}) == r.seed) {
-        summary = run.value("summary", json::object());
-      }
+    nlohmann::json summary;
+    for (const auto& run : c.runs) {
+      if (run.calibration == r.calibration && run.seed == r.seed) summary = run.summary;
     }
     HEXSIM_RETURN_IF_ERROR(sink->Add(
         render::Render(f, 1500, 700),
@@ -385,9 +252,9 @@ Status FlightFigures(const json& c, const std::vector<FlownRun>& runs, FigureSin
         {"yaw_error.png", "Yaw error vs time",
          fmt::format("The navigation estimate's yaw minus the true yaw through the mission for each calibration "
                      "(first seed of each, estimator {}): the compass error that reaches the heading estimate.",
-                     c.value("estimator", std::string("eskf")))}));
+                     c.estimator)}));
   }
-  const FlownRun& first = runs.front();
+  const experiments::FlownRun& first = runs.front();
   if (first.log.Has("current_A") && first.log.Has("t_s")) {
     render::Figure f;
     f.rows = first.log.Has("control_u") ? 2 : 1;
@@ -424,33 +291,26 @@ td.name,th.name{text-align:left}td.paper{background:#f7f7ff;color:#335}.ci{color
 .wrap{overflow-x:auto}figure{margin:1.5em 0}figure img{max-width:100%;border:1px solid #ddd}
 figcaption{color:#444;font-size:.93em;margin-top:.3em}figcaption b{color:#222}.note{color:#555;font-size:.9em})";
 
-std::string HeadingTable(const json& he) {
-  const auto controls = he.at("control_u").get<std::vector<double>>();
+std::string HeadingTable(const experiments::HeadingErrorTable& he) {
+  const std::vector<double>& controls = he.control_u;
   std::string h = "<div class=\"wrap\"><table id=\"heading-error\">\n<tr><th class=\"name\" rowspan=\"2\">method</th>";
   for (const double control : controls) h += fmt::format("<th colspan=\"3\">control {:g}</th>", control);
   h += "</tr>\n<tr>";
   for (size_t k = 0; k < controls.size(); ++k) h += "<th>max (°)</th><th>RMS (°)</th><th>paper max (°)</th>";
   h += "</tr>\n";
-  for (const auto& row : he.at("rows")) {
-    const std::string method = row.value("method", row.value("name", ""));
-    const auto mx = row.at("max_deg").get<std::vector<double>>();
-    const auto rms = row.at("rms_deg").get<std::vector<double>>();
-    h += fmt::format("<tr><td class=\"name\">{}</td>", Escape(row.value("name", method)));
+  for (const auto& row : he.rows) {
+    const std::vector<double>& mx = row.max_deg;
+    const std::vector<double>& rms = row.rms_deg;
+    h += fmt::format("<tr><td class=\"name\">{}</td>", Escape(row.name));
     for (size_t k = 0; k < controls.size(); ++k) {
-      const auto paper = PaperValue(method, controls[k]);
+      const auto paper = PaperValue(row.method, controls[k]);
       h += fmt::format("<td>{:.2f}</td><td>{:.2f}</td><td class=\"paper\">{}</td>", k < mx.size() ? mx[k] : NAN,
                        k < rms.size() ? rms[k] : NAN, paper ? fmt::format("{:.1f}", *paper) : "–");
     }
     h += "</tr>\n";
   }
   h += "<tr><td class=\"name\">battery current (A)</td>";
-  std::vector<double> cur;
-  for (const auto& row : he.at("rows")) {
-    if (row.contains("current_A")) {
-      cur = row["current_A"].get<std::vector<double>>();
-      break;
-    }
-  }
+  const std::vector<double> cur = he.rows.empty() ? std::vector<double>{} : he.rows.front().current_A;
   for (size_t k = 0; k < controls.size(); ++k) {
     std::string paper = "–";
     for (int j = 0; j < 3; ++j) {
@@ -473,11 +333,11 @@ const std::map<std::string, std::string>& MetricTitles() {
   return k;
 }
 
-std::string TrackTable(const json& groups) {
+std::string TrackTable(const std::vector<experiments::ComparisonGroup>& groups) {
   std::vector<std::string> metrics;
-  for (const auto& f : SummaryFigures()) {
+  for (const auto& f : experiments::SummaryFigures()) {
     for (const auto& g : groups) {
-      if (g.contains("metrics") && g["metrics"].contains(f)) {
+      if (g.metrics.count(f)) {
         metrics.push_back(f);
         break;
       }
@@ -490,23 +350,18 @@ std::string TrackTable(const json& groups) {
   }
   h += "</tr>\n";
   for (const auto& g : groups) {
-    h += fmt::format("<tr><td class=\"name\">{}</td><td>{}</td>", Escape(DisplayName(g.at("calibration"))),
-                     g.value("n", 0));
+    h += fmt::format("<tr><td class=\"name\">{}</td><td>{}</td>", Escape(DisplayName(g.calibration)), g.n);
     for (const auto& m : metrics) {
-      if (!g["metrics"].contains(m)) {
+      const auto it = g.metrics.find(m);
+      if (it == g.metrics.end()) {
         h += "<td>–</td>";
         continue;
       }
-      const json& v = g["metrics"][m];
-      std::string ci;
-      if (v.contains("ci95") && v["ci95"].is_array() && v["ci95"].size() == 2 && v["ci95"][0].is_number() &&
-          v["ci95"][1].is_number()) {
-        ci = fmt::format("<br><span class=\"ci\">CI95 [{:.2f}, {:.2f}]</span>", v["ci95"][0].get<double>(),
-                         v["ci95"][1].get<double>());
-      } else {
-        ci = "<br><span class=\"ci\">CI95 –</span>";
-      }
-      h += fmt::format("<td>{:.2f} ± {:.2f}{}</td>", v.at("mean").get<double>(), v.value("std", 0.0), ci);
+      const SampleStats& v = it->second;
+      // One run: the interval collapses onto the mean (as comparison.json writes it).
+      const std::string ci = fmt::format("<br><span class=\"ci\">CI95 [{:.2f}, {:.2f}]</span>",
+                                         v.ci95_lo.value_or(v.mean), v.ci95_hi.value_or(v.mean));
+      h += fmt::format("<td>{:.2f} ± {:.2f}{}</td>", v.mean, v.std.value_or(0.0), ci);
     }
     h += "</tr>\n";
   }
@@ -519,58 +374,32 @@ std::string FigureHtml(const FigureEntry& f) {
                      Escape(f.file), Escape(f.title), Escape(f.caption));
 }
 
-Status WriteReport(const json& c, const std::string& out_dir) {
-  if (!c.contains("groups") || !c["groups"].is_array()) return Status::BadInput("report: comparison has no groups");
-  std::vector<std::string> calibrations;
-  for (const auto& g : c["groups"]) calibrations.push_back(g.at("calibration").get<std::string>());
-
-  // First seed of each calibration, and the overall first seed (the one the ground calibration used).
-  std::map<std::string, uint64_t> first_seed;
-  uint64_t seed0 = 1;
-  bool any = false;
-  for (const auto& r : c.value("runs", json::array())) {
-    const std::string cal = r.at("calibration").get<std::string>();
-    const uint64_t seed = r.at("seed").get<uint64_t>();
-    if (!first_seed.count(cal) || seed < first_seed[cal]) first_seed[cal] = seed;
-    seed0 = any ? std::min(seed0, seed) : seed;
-    any = true;
-  }
-
+Status WriteReport(const Comparison& c, const CompareEvidence& ev, const std::string& out_dir) {
   FigureSink figures(out_dir);
-  if (c.contains("vehicle") && c.contains("world")) {
-    HEXSIM_RETURN_IF_ERROR(PaperFigures(c, calibrations, seed0, out_dir, &figures));
-  }
-  std::vector<FlownRun> runs;
-  for (const auto& cal : calibrations) {
-    if (!first_seed.count(cal)) continue;
-    const std::string path = fmt::format("{}/{}/seed_{}/log.csv", out_dir, cal, first_seed[cal]);
-    auto log = logs::ReadFlightLog(path);
-    if (!log.ok()) return log.status();
-    runs.push_back({cal, first_seed[cal], std::move(*log)});
-  }
-  HEXSIM_RETURN_IF_ERROR(FlightFigures(c, runs, &figures));
+  HEXSIM_RETURN_IF_ERROR(EllipsoidFigures(ev.ground_fits, &figures));
+  HEXSIM_RETURN_IF_ERROR(HeadingFigures(ev.heading, out_dir, &figures));
+  HEXSIM_RETURN_IF_ERROR(FlightFigures(c, ev, &figures));
 
   std::string h = "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>hexsim comparison: " +
-                  Escape(c.value("mission", "")) + "</title>\n<style>" + kCss + "</style></head><body>\n";
-  h += fmt::format("<h1>Compass calibration comparison — {}</h1>\n", Escape(c.value("mission", "")));
+                  Escape(c.mission) + "</title>\n<style>" + kCss + "</style></head><body>\n";
+  h += fmt::format("<h1>Compass calibration comparison — {}</h1>\n", Escape(c.mission));
   h += fmt::format(
       "<p class=\"meta\">vehicle <b>{}</b>, world <b>{}</b>, estimator <b>{}</b>, {} run(s). Data beside this file: "
       "<a href=\"comparison.json\">comparison.json</a>, <a href=\"heading_residuals.csv\">heading_residuals.csv</a>, "
       "and each run's <code>&lt;calibration&gt;/seed_&lt;n&gt;/log.csv</code>.</p>\n",
-      Escape(c.value("vehicle", "")), Escape(c.value("world", "")), Escape(c.value("estimator", "")),
-      c.value("runs", json::array()).size());
+      Escape(c.vehicle), Escape(c.world), Escape(c.estimator), c.runs.size());
 
-  if (c.contains("heading_error")) {
+  {
     h += "<h2>Heading error on the turntable (the paper's Table 1)</h2>\n";
     h += "<p>Largest |heading error| (and its RMS) over one full level turn at each control amount, for each "
          "calibration learnt on the simulated turntable, next to the paper's published maxima (Xu et al. 2016, "
          "Table 1: uncorrected, traditional ellipsoid, adaptive).</p>\n";
-    h += HeadingTable(c["heading_error"]);
+    h += HeadingTable(c.heading_error);
   }
   h += "<h2>Flight: track and yaw error per calibration</h2>\n";
   h += "<p>Mean ± standard deviation over the seeds, with the 95 % confidence interval of the mean (Student's t; "
        "empty with one seed).</p>\n";
-  h += TrackTable(c["groups"]);
+  h += TrackTable(c.groups);
 
   auto section = [&](const std::string& title, auto pred) {
     std::string body;
@@ -596,12 +425,9 @@ Status WriteReport(const json& c, const std::string& out_dir) {
 
 }  // namespace
 
-Status WriteCompareReport(const nlohmann::json& comparison, const std::string& out_dir) {
-  try {
-    return WriteReport(comparison, out_dir);
-  } catch (const nlohmann::json::exception& e) {
-    return Status::BadInput(std::string("report: malformed comparison JSON: ") + e.what());
-  }
+Status WriteCompareReport(const experiments::Comparison& comparison, const experiments::CompareEvidence& evidence,
+                          const std::string& out_dir) {
+  return WriteReport(comparison, evidence, out_dir);
 }
 
-}  // namespace hexsim::app
+}  // namespace hexsim::reports

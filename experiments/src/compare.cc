@@ -1,0 +1,150 @@
+#include "hexsim/experiments/compare.h"
+
+#include <cstdio>
+#include <map>
+
+#include <fmt/format.h>
+
+#include "hexsim/batch/pool.h"
+#include "hexsim/control/sequencer.h"
+#include "hexsim/experiments/ground_calibration.h"
+#include "hexsim/experiments/point_runner.h"
+#include "hexsim/sim/turntable.h"
+
+namespace hexsim::experiments {
+
+using nlohmann::json;
+
+namespace {
+constexpr int kMaxSeeds = 1000;
+}  // namespace
+
+Status CompareOptions::IsValid() const {
+  if (seeds < 1 || seeds > kMaxSeeds) return Status::BadInput(fmt::format("--seeds: must be in 1..1000 (got {})", seeds));
+  if (calibrations.empty()) return Status::BadInput("--calibrations: at least one");
+  for (const auto& c : calibrations) {
+    if (!IsCalibrationMethod(c) && c.find(".yaml") == std::string::npos) {
+      return Status::BadInput("--calibrations: unknown calibration '" + c + "'");
+    }
+  }
+  if (jobs < 1) return Status::BadInput("--jobs: must be at least 1");
+  return Status::Ok();
+}
+
+namespace {
+
+std::string RunDir(const std::string& calibration, uint64_t seed) {
+  return fmt::format("{}/seed_{}", calibration, seed);
+}
+
+// The planned path from the first flight's start (the vehicle at rest), as the report draws it.
+std::optional<std::vector<Eigen::Vector3d>> PlannedPath(const sim::RunSetup& setup, const logs::FlightLog& log) {
+  if (!log.Has("pos_N_m") || !log.Has("pos_D_m") || log.rows() == 0) return std::nullopt;
+  const Eigen::Vector3d start(log.Column("pos_N_m")[0], log.Column("pos_E_m")[0], log.Column("pos_D_m")[0]);
+  if (!start.allFinite()) return std::nullopt;
+  return control::PlannedPath(setup.mission, start, start.z());
+}
+
+}  // namespace
+
+Result<CompareResult> RunComparison(const CompareOptions& o, const std::string& out_dir) {
+  HEXSIM_RETURN_IF_ERROR(o.IsValid());
+  auto base = sim::LoadRunSetup(o.request);
+  if (!base.ok()) return base.status();
+  // The first seed's ground session: every calibration of Table 1 is learnt from it, as the first
+  // seed's flights learn theirs (each worker runs its own seed's session: GroundSessionSeed).
+  auto ground = RunGroundSession(base->vehicle, base->world, o.request.seed);
+  if (!ground.ok()) return ground.status();
+  std::vector<GroundCalibration> cals;
+  for (const auto& c : o.calibrations) {
+    auto cal = MakeCalibration(c, *ground);
+    if (!cal.ok()) return cal.status();
+    cal->requested = c;
+    cals.push_back(std::move(*cal));
+  }
+
+  std::vector<batch::RunPoint> points;
+  for (const auto& c : o.calibrations) {
+    for (int s = 0; s < o.seeds; ++s) {
+      batch::RunPoint p;
+      p.mission = base->mission_name;
+      p.vehicle = base->vehicle_name;
+      p.world = base->world_name;
+      p.calibration = c;
+      p.seed = o.request.seed + static_cast<uint64_t>(s);
+      points.push_back(p);
+    }
+  }
+  batch::PoolOptions pool;
+  pool.jobs = o.jobs;
+  pool.out_dir = out_dir;
+  pool.progress_stream = nullptr;  // one line per run below instead
+  pool.run_dir = [&out_dir](const batch::RunPoint& p) { return out_dir + "/" + RunDir(p.calibration, p.seed); };
+  const batch::RunFn fly = [&o, &pool](const batch::RunPoint& p) -> Result<json> {
+    sim::RunRequest req = o.request;
+    req.seed = p.seed;
+    auto setup = sim::LoadRunSetup(req);
+    if (!setup.ok()) return setup.status();
+    auto run = FlyPoint(std::move(*setup), p.calibration);
+    if (!run.ok()) return run.status();
+    HEXSIM_RETURN_IF_ERROR(WriteRunLog(*run, pool.run_dir(p)));
+    return std::move(run->summary);
+  };
+  std::map<std::pair<std::string, uint64_t>, json> summaries;
+  std::vector<std::string> failures;
+  const batch::RecordFn record = [&](const batch::RunRow& row, const json& summary) {
+    if (batch::IsFailure(row.status) && row.status != "diverged") {
+      failures.push_back(fmt::format("{} seed {}: {}: {}", row.calibration, row.seed, row.status, row.reason));
+      return Status::Ok();
+    }
+    summaries[{row.calibration, row.seed}] = summary;
+    std::fprintf(stderr, "compare: %-17s seed %-4llu %-13s yaw max %6.2f deg  cross-track rms %5.2f m\n",
+                 row.calibration.c_str(), static_cast<unsigned long long>(row.seed),
+                 summary["status"].get<std::string>().c_str(), summary["yaw_error_deg"]["max"].get<double>(),
+                 summary["cross_track_m"]["rms"].get<double>());
+    return Status::Ok();
+  };
+  auto stats = batch::RunPool(points, fly, pool, record);
+  if (!stats.ok()) return stats.status();
+  if (!failures.empty()) return Status::Numerical("compare: " + failures.front());
+
+  CompareResult out;
+  Comparison& cmp = out.comparison;
+  cmp.mission = base->mission_name;
+  cmp.vehicle = base->vehicle_name;
+  cmp.world = base->world_name;
+  cmp.estimator = base->options.estimator;
+  for (const auto& p : points) {
+    cmp.runs.push_back({p.calibration, p.seed, summaries.at({p.calibration, p.seed}), RunDir(p.calibration, p.seed)});
+  }
+  for (const auto& c : o.calibrations) {
+    std::vector<json> sums;
+    for (const auto& r : cmp.runs) {
+      if (r.calibration == c) sums.push_back(r.summary);
+    }
+    cmp.groups.push_back({c, sums.size(), GroupMetrics(sums)});
+  }
+  // Table 1 on an independent level turn.
+  const std::vector<double> control_u = sim::TurntableOptions{}.control_u;
+  auto turn = RunTable1Turn(base->vehicle, base->world, control_u);
+  if (!turn.ok()) return turn.status();
+  auto table1 = EvaluateTable1(cals, control_u, *turn);
+  if (!table1.ok()) return table1.status();
+  cmp.heading_error = std::move(table1->table);
+  if (!o.evidence) return out;
+
+  CompareEvidence& ev = out.evidence;
+  auto fits = FitGroundSession(*ground);
+  if (!fits.ok()) return fits.status().WithContext("report");
+  ev.ground_fits = std::move(*fits);
+  ev.heading = std::move(table1->curves);
+  for (const auto& c : o.calibrations) {
+    auto log = logs::ReadFlightLog(out_dir + "/" + RunDir(c, o.request.seed) + "/log.csv");
+    if (!log.ok()) return log.status();
+    ev.first_flights.push_back({c, o.request.seed, std::move(*log)});
+  }
+  if (!ev.first_flights.empty()) ev.planned_path_N_m = PlannedPath(*base, ev.first_flights.front().log);
+  return out;
+}
+
+}  // namespace hexsim::experiments

@@ -1,0 +1,21 @@
+// The batch report (`hexsim batch-report`): per group of replicates, each figure's mean, sample
+// standard deviation and 95 % interval of the mean (batch/report.h aggregates them), as a text table
+// and as report.png. Draws what the aggregation computed; computes nothing itself.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "hexsim/batch/report.h"
+#include "hexsim/common/status.h"
+
+namespace hexsim::reports {
+
+// A fixed-width text table: one block per group, one line per metric.
+std::string ReportTable(const std::vector<batch::GroupReport>& groups);
+// The same with the groups numbered "[k] " as on the figure's x axis.
+std::string NumberedReportTable(const std::vector<batch::GroupReport>& groups);
+// report.png: mean and 95 % interval per group for cross-track RMS, yaw RMS, energy and mean current.
+Status WriteBatchReportFigure(const std::vector<batch::GroupReport>& groups, const std::string& path);
+
+}  // namespace hexsim::reports
