@@ -2,14 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <string>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
 #include "hexsim/common/rotation.h"
-#include "state_buffer.h"
+#include "front_end.h"
 
 namespace hexsim::nav {
 namespace {
@@ -24,8 +23,6 @@ constexpr double kMinHeadingCosPitch2 = 1e-4;
 // constant, forgotten when GPS stops for longer than kAccelRefTimeout_s.
 constexpr double kAccelRefTau_s = 0.3;
 constexpr double kAccelRefTimeout_s = 1.0;
-// A speed no multirotor reaches: beyond it the estimate has diverged.
-constexpr double kMaxSpeed_mps = 1000.0;
 
 class Complementary final : public Estimator {
  public:
@@ -39,42 +36,25 @@ class Complementary final : public Estimator {
     p_ = initial.p_N_m;
     bg_ = initial.gyro_bias_B_radps;
     w_B_ = Eigen::Vector3d::Zero();
-    t_ = initial.t_s;
     last_mag_t_ = 0;
     have_mag_t_ = false;
-    have_time_ = false;
-    aligning_ = !initial.healthy;
     gps_rejections_in_row_ = 0;
     have_gps_v_ = have_a_ref_ = false;
     a_ref_N_.setZero();
-    aligner_.Clear();
-    buffer_.Clear();
-    stats_ = EstimatorStats();
-    health_ = Status::Ok();
+    front_.Reset(initial);
   }
 
   void PredictImu(const ImuSample& s) override {
-    if (!health_.ok()) return;
-    ++stats_.imu_samples;
-    if (!internal::AllFinite(s) || (have_time_ && s.t_s <= t_)) {
-      ++stats_.imu_rejected_invalid;
-      return;
+    switch (front_.AdmitImu(s, prm_.align_time_s)) {
+      case internal::Admission::kDone: return;
+      case internal::Admission::kAligned: FinishAlignment(); return;
+      case internal::Admission::kFirst:
+        w_B_ = s.gyro_B_radps - bg_;
+        front_.Record(p_, v_);
+        return;
+      case internal::Admission::kRun: break;
     }
-    if (aligning_) {
-      aligner_.AddImu(s);
-      t_ = s.t_s;
-      have_time_ = true;
-      MaybeFinishAlignment();
-      return;
-    }
-    if (!have_time_) {
-      t_ = s.t_s;
-      have_time_ = true;
-      w_B_ = s.gyro_B_radps - bg_;
-      buffer_.Push(t_, p_, v_);
-      return;
-    }
-    const double dt = std::min(s.t_s - t_, kMaxImuDt_s);
+    const double dt = std::min(s.t_s - front_.time(), kMaxImuDt_s);
     const Eigen::Matrix3d R = q_.toRotationMatrix();
     // Tilt error in N: φ = d_meas × d_ref with d_meas = R·f/|f| and d_ref the direction of the
     // specific force expected from the kinematic acceleration, f_ref = a_ref − g (a_ref from GPS;
@@ -95,8 +75,9 @@ class Complementary final : public Estimator {
     const Eigen::Vector3d p_new = p_ + v_ * dt + 0.5 * a_N * dt * dt;
     const Eigen::Vector3d v_new = v_ + a_N * dt;
     const Eigen::Quaterniond q_new = (q_ * QuatExp(w * dt)).normalized();
-    if (!Check(p_new, "p_N_m", s.t_s) || !Check(v_new, "v_N_mps", s.t_s) || !CheckSpeed(v_new, s.t_s) ||
-        !Check(q_new.coeffs(), "q_NB", s.t_s) || !Check(bg_new, "gyro_bias_B_radps", s.t_s)) {
+    if (!front_.CheckFinite(p_new, "p_N_m", s.t_s) || !front_.CheckFinite(v_new, "v_N_mps", s.t_s) ||
+        !front_.CheckSpeed(v_new, s.t_s) || !front_.CheckFinite(q_new.coeffs(), "q_NB", s.t_s) ||
+        !front_.CheckFinite(bg_new, "gyro_bias_B_radps", s.t_s)) {
       return;
     }
     p_ = p_new;
@@ -104,62 +85,52 @@ class Complementary final : public Estimator {
     q_ = q_new;
     bg_ = bg_new;
     w_B_ = s.gyro_B_radps - bg_;
-    t_ = s.t_s;
-    buffer_.Push(t_, p_, v_);
+    front_.Advance(s.t_s);
+    front_.Record(p_, v_);
   }
 
   void FuseMag(const MagSample& s) override {
-    if (!health_.ok()) return;
-    if (!std::isfinite(s.t_s) || !s.mag_B_uT.allFinite() || s.mag_B_uT.squaredNorm() == 0.0) {
-      ++stats_.mag.rejected_invalid;
-      return;
+    switch (front_.AdmitMag(s, prm_.align_time_s)) {
+      case internal::Admission::kDone: return;
+      case internal::Admission::kAligned: FinishAlignment(); return;
+      case internal::Admission::kFirst:
+      case internal::Admission::kRun: break;
     }
-    if (aligning_) {
-      aligner_.AddMag(s);
-      MaybeFinishAlignment();
-      return;
-    }
+    EstimatorStats& stats = front_.stats();
     const double dt = have_mag_t_ ? std::clamp(s.t_s - last_mag_t_, 0.0, kMaxMagDt_s) : 0.0;
     last_mag_t_ = s.t_s;
     have_mag_t_ = true;
     const Eigen::Matrix3d R = q_.toRotationMatrix();
     const Eigen::Vector3d r0 = R.col(0);
     if (r0.x() * r0.x() + r0.y() * r0.y() < kMinHeadingCosPitch2) {
-      ++stats_.mag.rejected_invalid;
+      ++stats.mag.rejected_invalid;
       return;
     }
     const Eigen::Vector3d euler = EulerFromQuat(q_);
     const double psi_meas =
         TiltCompensatedHeadingRad(s.mag_B_uT, euler.x(), euler.y()) + DeclinationRad(prm_.earth);
     const double e_yaw = WrapPi(psi_meas - euler.z());
-    stats_.mag.last_innovation = Eigen::Vector3d(e_yaw, 0, 0);
-    stats_.mag.last_test_ratio = 0;
+    stats.mag.last_innovation = Eigen::Vector3d(e_yaw, 0, 0);
+    stats.mag.last_test_ratio = 0;
     // Rotation about N down by Kp·dt·Δψ: q ← exp(e_D·Kp·dt·Δψ)⊗q; bias integrator on its body axis.
     const double step = std::min(1.0, prm_.comp_yaw_gain_radps * dt) * e_yaw;
     const Eigen::Quaterniond q_new = (QuatExp(Eigen::Vector3d(0, 0, step)) * q_).normalized();
     const Eigen::Vector3d bg_new =
         bg_ - prm_.comp_bias_gain_rad * dt * e_yaw * (R.transpose() * Eigen::Vector3d::UnitZ());
-    if (!Check(q_new.coeffs(), "q_NB", s.t_s) || !Check(bg_new, "gyro_bias_B_radps", s.t_s)) return;
+    if (!front_.CheckFinite(q_new.coeffs(), "q_NB", s.t_s) || !front_.CheckFinite(bg_new, "gyro_bias_B_radps", s.t_s)) {
+      return;
+    }
     q_ = q_new;
     bg_ = bg_new;
-    ++stats_.mag.fused;
+    ++stats.mag.fused;
   }
 
   void FuseGps(const GpsSample& s) override {
-    if (!health_.ok()) return;
-    if (!std::isfinite(s.t_s) || !s.p_N_m.allFinite() || !s.v_N_mps.allFinite()) {
-      ++stats_.gps_pos.rejected_invalid;
-      ++stats_.gps_vel.rejected_invalid;
-      return;
-    }
-    if (aligning_ || !have_time_) return;
+    if (!front_.AdmitGps(s)) return;
     const double t_valid = s.t_s - prm_.gps_delay_s;
     Eigen::Vector3d p_then, v_then;
-    if (!buffer_.Lookup(t_valid, t_, p_, v_, &p_then, &v_then)) {
-      ++stats_.gps_pos.rejected_invalid;
-      ++stats_.gps_vel.rejected_invalid;
-      return;
-    }
+    if (!front_.LookupForGps(t_valid, p_, v_, &p_then, &v_then)) return;
+    EstimatorStats& stats = front_.stats();
     // Kinematic acceleration reference from successive GPS velocities (low-passed).
     if (have_gps_v_ && s.t_s > gps_v_t_) {
       const double dt = s.t_s - gps_v_t_;
@@ -178,13 +149,13 @@ class Complementary final : public Estimator {
     const double gate_v = prm_.gps_gate_sigma * std::hypot(prm_.gps_vel_std_mps, prm_.comp_vel_std_mps);
     const double ratio_p = e_p.cwiseAbs().maxCoeff() / gate_p;
     const double ratio_v = e_v.cwiseAbs().maxCoeff() / gate_v;
-    stats_.gps_pos.last_innovation = e_p;
-    stats_.gps_pos.last_test_ratio = ratio_p;
-    stats_.gps_vel.last_innovation = e_v;
-    stats_.gps_vel.last_test_ratio = ratio_v;
+    stats.gps_pos.last_innovation = e_p;
+    stats.gps_pos.last_test_ratio = ratio_p;
+    stats.gps_vel.last_innovation = e_v;
+    stats.gps_vel.last_test_ratio = ratio_v;
     if (!(ratio_p <= 1.0) || !(ratio_v <= 1.0)) {
-      if (!(ratio_p <= 1.0)) ++stats_.gps_pos.rejected_gate;
-      if (!(ratio_v <= 1.0)) ++stats_.gps_vel.rejected_gate;
+      if (!(ratio_p <= 1.0)) ++stats.gps_pos.rejected_gate;
+      if (!(ratio_v <= 1.0)) ++stats.gps_vel.rejected_gate;
       if (++gps_rejections_in_row_ < prm_.comp_reset_after_rejections) return;
       // Persistent disagreement: the estimate is lost, not the receiver. Reset to GPS.
       Apply(e_p, e_v);
@@ -193,32 +164,28 @@ class Complementary final : public Estimator {
     }
     gps_rejections_in_row_ = 0;
     Apply(prm_.comp_pos_gain * e_p, prm_.comp_vel_from_pos_gain * e_p + prm_.comp_vel_gain * e_v);
-    ++stats_.gps_pos.fused;
-    ++stats_.gps_vel.fused;
+    ++stats.gps_pos.fused;
+    ++stats.gps_vel.fused;
   }
 
   void FuseBaro(const BaroSample& s) override {
-    if (!health_.ok()) return;
-    if (!std::isfinite(s.t_s) || !std::isfinite(s.alt_m)) {
-      ++stats_.baro.rejected_invalid;
-      return;
-    }
-    if (aligning_ || !have_time_) return;
+    if (!front_.AdmitBaro(s)) return;
+    EstimatorStats& stats = front_.stats();
     const double e = s.alt_m - (-p_.z());
     const double ratio = std::abs(e) / (prm_.baro_gate_sigma * std::hypot(prm_.baro_std_m, prm_.comp_pos_std_m));
-    stats_.baro.last_innovation = Eigen::Vector3d(e, 0, 0);
-    stats_.baro.last_test_ratio = ratio;
+    stats.baro.last_innovation = Eigen::Vector3d(e, 0, 0);
+    stats.baro.last_test_ratio = ratio;
     if (!(ratio <= 1.0)) {
-      ++stats_.baro.rejected_gate;
+      ++stats.baro.rejected_gate;
       return;
     }
     Apply(Eigen::Vector3d(0, 0, -prm_.comp_baro_gain * e), Eigen::Vector3d::Zero());
-    ++stats_.baro.fused;
+    ++stats.baro.fused;
   }
 
   NavEstimate Estimate() const override {
     NavEstimate e;
-    e.t_s = t_;
+    e.t_s = front_.time();
     e.p_N_m = p_;
     e.v_N_mps = v_;
     e.w_B_radps = w_B_;
@@ -226,44 +193,23 @@ class Complementary final : public Estimator {
     e.accel_bias_B_mps2 = Eigen::Vector3d::Zero();
     e.q_NB = q_;
     e.yaw_std_rad = prm_.mag_heading_std_rad;  // no covariance: the compass's own accuracy
-    e.healthy = health_.ok() && !aligning_;
+    e.healthy = front_.healthy() && !front_.aligning();
     return e;
   }
-  Status Health() const override { return health_; }
-  EstimatorStats Stats() const override { return stats_; }
+  Status Health() const override { return front_.health(); }
+  EstimatorStats Stats() const override { return front_.stats(); }
 
  private:
-  void MaybeFinishAlignment() {
-    if (!aligner_.Ready(t_, prm_.align_time_s)) return;
-    q_ = aligner_.Attitude(prm_.earth);
-    bg_ = aligner_.GyroBias();
-    aligning_ = false;
-    buffer_.Clear();
-    buffer_.Push(t_, p_, v_);
+  void FinishAlignment() {
+    q_ = front_.aligner().Attitude(prm_.earth);
+    bg_ = front_.aligner().GyroBias();
+    front_.FinishAlignment(p_, v_);
   }
 
   void Apply(const Eigen::Vector3d& dp, const Eigen::Vector3d& dv) {
     p_ += dp;
     v_ += dv;
-    buffer_.Shift(dp, dv);
-  }
-
-  template <class V>
-  bool Check(const V& v, const char* quantity, double t_s) {
-    if (v.allFinite()) return true;
-    char buf[32];
-    std::snprintf(buf, sizeof(buf), "%.4f", t_s);
-    health_ = Status::Numerical("complementary: non-finite " + std::string(quantity) + " at t=" + buf + " s");
-    return false;
-  }
-
-  bool CheckSpeed(const Eigen::Vector3d& v_N, double t_s) {
-    if (v_N.norm() <= kMaxSpeed_mps) return true;
-    char buf[96];
-    std::snprintf(buf, sizeof(buf), "complementary: diverged: |v_N_mps| = %.1f m/s at t=%.4f s",
-                  v_N.norm(), t_s);
-    health_ = Status::Numerical(buf);
-    return false;
+    front_.Shift(dp, dv);
   }
 
   NavParams prm_;
@@ -272,11 +218,8 @@ class Complementary final : public Estimator {
   Eigen::Vector3d p_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d bg_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d w_B_ = Eigen::Vector3d::Zero();
-  double t_ = 0;
   double last_mag_t_ = 0;
   bool have_mag_t_ = false;
-  bool have_time_ = false;
-  bool aligning_ = false;
   int gps_rejections_in_row_ = 0;
   Eigen::Vector3d gps_v_ = Eigen::Vector3d::Zero();  // last GPS velocity and its time
   double gps_v_t_ = 0;
@@ -284,10 +227,7 @@ class Complementary final : public Estimator {
   Eigen::Vector3d a_ref_N_ = Eigen::Vector3d::Zero();  // low-passed kinematic acceleration
   double a_ref_t_ = 0;
   bool have_a_ref_ = false;
-  internal::StaticAligner aligner_;
-  internal::StateBuffer buffer_;
-  EstimatorStats stats_;
-  Status health_;
+  internal::FrontEnd front_{"complementary"};
 };
 
 }  // namespace

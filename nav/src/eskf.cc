@@ -2,14 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <string>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
 #include "hexsim/common/rotation.h"
-#include "state_buffer.h"
+#include "front_end.h"
 
 namespace hexsim::nav {
 namespace {
@@ -27,14 +26,6 @@ constexpr double kMaxHeadingCosPitch2 = 1e-4;
 // 3-axis compass fusion is linearised about the current attitude: until the yaw is known to this
 // accuracy the compass is fused as a heading (as EKF2 aligns yaw before 3-axis fusion).
 constexpr double kThreeAxisMaxYawStd_rad = 5.0 * kDegToRad;
-// A speed no multirotor reaches: beyond it the filter has diverged.
-constexpr double kMaxSpeed_mps = 1000.0;
-
-std::string Num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), "%.4f", v);
-  return buf;
-}
 
 class Eskf final : public Estimator {
  public:
@@ -49,42 +40,25 @@ class Eskf final : public Estimator {
     bg_ = initial.gyro_bias_B_radps;
     ba_ = initial.accel_bias_B_mps2;
     w_B_ = Eigen::Vector3d::Zero();
-    t_ = initial.t_s;
-    have_time_ = false;
-    aligning_ = !initial.healthy;
-    aligner_.Clear();
-    buffer_.Clear();
+    front_.Reset(initial);
     cov_dt_ = 0;
     cov_count_ = 0;
-    stats_ = EstimatorStats();
-    health_ = Status::Ok();
-    last_gps_fused_t_ = t_;
-    last_mag_fused_t_ = t_;
+    last_gps_fused_t_ = front_.time();
+    last_mag_fused_t_ = front_.time();
     InitCovariance();
   }
 
   void PredictImu(const ImuSample& s) override {
-    if (!health_.ok()) return;
-    ++stats_.imu_samples;
-    if (!internal::AllFinite(s) || (have_time_ && s.t_s <= t_)) {
-      ++stats_.imu_rejected_invalid;
-      return;
+    switch (front_.AdmitImu(s, prm_.align_time_s)) {
+      case internal::Admission::kDone: return;
+      case internal::Admission::kAligned: FinishAlignment(); return;
+      case internal::Admission::kFirst:
+        w_B_ = s.gyro_B_radps - bg_;
+        front_.Record(p_, v_);
+        return;
+      case internal::Admission::kRun: break;
     }
-    if (aligning_) {
-      aligner_.AddImu(s);
-      t_ = s.t_s;
-      have_time_ = true;
-      MaybeFinishAlignment();
-      return;
-    }
-    if (!have_time_) {
-      t_ = s.t_s;
-      have_time_ = true;
-      w_B_ = s.gyro_B_radps - bg_;
-      buffer_.Push(t_, p_, v_);
-      return;
-    }
-    const double dt = std::min(s.t_s - t_, kMaxImuDt_s);
+    const double dt = std::min(s.t_s - front_.time(), kMaxImuDt_s);
     const Eigen::Vector3d w = s.gyro_B_radps - bg_;
     const Eigen::Vector3d f_B = s.accel_B_mps2 - ba_;
     const Eigen::Matrix3d R = q_.toRotationMatrix();
@@ -94,37 +68,34 @@ class Eskf final : public Estimator {
     const Eigen::Vector3d p_new = p_ + v_ * dt + 0.5 * a_N * dt * dt;
     const Eigen::Vector3d v_new = v_ + a_N * dt;
     const Eigen::Quaterniond q_new = (q_ * QuatExp(w * dt)).normalized();
-    if (!CheckVector(p_new, "p_N_m", s.t_s, "IMU predict") ||
-        !CheckVector(v_new, "v_N_mps", s.t_s, "IMU predict") ||
-        !CheckVector(q_new.coeffs(), "q_NB", s.t_s, "IMU predict") ||
-        !CheckSpeed(v_new, s.t_s, "IMU predict")) {
+    if (!front_.CheckFinite(p_new, "p_N_m", s.t_s, "IMU predict") ||
+        !front_.CheckFinite(v_new, "v_N_mps", s.t_s, "IMU predict") ||
+        !front_.CheckFinite(q_new.coeffs(), "q_NB", s.t_s, "IMU predict") ||
+        !front_.CheckSpeed(v_new, s.t_s, "IMU predict")) {
       return;
     }
     p_ = p_new;
     v_ = v_new;
     q_ = q_new;
     w_B_ = w;
-    t_ = s.t_s;
+    front_.Advance(s.t_s);
     cov_dt_ += dt;
     if (++cov_count_ >= prm_.cov_predict_every_n) {
       PredictCovariance(R, f_N, cov_dt_);
       cov_dt_ = 0;
       cov_count_ = 0;
     }
-    buffer_.Push(t_, p_, v_);
+    front_.Record(p_, v_);
   }
 
   void FuseMag(const MagSample& s) override {
-    if (!health_.ok()) return;
-    if (!std::isfinite(s.t_s) || !s.mag_B_uT.allFinite() || s.mag_B_uT.squaredNorm() == 0.0) {
-      ++stats_.mag.rejected_invalid;
-      return;
+    switch (front_.AdmitMag(s, prm_.align_time_s)) {
+      case internal::Admission::kDone: return;
+      case internal::Admission::kAligned: FinishAlignment(); return;
+      case internal::Admission::kFirst:
+      case internal::Admission::kRun: break;
     }
-    if (aligning_) {
-      aligner_.AddMag(s);
-      MaybeFinishAlignment();
-      return;
-    }
+    EstimatorStats& stats = front_.stats();
     const Eigen::Matrix3d R = q_.toRotationMatrix();
     if (prm_.mag_mode == MagMode::kThreeAxis && P_(kTh + 2, kTh + 2) < kThreeAxisMaxYawStd_rad * kThreeAxisMaxYawStd_rad) {
       const Eigen::Vector3d& B_N = prm_.earth.B_N_uT;
@@ -141,7 +112,7 @@ class Eskf final : public Estimator {
       }
       double ratio = 0;
       const bool fused = FuseGroup(3, H, y, r, prm_.mag_gate_sigma, s.t_s, "mag", &ratio);
-      Count(&stats_.mag, fused, Eigen::Vector3d(y[0], y[1], y[2]), ratio);
+      Count(&stats.mag, fused, Eigen::Vector3d(y[0], y[1], y[2]), ratio);
       if (fused) {
         last_mag_fused_t_ = s.t_s;
       } else if (s.t_s - last_mag_fused_t_ > prm_.mag_yaw_reset_timeout_s) {
@@ -159,7 +130,7 @@ class Eskf final : public Estimator {
     // (a tilt error leaks into the heading through the vertical field, ×tan(inclination)).
     const Eigen::Vector3d r0 = R.col(0);
     if (r0.x() * r0.x() + r0.y() * r0.y() < kMaxHeadingCosPitch2) {
-      ++stats_.mag.rejected_invalid;
+      ++stats.mag.rejected_invalid;
       return;
     }
     const Eigen::Vector3d euler = EulerFromQuat(q_);
@@ -175,7 +146,7 @@ class Eskf final : public Estimator {
     double r = prm_.mag_heading_std_rad * prm_.mag_heading_std_rad;
     double ratio = 0;
     const bool fused = FuseGroup(1, &H, &y, &r, prm_.mag_gate_sigma, s.t_s, "mag heading", &ratio);
-    Count(&stats_.mag, fused, Eigen::Vector3d(y, 0, 0), ratio);
+    Count(&stats.mag, fused, Eigen::Vector3d(y, 0, 0), ratio);
     if (fused) {
       last_mag_fused_t_ = s.t_s;
     } else if (s.t_s - last_mag_fused_t_ > prm_.mag_yaw_reset_timeout_s) {
@@ -187,20 +158,11 @@ class Eskf final : public Estimator {
   }
 
   void FuseGps(const GpsSample& s) override {
-    if (!health_.ok()) return;
-    if (!std::isfinite(s.t_s) || !s.p_N_m.allFinite() || !s.v_N_mps.allFinite()) {
-      ++stats_.gps_pos.rejected_invalid;
-      ++stats_.gps_vel.rejected_invalid;
-      return;
-    }
-    if (aligning_ || !have_time_) return;  // nothing to compare with yet
+    if (!front_.AdmitGps(s)) return;
     const double t_valid = s.t_s - prm_.gps_delay_s;
     Eigen::Vector3d p_then, v_then;
-    if (!buffer_.Lookup(t_valid, t_, p_, v_, &p_then, &v_then)) {
-      ++stats_.gps_pos.rejected_invalid;
-      ++stats_.gps_vel.rejected_invalid;
-      return;
-    }
+    if (!front_.LookupForGps(t_valid, p_, v_, &p_then, &v_then)) return;
+    EstimatorStats& stats = front_.stats();
     // Position: horizontal and vertical gated apart (as EKF2), so a vertical GPS/baro disagreement
     // never locks the horizontal position out.
     const Eigen::Vector3d y_p = s.p_N_m - p_then;
@@ -215,10 +177,10 @@ class Eskf final : public Estimator {
     }
     double ratio_h = 0, ratio_v = 0;
     const bool fused_h = FuseGroup(2, H, y, r, prm_.gps_gate_sigma, s.t_s, "gps position", &ratio_h);
-    if (!health_.ok()) return;
+    if (!front_.healthy()) return;
     const bool fused_v = FuseGroup(1, &H[2], &y[2], &r[2], prm_.gps_gate_sigma, s.t_s, "gps height", &ratio_v);
-    if (!health_.ok()) return;
-    Count(&stats_.gps_pos, fused_h && fused_v, y_p, std::max(ratio_h, ratio_v));  // partly gated counts as gated
+    if (!front_.healthy()) return;
+    Count(&stats.gps_pos, fused_h && fused_v, y_p, std::max(ratio_h, ratio_v));  // partly gated counts as gated
     if (fused_h) {
       last_gps_fused_t_ = t_valid;
     } else if (t_valid - last_gps_fused_t_ > prm_.gps_reset_timeout_s) {
@@ -227,7 +189,7 @@ class Eskf final : public Estimator {
       return;
     }
     // The position update moved the history too: take the velocity innovation after it.
-    if (!buffer_.Lookup(t_valid, t_, p_, v_, &p_then, &v_then)) return;
+    if (!front_.Lookup(t_valid, p_, v_, &p_then, &v_then)) return;
     const Eigen::Vector3d y_v = s.v_N_mps - v_then;
     for (int i = 0; i < 3; ++i) {
       H[i].setZero();
@@ -237,28 +199,24 @@ class Eskf final : public Estimator {
     }
     double ratio = 0;
     const bool fused = FuseGroup(3, H, y, r, prm_.gps_gate_sigma, s.t_s, "gps velocity", &ratio);
-    Count(&stats_.gps_vel, fused, y_v, ratio);
+    Count(&stats.gps_vel, fused, y_v, ratio);
   }
 
   void FuseBaro(const BaroSample& s) override {
-    if (!health_.ok()) return;
-    if (!std::isfinite(s.t_s) || !std::isfinite(s.alt_m)) {
-      ++stats_.baro.rejected_invalid;
-      return;
-    }
-    if (aligning_ || !have_time_) return;
+    if (!front_.AdmitBaro(s)) return;
+    EstimatorStats& stats = front_.stats();
     Row15 H = Row15::Zero();
     H(kP + 2) = -1.0;  // alt = −p_D
     double y = s.alt_m - (-p_.z());
     double r = prm_.baro_std_m * prm_.baro_std_m;
     double ratio = 0;
     const bool fused = FuseGroup(1, &H, &y, &r, prm_.baro_gate_sigma, s.t_s, "baro", &ratio);
-    Count(&stats_.baro, fused, Eigen::Vector3d(y, 0, 0), ratio);
+    Count(&stats.baro, fused, Eigen::Vector3d(y, 0, 0), ratio);
   }
 
   NavEstimate Estimate() const override {
     NavEstimate e;
-    e.t_s = t_;
+    e.t_s = front_.time();
     e.p_N_m = p_;
     e.v_N_mps = v_;
     e.w_B_radps = w_B_;
@@ -266,11 +224,11 @@ class Eskf final : public Estimator {
     e.accel_bias_B_mps2 = ba_;
     e.q_NB = q_;
     e.yaw_std_rad = std::sqrt(std::max(0.0, P_(kTh + 2, kTh + 2)));
-    e.healthy = health_.ok() && !aligning_;
+    e.healthy = front_.healthy() && !front_.aligning();
     return e;
   }
-  Status Health() const override { return health_; }
-  EstimatorStats Stats() const override { return stats_; }
+  Status Health() const override { return front_.health(); }
+  EstimatorStats Stats() const override { return front_.stats(); }
 
  private:
   // EKF2-style reset: horizontal position and velocity jump to the GPS sample (the offset found at
@@ -281,13 +239,13 @@ class Eskf final : public Estimator {
     const Eigen::Vector3d dv = s.v_N_mps - v_then;
     p_ += dp;
     v_ += dv;
-    buffer_.Shift(dp, dv);
+    front_.Shift(dp, dv);
     const double r_p = prm_.gps_pos_std_m * prm_.gps_pos_std_m;
     const double r_v = prm_.gps_vel_std_mps * prm_.gps_vel_std_mps;
     for (int i = 0; i < 3; ++i) ResetVariance(kV + i, r_v);
     for (int i = 0; i < 2; ++i) ResetVariance(kP + i, r_p);
-    ++stats_.gps_pos.resets;
-    ++stats_.gps_vel.resets;
+    ++front_.stats().gps_pos.resets;
+    ++front_.stats().gps_vel.resets;
   }
 
   void InitCovariance() {
@@ -300,16 +258,13 @@ class Eskf final : public Estimator {
     P_ = d.asDiagonal();
   }
 
-  void MaybeFinishAlignment() {
-    if (!aligner_.Ready(t_, prm_.align_time_s)) return;
-    q_ = aligner_.Attitude(prm_.earth);
-    bg_ = aligner_.GyroBias();
-    aligning_ = false;
-    last_gps_fused_t_ = t_;
-    last_mag_fused_t_ = t_;
+  void FinishAlignment() {
+    q_ = front_.aligner().Attitude(prm_.earth);
+    bg_ = front_.aligner().GyroBias();
+    last_gps_fused_t_ = front_.time();
+    last_mag_fused_t_ = front_.time();
     InitCovariance();
-    buffer_.Clear();
-    buffer_.Push(t_, p_, v_);
+    front_.FinishAlignment(p_, v_);
   }
 
   // P ← F P Fᵀ + Q; F = I + A dt (A as in the header), Q from the noise densities.
@@ -354,7 +309,7 @@ class Eskf final : public Estimator {
     for (int c = 0; c < 15; ++c) {
       for (int r = c + 1; r < 15; ++r) P(r, c) = P(c, r);
     }
-    if (!CheckCovariance(P, t_, "covariance predict")) return;
+    if (!CheckCovariance(P, front_.time(), "covariance predict")) return;
     P_ = P;
   }
 
@@ -389,9 +344,9 @@ class Eskf final : public Estimator {
     }
     P = 0.5 * (P + P.transpose());
     const std::string where = std::string(what) + " update";
-    if (!CheckVector(dx, "error state", t_s, where.c_str()) ||
+    if (!front_.CheckFinite(dx, "error state", t_s, where.c_str()) ||
         !CheckCovariance(P, t_s, where.c_str()) ||
-        !CheckSpeed(v_ + dx.segment<3>(kV), t_s, where.c_str())) {
+        !front_.CheckSpeed(v_ + dx.segment<3>(kV), t_s, where.c_str())) {
       return false;
     }
     // Injection: q ← exp(δθ)⊗q (δθ in N), additive for the rest. Reset of a *global* (N-frame)
@@ -402,7 +357,7 @@ class Eskf final : public Estimator {
     p_ += dx.segment<3>(kP);
     bg_ += dx.segment<3>(kBg);
     ba_ += dx.segment<3>(kBa);
-    buffer_.Shift(dx.segment<3>(kP), dx.segment<3>(kV));
+    front_.Shift(dx.segment<3>(kP), dx.segment<3>(kV));
     // P ← G·P·Gᵀ with G = I except G_θθ = I + [δθ̂/2]×: only the θ row and column blocks change.
     const Eigen::Matrix3d G = Eigen::Matrix3d::Identity() + Skew(0.5 * dth);
     P.middleRows<3>(kTh) = (G * P.middleRows<3>(kTh)).eval();
@@ -429,35 +384,17 @@ class Eskf final : public Estimator {
   void ResetYaw(double dpsi_rad, double variance) {
     q_ = (QuatExp(Eigen::Vector3d(0, 0, dpsi_rad)) * q_).normalized();
     ResetVariance(kTh + 2, variance);
-    ++stats_.mag.resets;
-  }
-
-  template <class V>
-  bool CheckVector(const V& v, const char* quantity, double t_s, const char* where) {
-    if (v.allFinite()) return true;
-    health_ = Status::Numerical("eskf: non-finite " + std::string(quantity) + " at t=" + Num(t_s) +
-                                " s in " + where);
-    return false;
-  }
-
-  bool CheckSpeed(const Eigen::Vector3d& v_N, double t_s, const char* where) {
-    if (v_N.norm() <= kMaxSpeed_mps) return true;
-    health_ = Status::Numerical("eskf: diverged: |v_N_mps| = " + Num(v_N.norm()) + " m/s at t=" +
-                                Num(t_s) + " s in " + where);
-    return false;
+    ++front_.stats().mag.resets;
   }
 
   bool CheckCovariance(const Mat15& P, double t_s, const char* where) {
     static const char* kNames[15] = {"δθ_x", "δθ_y", "δθ_z", "δv_N", "δv_E", "δv_D", "δp_N", "δp_E",
                                      "δp_D", "δbg_x", "δbg_y", "δbg_z", "δba_x", "δba_y", "δba_z"};
-    if (!P.allFinite()) {
-      health_ = Status::Numerical("eskf: non-finite covariance at t=" + Num(t_s) + " s in " + where);
-      return false;
-    }
+    if (!front_.CheckFinite(P, "covariance", t_s, where)) return false;
     for (int i = 0; i < 15; ++i) {
       if (P(i, i) < 0.0) {
-        health_ = Status::Numerical("eskf: negative variance of " + std::string(kNames[i]) +
-                                    " at t=" + Num(t_s) + " s in " + where);
+        front_.Fail("negative variance of " + std::string(kNames[i]) + " at t=" + internal::FrontEnd::Num(t_s) +
+                    " s" + internal::FrontEnd::Where(where));
         return false;
       }
     }
@@ -472,17 +409,11 @@ class Eskf final : public Estimator {
   Eigen::Vector3d ba_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d w_B_ = Eigen::Vector3d::Zero();
   Mat15 P_ = Mat15::Identity();
-  double t_ = 0;
-  bool have_time_ = false;
-  bool aligning_ = false;
-  internal::StaticAligner aligner_;
-  internal::StateBuffer buffer_;
+  internal::FrontEnd front_{"eskf"};
   double cov_dt_ = 0;
   int cov_count_ = 0;
   double last_gps_fused_t_ = 0;  // time of validity of the last fused horizontal GPS position
   double last_mag_fused_t_ = 0;
-  EstimatorStats stats_;
-  Status health_;
 };
 
 }  // namespace

@@ -1,0 +1,102 @@
+// Internal: the estimator front end that every filter composes. It owns what is not the filter:
+// which samples are admitted (finite, IMU time moving forward), the static alignment before the
+// first estimate, the first IMU sample after alignment, the delayed-state buffer behind delayed GPS,
+// the per-sensor statistics and the health status. A gating or admission fix is made here once.
+//
+// A filter asks before each step:
+//   switch (front_.AdmitImu(s, align_time_s)) {
+//     case Admission::kDone: return;                  // rejected, or absorbed by the alignment
+//     case Admission::kAligned: /* attitude and bias from front_.aligner() */ front_.FinishAlignment(p, v); return;
+//     case Admission::kFirst: /* rates from s */ front_.Record(p, v); return;
+//     case Admission::kRun: /* propagate over s.t_s − front_.time() */ front_.Advance(s.t_s); ... front_.Record(p, v);
+//   }
+#pragma once
+
+#include <string>
+
+#include <Eigen/Core>
+
+#include "hexsim/common/status.h"
+#include "hexsim/nav/estimator.h"
+#include "state_buffer.h"
+
+namespace hexsim::nav::internal {
+
+enum class Admission {
+  kDone,     // nothing more to do with the sample
+  kAligned,  // the sample completed the static alignment: initialise from aligner(), then FinishAlignment
+  kFirst,    // IMU only: the first sample after alignment; time is set, there is nothing to integrate
+  kRun,      // the filter processes the sample
+};
+
+class FrontEnd {
+ public:
+  // `filter_name` prefixes every health message ("eskf: non-finite ...").
+  explicit FrontEnd(std::string filter_name) : name_(std::move(filter_name)) {}
+
+  // Forgets everything; aligns first unless `initial` is healthy.
+  void Reset(const NavEstimate& initial);
+
+  Admission AdmitImu(const ImuSample& s, double align_time_s);
+  Admission AdmitMag(const MagSample& s, double align_time_s);
+  // true when the filter may fuse it (valid, aligned, and an IMU time to compare it with).
+  bool AdmitGps(const GpsSample& s);
+  bool AdmitBaro(const BaroSample& s);
+
+  // The filter has initialised from aligner(): estimation starts from (p, v) at time().
+  void FinishAlignment(const Eigen::Vector3d& p_N_m, const Eigen::Vector3d& v_N_mps);
+  // The filter's state now refers to t_s.
+  void Advance(double t_s) { t_s_ = t_s; }
+  // Stores the state at time() for delayed measurements.
+  void Record(const Eigen::Vector3d& p_N_m, const Eigen::Vector3d& v_N_mps) { buffer_.Push(t_s_, p_N_m, v_N_mps); }
+  // The state at time t_s (interpolated; the current one at or after time()), counting a GPS sample
+  // too old for the history as invalid.
+  bool LookupForGps(double t_s, const Eigen::Vector3d& p_now, const Eigen::Vector3d& v_now, Eigen::Vector3d* p_then,
+                    Eigen::Vector3d* v_then);
+  bool Lookup(double t_s, const Eigen::Vector3d& p_now, const Eigen::Vector3d& v_now, Eigen::Vector3d* p_then,
+              Eigen::Vector3d* v_then) const {
+    return buffer_.Lookup(t_s, t_s_, p_now, v_now, p_then, v_then);
+  }
+  // A correction applied to the state is applied to its history too.
+  void Shift(const Eigen::Vector3d& dp_N_m, const Eigen::Vector3d& dv_N_mps) { buffer_.Shift(dp_N_m, dv_N_mps); }
+
+  // Health: each check that fails turns Health() into kNumerical naming the quantity, time and
+  // (when given) the step; the filter then does nothing more.
+  template <class V>
+  bool CheckFinite(const V& v, const char* quantity, double t_s, const char* where = nullptr) {
+    if (v.allFinite()) return true;
+    Fail("non-finite " + std::string(quantity) + " at t=" + Num(t_s) + " s" + Where(where));
+    return false;
+  }
+  // |v_N| ≤ kMaxSpeed_mps, a speed no multirotor reaches.
+  bool CheckSpeed(const Eigen::Vector3d& v_N_mps, double t_s, const char* where = nullptr);
+  void Fail(const std::string& what) { health_ = Status::Numerical(name_ + ": " + what); }
+  static std::string Num(double v);
+  static std::string Where(const char* where) { return where ? std::string(" in ") + where : std::string(); }
+
+  bool healthy() const { return health_.ok(); }
+  const Status& health() const { return health_; }
+  bool aligning() const { return aligning_; }
+  double time() const { return t_s_; }
+  const StaticAligner& aligner() const { return aligner_; }
+  EstimatorStats& stats() { return stats_; }
+  const EstimatorStats& stats() const { return stats_; }
+
+  static constexpr double kMaxSpeed_mps = 1000.0;
+
+ private:
+  Admission FinishIfAligned(double align_time_s) {
+    return aligner_.Ready(t_s_, align_time_s) ? Admission::kAligned : Admission::kDone;
+  }
+
+  std::string name_;
+  double t_s_ = 0.0;       // time of the filter's state
+  bool have_time_ = false;  // an IMU sample has set t_s_ since the reset
+  bool aligning_ = false;
+  StaticAligner aligner_;
+  StateBuffer buffer_;
+  EstimatorStats stats_;
+  Status health_;
+};
+
+}  // namespace hexsim::nav::internal
