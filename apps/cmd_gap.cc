@@ -10,7 +10,7 @@
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/paths.h"
 #include "hexsim/gap/diagnose.h"
-#include "hexsim/gap/report_html.h"
+#include "hexsim/reports/gap_report.h"
 #include "hexsim/gap/selftest.h"
 #include "hexsim/logs/flight_log.h"
 #include "hexsim/vehicle/vehicle_params.h"
@@ -49,7 +49,7 @@ Status DiagnoseCommand(const DiagnoseArgs& a) {
   OutputDirectory out;
   HEXSIM_RETURN_IF_ERROR(out.Open(a.out));
   HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out.File("gap.json"), gap::ToJson(*report).dump(2) + "\n"));
-  HEXSIM_RETURN_IF_ERROR(gap::WriteGapHtml(*report, out.path()));
+  HEXSIM_RETURN_IF_ERROR(reports::WriteGapHtml(*report, out.path()));
   HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out.File(FileStem(*path) + ".updated.yaml"), *updated));
   out.Commit();
   std::fputs(gap::Summary(*report).c_str(), stdout);

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Byte-identity check for refactoring commits: runs the same fixed-seed commands with two hexsim
-# binaries and compares every file they write (and their stdout), ignoring only what is not
+# binaries (run, gap diagnose of that run, turntable/calibrate/heading-error, compare, batch,
+# batch-report, gap selftest) and compares every file they write (and their stdout), ignoring only what is not
 # reproducible by design (wall_s, host, finished_at; CONTRACTS.md).
 #   [REUSE_OLD=1] scripts/same_outputs.sh OLD_HEXSIM NEW_HEXSIM [SCRATCH_DIR]
 # Exit 0 when every output is identical. Uses --jobs 2 (the machine's budget); takes ~2 min per binary.
@@ -17,6 +18,7 @@ outputs_here() {
   local bin=$1 d=.
   "$bin" run square --vehicle paper_hex --world changchun --calibration adaptive --seed 3 --duration 25 \
     --out "$d/run" > "$d/run.stdout"
+  "$bin" gap diagnose --real "$d/run/log.csv" --sim paper_hex --out "$d/gap" > "$d/gap.stdout" || true
   "$bin" turntable --vehicle paper_hex --world changchun --out "$d/tt" > "$d/tt.stdout"
   "$bin" calibrate "$d/tt/samples.csv" --method adaptive --out "$d/adaptive.yaml" > "$d/cal.stdout" || true
   "$bin" calibrate "$d/tt/samples.csv" --method traditional --out "$d/traditional.yaml" >> "$d/cal.stdout" || true

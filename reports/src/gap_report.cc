@@ -1,4 +1,4 @@
-#include "hexsim/gap/report_html.h"
+#include "hexsim/reports/gap_report.h"
 
 #include <cmath>
 
@@ -9,7 +9,9 @@
 #include "hexsim/render/html.h"
 #include "hexsim/render/plot.h"
 
-namespace hexsim::gap {
+namespace hexsim::reports {
+
+using gap::GapReport;
 namespace {
 
 std::string Escape(const std::string& s) { return render::HtmlEscape(s); }
@@ -148,4 +150,4 @@ Status WriteGapHtml(const GapReport& r, const std::string& dir) {
   return WriteFileAtomic(dir + "/gap.html", html);
 }
 
-}  // namespace hexsim::gap
+}  // namespace hexsim::reports
