@@ -76,12 +76,19 @@ def compare(path):
 
 
 def pct(x):
-    return "–" if x is None else f"{100 * x:.0f} %"
+    return "–" if x is None else f"{100 * x:.3g} %"
 
 
 def per_effect(cls):
     pe = cls.get("per_effect", {})
-    return ", ".join(f"{e.replace('_', ' ')} {v['top1']}/{v['trials']}" for e, v in sorted(pe.items()))
+    text = ", ".join(f"{e.replace('_', ' ')} {v['top1']}/{v['trials']}" for e, v in sorted(pe.items()))
+    ambiguous = cls.get("verdicts", {}).get("ambiguous", 0)
+    return text + (f" — {ambiguous} ambiguous" if ambiguous else "")
+
+
+def trials_each(cls):
+    n = {v["trials"] for v in cls.get("per_effect", {}).values()}
+    return f" ({n.pop()} each)" if len(n) == 1 else ""
 
 
 def selftest(path, machine, date):
@@ -98,10 +105,11 @@ def selftest(path, machine, date):
          "≥ 90 %, ≥ 90 %, ≥ 50 %"),
         ("two effects", f"top-1 {pct(two.get('top1_rate'))}; overall top-1 {pct(j.get('overall_top1_rate'))}",
          "overall ≥ 70 %"),
-        ("out of library", f"\"unexplained\" {pct(ool.get('unexplained_rate'))}", "≥ 80 %"),
+        ("out of library (field ∝ I^1.3, thermal ramp, …)", f"\"unexplained\" {pct(ool.get('unexplained_rate'))}",
+         "≥ 80 %"),
         ("detection threshold, current hard iron", thr_text, "≤ 0.1 µT/A"),
         ("dynamics channel, clean logs", f"false alarms {pct(clean.get('dynamics_false_alarm_rate'))}", "≤ 5 %"),
-        ("dynamics channel, one effect", f"top-1 {pct(dyn.get('top1_rate'))} ({per_effect(dyn)}), interval coverage "
+        (f"dynamics channel, one effect{trials_each(dyn)}", f"top-1 {pct(dyn.get('top1_rate'))} ({per_effect(dyn)}), interval coverage "
                                          f"{pct(dyn.get('coverage_95'))}, median held-out shrink "
                                          f"{pct(dyn.get('median_heldout_shrink'))}", "≥ 90 %, ≥ 90 %, ≥ 50 %"),
     ]
@@ -128,7 +136,7 @@ def speed(machine, date, paths):
             if b.get("aggregate_name", "median") != "median":
                 continue
             s = scale[b.get("time_unit", "ns")]
-            name = b.get("run_name", b["name"])
+            name = b.get("run_name", b["name"]).replace("/real_time", "")
             skip = {"name", "run_name", "run_type", "repetitions", "repetition_index", "threads", "iterations",
                     "real_time", "cpu_time", "time_unit", "family_index", "per_family_instance_index",
                     "aggregate_name", "aggregate_unit", "error_occurred", "error_message"}

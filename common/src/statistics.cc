@@ -130,4 +130,13 @@ SampleStats Summarize(const std::vector<double>& x) {
   return s;
 }
 
+SampleStats SummarizeNonNegative(const std::vector<double>& x) {
+  SampleStats s = Summarize(x);
+  if (s.ci95_lo && *s.ci95_lo < 0.0) {
+    s.ci95_lo = 0.0;
+    s.ci95_clipped = true;
+  }
+  return s;
+}
+
 }  // namespace hexsim

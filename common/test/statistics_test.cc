@@ -88,3 +88,27 @@ TEST(Summarize, GivenOneOrNoValueThenThereIsNoSpreadOrInterval) {
 
 }  // namespace
 }  // namespace hexsim
+
+namespace hexsim {
+namespace {
+
+TEST(SummarizeNonNegative, GivenSkewedNonNegativeSamplesWhenTheTIntervalCrossesZeroThenItIsClippedAndSaysSo) {
+  // Given: 0.1, 0.2, 3.0: the t interval (n = 3, t = 4.303) reaches far below zero
+  const std::vector<double> x = {0.1, 0.2, 3.0};
+  // When
+  const SampleStats plain = Summarize(x), clipped = SummarizeNonNegative(x);
+  // Then
+  ASSERT_TRUE(plain.ci95_lo && clipped.ci95_lo);
+  EXPECT_LT(*plain.ci95_lo, 0.0);
+  EXPECT_EQ(*clipped.ci95_lo, 0.0);
+  EXPECT_TRUE(clipped.ci95_clipped);
+  EXPECT_DOUBLE_EQ(*clipped.ci95_hi, *plain.ci95_hi);
+  EXPECT_DOUBLE_EQ(clipped.mean, plain.mean);
+  // ... and an interval above zero is left alone.
+  const SampleStats tight = SummarizeNonNegative({2.0, 2.1, 2.2});
+  EXPECT_FALSE(tight.ci95_clipped);
+  EXPECT_GT(*tight.ci95_lo, 0.0);
+}
+
+}  // namespace
+}  // namespace hexsim

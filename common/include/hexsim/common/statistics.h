@@ -36,7 +36,14 @@ struct SampleStats {
   double mean = 0.0;                       // 0 when n = 0
   std::optional<double> std;               // n ≥ 2
   std::optional<double> ci95_lo, ci95_hi;  // n ≥ 2
+  bool ci95_clipped = false;               // ci95_lo raised to 0 (SummarizeNonNegative)
 };
 SampleStats Summarize(const std::vector<double>& x);
+// The same for a quantity that cannot be negative (an error magnitude, a distance, an energy): the
+// interval's lower end is clipped at 0 and `ci95_clipped` says so. With few, skewed samples the
+// t interval x̄ ± t·s/√n can reach below zero although no sample, and no mean, can; the clipped
+// interval still holds the mean with at least the stated confidence, since only impossible values
+// were removed.
+SampleStats SummarizeNonNegative(const std::vector<double>& x);
 
 }  // namespace hexsim
