@@ -136,8 +136,8 @@ Coeffs FitWeighted(const BlockStats& st, const std::vector<double>& w, double ex
   c.lat = lat.Solve();
   c.batt = bat.n >= 3 ? bat.Solve() : Eigen::VectorXd::Constant(3, std::nan(""));
   if (dn > 0) {
-    c.gyro_sigma = (g2 / (2 * dn)).cwiseSqrt();  // Var(Δ) = 2σ² for white noise
-    c.accel_sigma = (a2 / (2 * dn)).cwiseSqrt();
+    c.gyro_sigma = (g2 / (6 * dn)).cwiseSqrt();  // Var(Δ²) = 6σ² for white noise
+    c.accel_sigma = (a2 / (6 * dn)).cwiseSqrt();
   }
   return c;
 }
@@ -202,7 +202,7 @@ const ParamSpec kSpecs[] = {
     {"battery_ocv_V", "V", 0.0, 0.0, "open-circuit voltage at the start: V = V_oc − R·I − k_q·Q (range 3.0–4.35 V per cell)"},
     {"battery_resistance_ohm", "ohm", 0.0, 1.0, "pack internal resistance R above"},
     {"battery_charge_slope_V_per_Ah", "V/Ah", 0.0, 10.0, "k_q above (open-circuit voltage falling with charge drawn)"},
-    {"gyro_noise_radps", "rad/s", 0.0, 1.0, "white noise per IMU sample at the log's rate, RMS over axes (vibration included)"},
+    {"gyro_noise_radps", "rad/s", 0.0, 1.0, "white noise per logged IMU sample, RMS over axes, from second differences (vibration included; reported, not applied: a log's IMU samples are the autopilot's filtered ones)"},
     {"accel_noise_mps2", "m/s^2", 0.0, 20.0, "the same for the accelerometer"},
 };
 
@@ -317,6 +317,43 @@ void HeldoutAndTraces(const FlightSamples& s, const internal::BlockStats& st, do
   res->heldout = {vert.Result("vertical_specific_force", "m/s^2"), yaw.Result("yaw_acceleration", "rad/s^2"),
                   lat.Result("lateral_specific_force", "m/s^2"), batt.Result("bus_voltage", "V")};
   res->traces = {tv, ty};
+}
+
+// The held-out dynamics residual of the base and of the identified vehicle (even-block fit).
+void DynamicsComparison(const FlightSamples& s, const vehicle::VehicleParams& base, double expo,
+                        const internal::BlockStats& st, const std::vector<int>& fit, IdentifyResult* res) {
+  IdentifyResult even = *res;
+  std::vector<double> w(st.lateral.size(), 0.0);
+  for (int b : fit) {
+    if (b % 2 == 0) w[static_cast<size_t>(b)] = 1.0;
+  }
+  const auto d = Derive(internal::FitWeighted(st, w, expo), s, base, expo);
+  for (auto& [k, p] : even.params) {
+    if (d.count(k)) p.value = d.at(k);
+  }
+  const vehicle::VehicleParams ident = ApplyIdentified(base, even);
+  const double V_fallback = base.battery.OpenCircuitVoltage_V(base.battery.initial_soc);
+  auto residual2 = [&](const vehicle::VehicleParams& v, size_t k) {
+    double T = 0;
+    const double V = s.V[k] > 0 && s.V_ref > 0 ? s.V[k] : V_fallback;
+    for (size_t m = 0; m < s.motors; ++m) T += vehicle::ThrustForCommand(v, m, s.u[k][m], V);
+    const Eigen::Vector3d& vb = s.v_B[k];
+    const Eigen::Vector3d drag = -(v.drag.linear_Nspm.cwiseProduct(vb) +
+                                   v.drag.quadratic_Ns2pm2.cwiseProduct(vb.cwiseAbs().cwiseProduct(vb)));
+    const Eigen::Vector3d pred = (Eigen::Vector3d(0, 0, -T) + drag) / (v.mass_kg + v.payload.mass_kg);
+    return (s.f_B[k] - pred).squaredNorm();
+  };
+  double sb = 0, si = 0, n = 0;
+  for (size_t k = 0; k < s.t_s.size(); ++k) {
+    if (s.block[k] % 2 == 0) continue;
+    sb += residual2(base, k);
+    si += residual2(ident, k);
+    n += 1;
+  }
+  if (n > 0) {
+    res->dynamics_rms_base = std::sqrt(sb / n);
+    res->dynamics_rms_identified = std::sqrt(si / n);
+  }
 }
 
 }  // namespace
@@ -448,6 +485,16 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
     const double db = bias_shift[sp.name];
     p.ci95[0] = p.value - std::hypot(p.value - Percentile(boot[sp.name], 0.025), db);
     p.ci95[1] = p.value + std::hypot(Percentile(boot[sp.name], 0.975) - p.value, db);
+    if (std::string(sp.name) == "motor_time_constant_s") {
+      // A profiled value is known only to within its grid cell: the interval reaches half-way to
+      // the neighbouring grid values.
+      const double* g0 = std::begin(kTauGrid_s);
+      const double* g1 = std::end(kTauGrid_s);
+      const double* lo = std::lower_bound(g0, g1, p.ci95[0] - 1e-12);
+      const double* hi = std::lower_bound(g0, g1, p.ci95[1] - 1e-12);
+      if (lo != g0 && lo != g1) p.ci95[0] = 0.5 * (*(lo - 1) + *lo);
+      if (hi != g1 && hi + 1 != g1) p.ci95[1] = 0.5 * (*hi + *(hi + 1));
+    }
     p.unit = sp.unit;
     p.range[0] = sp.lo;
     p.range[1] = sp.hi;
@@ -461,12 +508,14 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
       p.range[1] = 4.35 * cells;
     }
     if (!std::isfinite(p.value) || !p.plausible()) p.source = "model mismatch";
+    p.applied = p.source == "fitted" && p.ci95[0] >= p.range[0] && p.ci95[1] <= p.range[1];
     res.params[sp.name] = p;
     res.param_order.emplace_back(sp.name);
   }
   if (s.batt_V.size() < 3) {
     for (const char* k : {"battery_ocv_V", "battery_resistance_ohm", "battery_charge_slope_V_per_Ah"}) {
       res.params[k].source = "base";
+      res.params[k].applied = false;
       res.params[k].note += " (no voltage and current in flight: not identified)";
     }
   }
@@ -496,6 +545,7 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
       res.hover_output.push_back(s.u_mean[k]);
     }
   }
+  DynamicsComparison(s, base, expo, st, fit, &res);
   if (s.V_ref <= 0) res.notes.emplace_back("no bus voltage in the log: motor outputs used without voltage scaling");
   return res;
 }

@@ -60,6 +60,7 @@ nlohmann::json ToJson(const IdentifyResult& r) {
                  {"source", p.source},
                  {"physical_range", {Num(p.range[0]), Num(p.range[1])}},
                  {"plausible", p.plausible()},
+                 {"applied", p.applied},
                  {"note", p.note}};
   }
   j["params"] = params;
@@ -72,6 +73,13 @@ nlohmann::json ToJson(const IdentifyResult& r) {
                       {"samples", h.samples},
                       {"how", "fitted on the even time blocks, scored on the odd ones"}};
   }
+  held["dynamics_specific_force"] = {
+      {"unit", "m/s^2"},
+      {"rms_base_vehicle", r.dynamics_rms_base},
+      {"rms_identified_vehicle", r.dynamics_rms_identified},
+      {"drop", r.dynamics_rms_base > 0 ? 1.0 - r.dynamics_rms_identified / r.dynamics_rms_base : 0.0},
+      {"how", "3-axis RMS about zero on the odd blocks; thrust from hexsim's steady powertrain at the logged outputs "
+              "and voltage, drag from the vehicle; identified vehicle fitted on the even blocks"}};
   j["heldout_fit"] = held;
   nlohmann::json win = nlohmann::json::array();
   for (const auto& w : r.windows) win.push_back({{"start_s", w.start_s}, {"end_s", w.end_s}, {"kind", w.kind}, {"why", w.why}});
@@ -87,12 +95,15 @@ std::string Summary(const IdentifyResult& r) {
   std::string s = fmt::format("frame {} ({}), base {}; {}\n", r.frame, r.frame_source, r.base_name, r.data_source);
   for (const auto& k : r.param_order) {
     const Param& p = r.params.at(k);
-    s += fmt::format("  {:<32} {:>11.5g}  [{:.5g}, {:.5g}] {:<7} {}\n", k, p.value, p.ci95[0], p.ci95[1], p.unit, p.source);
+    s += fmt::format("  {:<32} {:>11.5g}  [{:.5g}, {:.5g}] {:<7} {}{}\n", k, p.value, p.ci95[0], p.ci95[1], p.unit, p.source,
+                     p.source == "fitted" && !p.applied ? " (not applied: interval leaves the physical range)" : "");
   }
   for (const auto& h : r.heldout) {
     s += fmt::format("  held-out {:<24} RMS {:.4g} -> residual {:.4g} {} (R² {:.2f}, {} samples)\n", h.output,
                      h.rms_measured, h.rms_residual, h.unit, h.r2, h.samples);
   }
+  s += fmt::format("  held-out dynamics residual (3 axes, RMS): base vehicle {:.3g} m/s^2, identified {:.3g} m/s^2\n",
+                   r.dynamics_rms_base, r.dynamics_rms_identified);
   if (!r.hover_output.empty()) {
     s += fmt::format("  steady hover in the log: median motor output {:.3f} at {:.2f} V ({} samples)\n",
                      Median(r.hover_output), Median(r.hover_voltage_V), r.hover_output.size());
@@ -133,7 +144,7 @@ Status WriteIdentifyHtml(const IdentifyResult& r, const std::string& dir) {
     p.series.push_back(MakeSeries("predicted", tr.t_s, tr.predicted, 1));
     const std::string f = fmt::format("identify_{}.png", i == 0 ? "vertical" : "yaw");
     HEXSIM_RETURN_IF_ERROR(Png(p, dir + "/" + f));
-    html += "<p><img src=\"" + f + "\"></p>";
+    html += fmt::format("<p><img src=\"{}\"></p>", f);
   }
   if (!r.hover_output.empty()) {
     render::Plot2D p;

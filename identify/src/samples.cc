@@ -241,12 +241,18 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
   const double max_gap_s = kImuGapFactor / std::max(out.imu_rate_hz, 1e-9);
   const auto &qw = log.Column("q_w"), &qx = log.Column("q_x"), &qy = log.Column("q_y"), &qz = log.Column("q_z");
   const auto &vn = log.Column("vel_N_mps"), &ve = log.Column("vel_E_mps"), &vd = log.Column("vel_D_mps");
-  size_t row = 0;
+  // Where the commands come from the single table, each held sample stands for a faster loop's
+  // commands around it: it is taken to act over the half period before and after its time stamp
+  // (a centred hold). A native stream's sample acts from its time stamp until the next one.
+  const double hold_shift_s = rcou_from_table && out.rcou_rate_hz > 0 ? 0.5 / out.rcou_rate_hz : 0.0;
+  std::vector<double> tl(tr.size());
+  for (size_t j = 0; j < tr.size(); ++j) tl[j] = tr[j] - hold_shift_s;
+  size_t row = 0, il = 0;
   ir = 0;
-  int prev_k = -2;
+  int prev_k = -3, prev2_k = -3;
   for (size_t k = 0; k < ti.size(); ++k) {
     const int b = bm.At(ti[k]);
-    if (b < 0 || !Held(tr, ti[k], &ir) || !Held(t_row, ti[k], &row)) continue;
+    if (b < 0 || !Held(tr, ti[k], &ir) || !Held(tl, ti[k], &il) || !Held(t_row, ti[k], &row)) continue;
     const Vec3 f(ax[k], ay[k], az[k]), w(gx[k], gy[k], gz[k]);
     const Eigen::Quaterniond q(qw[row], qx[row], qy[row], qz[row]);
     const Vec3 vN(vn[row], ve[row], vd[row]);
@@ -259,9 +265,9 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
     if (!std::isfinite(rdot)) continue;
     LaggedSums s;
     for (size_t g = 0; g < kTauCount; ++g) {
-      const Feature& z = Zs[ir][g];
-      const Feature& in = F[ir];
-      const double a = kTauGrid_s[g] > 0 ? std::exp(-(ti[k] - tr[ir]) / kTauGrid_s[g]) : 0.0;
+      const Feature& z = Zs[il][g];
+      const Feature& in = F[il];
+      const double a = kTauGrid_s[g] > 0 ? std::exp(-(ti[k] - tl[il]) / kTauGrid_s[g]) : 0.0;
       s.S1[g] = in.S1 + (z.S1 - in.S1) * a;
       s.S2[g] = in.S2 + (z.S2 - in.S2) * a;
       s.Z1[g] = in.Z1 + (z.Z1 - in.Z1) * a;
@@ -273,16 +279,22 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
     out.f_B.push_back(f);
     out.w_B.push_back(w);
     out.r_dot.push_back(rdot);
-    out.v_B.push_back(q.normalized().toRotationMatrix().transpose() * vN);
+    out.v_B.emplace_back(q.normalized().toRotationMatrix().transpose() * vN);
     out.u_mean.push_back(um);
+    std::vector<double> u_k(n);
+    for (size_t m = 0; m < n; ++m) u_k[m] = (*mu[m])[ir];
+    out.u.push_back(std::move(u_k));
     out.V.push_back(V_at[ir]);
     out.sums.push_back(s);
     out.block.push_back(b);
-    if (prev_k == static_cast<int>(k) - 1 && ti[k] - ti[k - 1] < max_gap_s) {
-      out.d_gyro.push_back(w - out.w_B[out.w_B.size() - 2]);
-      out.d_accel.push_back(f - out.f_B[out.f_B.size() - 2]);
+    // Second differences of three consecutive samples: a smooth motion cancels, white noise stays.
+    const size_t m = out.t_s.size();
+    if (prev_k == static_cast<int>(k) - 1 && prev2_k == static_cast<int>(k) - 2 && ti[k] - ti[k - 2] < 2 * max_gap_s) {
+      out.d_gyro.emplace_back(w - 2.0 * out.w_B[m - 2] + out.w_B[m - 3]);
+      out.d_accel.emplace_back(f - 2.0 * out.f_B[m - 2] + out.f_B[m - 3]);
       out.d_block.push_back(b);
     }
+    prev2_k = prev_k;
     prev_k = static_cast<int>(k);
   }
   if (out.t_s.size() < 100) {

@@ -30,6 +30,7 @@ struct FlightSamples {
   std::vector<double> r_dot;         // yaw acceleration (central difference of the gyro's z)
   std::vector<Vec3> v_B;             // body velocity (EKF/truth velocity rotated by the attitude)
   std::vector<double> u_mean, V;     // mean motor output, bus voltage (held)
+  std::vector<std::vector<double>> u;  // every motor's output (held)
   std::vector<LaggedSums> sums;
   std::vector<int> block;            // 0..blocks-1
   double V_ref = 0.0;                // median bus voltage in flight
@@ -39,7 +40,7 @@ struct FlightSamples {
   // Battery samples in flight windows (own rate): V, I and the charge drawn since the log start.
   std::vector<double> batt_t_s, batt_V, batt_I, batt_Q_Ah;
   std::vector<int> batt_block;
-  // Consecutive IMU sample differences in flight (noise): Δgyro, Δaccel, per sample pair.
+  // Second differences of consecutive IMU samples in flight (noise): Δ²gyro, Δ²accel.
   std::vector<Vec3> d_gyro, d_accel;
   std::vector<int> d_block;
   std::vector<FlightWindow> windows;

@@ -14,7 +14,7 @@ namespace {
 // The fitted value of a usable parameter (fitted and inside its range), else nullopt.
 std::optional<double> Fitted(const IdentifyResult& r, const std::string& k) {
   auto it = r.params.find(k);
-  if (it == r.params.end() || it->second.source != "fitted" || !std::isfinite(it->second.value)) return std::nullopt;
+  if (it == r.params.end() || !it->second.applied || !std::isfinite(it->second.value)) return std::nullopt;
   return it->second.value;
 }
 
@@ -63,8 +63,6 @@ vehicle::VehicleParams ApplyIdentified(const vehicle::VehicleParams& base, const
     v.battery.cells_series = std::max(1, static_cast<int>(std::lround(*V0 / 3.8)));
     v.battery.initial_soc = SocForOcv(v.battery, *V0);
   }
-  if (auto g = Fitted(r, "gyro_noise_radps")) v.sensors.gyro.noise.noise_std = *g;
-  if (auto a = Fitted(r, "accel_noise_mps2")) v.sensors.accel.noise.noise_std = *a;
   v.name = base.name + "_identified";
   return v;
 }
@@ -100,12 +98,6 @@ Result<std::string> IdentifiedVehicleYaml(const std::string& base_yaml_text, con
   doc["battery"]["internal_resistance_ohm"] = v.battery.internal_resistance_ohm;
   doc["battery"]["cells_series"] = v.battery.cells_series;
   doc["battery"]["initial_soc"] = v.battery.initial_soc;
-  for (const auto& [key, unit, value] : {std::tuple{"gyro", "radps", v.sensors.gyro.noise.noise_std},
-                                         std::tuple{"accel", "mps2", v.sensors.accel.noise.noise_std}}) {
-    YAML::Node s = doc["sensors"][key];
-    s.remove(fmt::format("noise_density_{}_per_sqrt_hz", unit));
-    s[fmt::format("noise_std_{}", unit)] = value;
-  }
   YAML::Emitter e;
   e << doc;
   if (!e.good()) return Status::CheckFailed(std::string("identify: YAML emitter: ") + e.GetLastError());
@@ -114,10 +106,11 @@ Result<std::string> IdentifiedVehicleYaml(const std::string& base_yaml_text, con
   head += "# Fitted (95 % interval) or kept from the base:\n";
   for (const auto& k : r.param_order) {
     const Param& p = r.params.at(k);
-    head += fmt::format("#   {:<32} {:>12.5g} [{:.5g}, {:.5g}] {} ({})\n", k, p.value, p.ci95[0], p.ci95[1], p.unit, p.source);
+    head += fmt::format("#   {:<32} {:>12.5g} [{:.5g}, {:.5g}] {} ({}{})\n", k, p.value, p.ci95[0], p.ci95[1], p.unit,
+                        p.source, p.source == "fitted" ? (p.applied ? ", applied" : ", not applied: interval leaves the range") : "");
   }
   head += "# Applied: k_T (thrust_scale), k_Q (yaw_torque_coefficient_m), motor inertia (motor_time_constant_s),\n"
-          "# drag, battery resistance/cells/initial SoC, IMU noise; a value marked `model mismatch` is not applied.\n"
+          "# drag, battery resistance/cells/initial SoC (IMU noise is reported only); only values whose interval lies inside the physical range are applied.\n"
           "# The control section is the base's: the controller's gains act on angular accelerations and its\n"
           "# model of thrust and inertia comes from this file, so the identified thrust rescales it.\n";
   return head + e.c_str() + "\n";

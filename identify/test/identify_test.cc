@@ -78,6 +78,8 @@ TEST(Identify, GivenASimulatedQuadLog_WhenIdentifiedBlind_ThenHoverOutputAndThru
   EXPECT_TRUE(Covers(u_h, t.hover_output)) << u_h.value << " [" << u_h.ci95[0] << ", " << u_h.ci95[1] << "] truth "
                                            << t.hover_output;
   EXPECT_NEAR(s.value, 1.0 / 1.3, 0.05);
+  const Param& tau = r->params.at("motor_time_constant_s");
+  EXPECT_TRUE(Covers(tau, t.tau_s)) << tau.value << " [" << tau.ci95[0] << ", " << tau.ci95[1] << "] truth " << t.tau_s;
   EXPECT_EQ(s.source, "fitted");
   EXPECT_EQ(r->params.at("mass_kg").source, "base");
 }

@@ -9,7 +9,7 @@
 //   lateral     f_x,y = −δ1·v − δ2·|v|·v + b_x,y            (linear and quadratic drag per unit mass)
 //   yaw         ṙ = κ·c·Σ_i s_i·LP_τ[φ(x_i)] − ζ·r + b_r    (s_i the rotor spin; k_Q/k_T = κ·J_z/m)
 //   battery     V = V_oc − R·I − k_q·Q(t)                    (Q the charge drawn so far)
-//   IMU noise   σ = RMS(Δy)/√2 over consecutive samples (white noise per sample at the log rate)
+//   IMU noise   σ = RMS(Δ²y)/√6 over consecutive samples (white noise per logged sample)
 // Hover output u_h: n·c·φ(u_h) = g at V_ref. Each parameter carries a 95 % interval from a block
 // bootstrap over contiguous time blocks (profiled parameters re-profiled per resample) and its
 // physical range; a value outside its range is a model mismatch and is not used in the vehicle.
@@ -48,6 +48,9 @@ struct Param {
   std::string source = "fitted";  // fitted | base | "model mismatch"
   double range[2] = {0.0, 0.0};   // physical range
   std::string note;
+  // Written into the vehicle: fitted, and the whole 95 % interval inside the physical range (a fit
+  // whose interval leaves the range did not determine the parameter; the base value stays).
+  bool applied = false;
   bool plausible() const { return value >= range[0] && value <= range[1]; }
 };
 
@@ -81,6 +84,10 @@ struct IdentifyResult {
   std::vector<std::string> param_order;  // report order
   std::vector<FlightWindow> windows;
   std::vector<HeldoutFit> heldout;
+  // Dynamics residual on the held-out blocks, 3 axes, RMS about zero: measured specific force
+  // against (−Σ_i T_i(u_i, V)·ẑ + F_drag(v_B))/m through hexsim's steady powertrain, for the base
+  // vehicle and for the identified one (fitted on the even blocks).
+  double dynamics_rms_base = 0.0, dynamics_rms_identified = 0.0;
   std::vector<Trace> traces;
   std::vector<double> hover_voltage_V, hover_output;  // steady-hover samples (for the plot)
   double v_ref_V = 0.0;       // reference bus voltage (median in flight; 0 when not logged)
@@ -103,7 +110,7 @@ std::string FrameOfLog(const logs::FlightLog& log, std::string* source);
 std::string DefaultBaseFor(const std::string& frame);
 
 // The vehicle YAML: the base vehicle's document with the fitted values applied (k_T, k_Q, rotor
-// inertia, drag, battery, IMU noise), a header comment listing what was fitted and what kept.
+// inertia, drag, battery), a header comment listing what was fitted and what kept.
 Result<std::string> IdentifiedVehicleYaml(const std::string& base_yaml_text, const vehicle::VehicleParams& base,
                                           const IdentifyResult& result);
 // The base vehicle with the identified values applied (what the YAML describes).
