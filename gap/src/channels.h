@@ -85,7 +85,8 @@ struct LogInputs {
 // How a compass is replayed: its timing, which rows, how much is built.
 struct CompassReplayOptions {
   double latency_s = 0.0;        // the sample stamped t measured the field at t − latency_s
-  double current_shift_s = 0.0;  // the aligned current is I(t − latency_s + current_shift_s)
+  double current_shift_s = 0.0;  // the prediction's current is I(t − latency_s + current_shift_s)
+  double member_shift_s = 0.0;   // the candidates' aligned current member: I(t − latency_s + member_shift_s)
   const std::vector<realdata::RowKind>* row_kind = nullptr;  // null: every row
   realdata::RowKind want = realdata::RowKind::kFlight;
   bool baseline_only = false;   // the timing scan: baseline and the aligned current_hard_iron only

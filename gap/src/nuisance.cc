@@ -241,7 +241,6 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
   const double noise = 3.0 * NoiseVariance(c1.t, a1.y());
   tm.latency_share = std::max(0.0, ExplainedShare(cv0, cv1, noise));
   tm.json["latency_s"]["explained_share"] = tm.latency_share;
-  tm.unaligned_structure = DetectStructure(c0.t, a0.y(), a0.baseline().cv_sse, o.materiality).present;
   return tm;
 }
 

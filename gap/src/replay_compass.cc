@@ -5,8 +5,9 @@
 // Timing: a compass sample stamped t measured the field at t − L (L: compass latency against the
 // attitude); the current logged at t is the current of t − S (S: its staleness beyond the configured
 // vehicle's own throttle-to-current response). The prediction uses the attitude at t − L and the
-// aligned current I(t − L + S); the candidates' current regressors come in two members, the aligned
-// and the logged current, and the better member wins its family.
+// aligned current I(t − L + S); the candidates' current regressors come in two members, the logged
+// current and the one aligned by the whole measured staleness against throttle, and the better
+// member wins its family (the data decide how much of that staleness the field sees).
 // Baseline (always fitted, never a finding by itself): r = β + M·R_NBᵀ·δB_N, a constant offset β in
 // the sensor frame and a correction δB_N of the NED Earth field (WMM prior), which also absorbs a
 // uniform scale of the sensor.
@@ -113,13 +114,13 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
   ch.field_N_uT = B_N_uT;
   const std::vector<Sample> samples = CompassSamples(log, pre, &ch.undone_compensation);
 
-  RowCursor cur{t_row}, cur_i{t_row};
+  RowCursor cur{t_row}, cur_i{t_row}, cur_m{t_row};
   magnetics::CurrentLagState lag;
   double prev_t = 0;
   bool first = true;
   std::vector<Vec3> h;                     // predicted field before hard iron, sensor frame
   std::vector<Eigen::Matrix3d> Msens, Rt;  // R_SB·scale·K(I), R_NBᵀ
-  std::vector<double> I_log, u, temp;
+  std::vector<double> I_log, I_mem, u, temp;
   std::vector<std::vector<double>> mu;     // per-motor outputs
   std::vector<magnetics::Currents> currents;
   const bool has_current = in.current != nullptr;
@@ -127,13 +128,14 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
   for (const Sample& s : samples) {
     if (o.row_kind && (*o.row_kind)[static_cast<size_t>(s.row)] != o.want) continue;
     const double ta = s.t - o.latency_s;  // when the field was measured
-    double w = 0, wi = 0;
-    if (!cur.Seek(ta, &w) || !cur_i.Seek(ta + o.current_shift_s, &wi)) continue;
+    double w = 0, wi = 0, wm = 0;
+    if (!cur.Seek(ta, &w) || !cur_i.Seek(ta + o.current_shift_s, &wi) || !cur_m.Seek(ta + o.member_shift_s, &wm)) continue;
     const size_t i = cur.i;
     const Eigen::Quaterniond q = QuatLerp(in.q, i, w);
     if (!q.coeffs().allFinite()) continue;
     const magnetics::Currents cu = CurrentsAt(in, v, cur_i.i, wi);  // on the aligned time base
     const double i_logged = has_current ? Lerp(*in.current, i, w) : 0.0;
+    const double i_member = has_current ? Lerp(*in.current, cur_m.i, wm) : 0.0;
     double thr = std::nan("");
     std::vector<double> motors;
     for (auto* m : in.motor_u) motors.push_back(Lerp(*m, i, w));
@@ -143,7 +145,7 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
       thr = 0;
       for (double m : motors) thr += m / static_cast<double>(motors.size());
     }
-    bool ok = std::isfinite(cu.battery_A) && std::isfinite(i_logged);
+    bool ok = std::isfinite(cu.battery_A) && std::isfinite(i_logged) && std::isfinite(i_member);
     // Between two log rows the current is unknown; where it jumps (motor spin-up, touchdown) the
     // interpolated current cannot predict the wiring field, so such samples are left out.
     constexpr double kMaxCurrentStep_A = 2.0;
@@ -167,6 +169,7 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
     Msens.push_back(M);
     Rt.emplace_back(R_NB.transpose());
     I_log.push_back(i_logged);
+    I_mem.push_back(i_member);
     u.push_back(thr);
     mu.push_back(motors);
     temp.push_back(in.temp ? Lerp(*in.temp, i, w) : std::nan(""));
@@ -198,7 +201,7 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
   }
   if (has_current) {
     for (int aligned = 0; aligned < 2; ++aligned) {
-      if (aligned == 1 && o.current_shift_s == 0 && o.latency_s == 0) break;
+      if (aligned == 1 && o.member_shift_s == 0) break;
       Candidate chi = MakeCandidate("current_hard_iron", {"d_x_uT_per_A", "d_y_uT_per_A", "d_z_uT_per_A"}, {1, 1, 1},
                                     "uT/A", "current_A");
       Candidate csi = MakeCandidate("current_soft_iron",
@@ -208,7 +211,7 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
       chi.grid_name = csi.grid_name = "current_aligned";
       chi.grid_value = csi.grid_value = aligned;
       for (size_t k = 0; k < n; ++k) {
-        const double Ik = aligned ? currents[k].battery_A : I_log[k];
+        const double Ik = aligned ? I_mem[k] : I_log[k];
         chi.X.push_back(Diag3(Ik));
         chi.regressor.push_back(Ik);
         Mat3X x = Mat3X::Zero(3, 9);

@@ -80,7 +80,7 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
   res.noise_floor_ratio = st.power_ratio;
   res.ljung_box_p = st.whiteness_p;
   res.p_value = st.p_value;
-  res.gap_detected = st.present || timing.unaligned_structure;
+  res.gap_detected = st.present;
   const double cv0 = an.baseline().cv_sse;
 
   // The one-standard-error rule among plausible, significant effects.
@@ -121,26 +121,33 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
     lat.probability = std::nan("");
   }
   const double effect_share = chosen < F ? at.results[chosen].explained_share : 0.0;
-  const bool latency_wins = timing.latency_ok && lat.plausible && timing.latency_share >= 0.5 &&
-                            timing.latency_share > (1.0 - timing.latency_share) * effect_share;
+  // The timing term is judged like a nuisance term (its alignment is part of the baseline): named
+  // when nothing beyond the aligned baseline is found and it is outside its normal range (exact
+  // ranges: when its interval clears zero and the alignment removes a material share).
+  const bool latency_out =
+      timing.latency_ok && lat.plausible &&
+      (o.nuisance_ranges == "exact"
+           ? (timing.latency_ci95_s[0] > 0 || timing.latency_ci95_s[1] < 0) && timing.latency_share >= o.materiality
+           : !realdata::IsNormal("latency", timing.latency_s));
 
   std::vector<Vec3> after = an.y();
   double cv_after = cv0;
   std::string second;
-  if (!res.gap_detected) {
+  if (!res.gap_detected && nu.out_of_range.empty() && latency_out) {
+    res.verdict = "latency";
+    res.gap_detected = true;  // a gap, and it is the compass's timing
+    lat.selected = true;
+    res.explained_share = timing.latency_share;
+    res.explanation = fmt::format("nothing beyond the aligned baseline; the compass is {:.0f} ms late against the "
+                                  "attitude (normal: {}), and aligning it removes {} of the residual above the noise",
+                                  1000 * timing.latency_s, realdata::RangeText("latency"), Percent(timing.latency_share));
+  } else if (!res.gap_detected) {
     res.verdict = nu.out_of_range.empty() ? "none" : nu.out_of_range;
     res.gap_detected = !nu.out_of_range.empty();  // a gap, and it is that term
     res.explanation = nu.out_of_range.empty()
                           ? fmt::format("no structure above the noise floor after the nuisance baseline (power ratio {:.2f})",
                                         st.power_ratio)
                           : "nothing beyond the baseline; the " + nu.out_of_range + " term is outside its normal range";
-  } else if (latency_wins) {
-    res.verdict = "latency";
-    lat.selected = true;
-    res.explained_share = timing.latency_share;
-    res.explanation = fmt::format("the compass is {:.0f} ms late against the attitude; aligning it removes {} of the "
-                                  "baseline residual",
-                                  1000 * timing.latency_s, Percent(timing.latency_share));
   } else if (chosen < F && effect_share >= 0.5) {
     CandidateResult& top = at.results[chosen];
     top.selected = true;

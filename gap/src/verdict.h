@@ -1,6 +1,6 @@
 // Verdicts (private to gap/). CONTRACTS.md "Second wave" orders the compass verdict: (1) no
-// structure above the noise floor after the baseline: the out-of-range nuisance term, else none;
-// (2) structure: the candidate (an effect or a timing term) with the largest held-out
+// structure above the noise floor after the (timing-aligned) baseline: the out-of-range nuisance or
+// timing term, else none; (2) structure: the effect with the largest held-out
 // explained_share, if it reaches 0.5 and is plausible, chosen by the one-standard-error rule over
 // the CV folds (the fewest parameters among the candidates within one standard error of the best);
 // ambiguous when another candidate as simple is within one standard error and neither nests the
@@ -31,7 +31,6 @@ struct CompassTiming {
   bool latency_ok = false;
   double latency_s = 0.0, latency_ci95_s[2] = {0.0, 0.0};
   double latency_share = 0.0;        // held-out share of the unaligned baseline residual the alignment removes
-  bool unaligned_structure = false;  // the baseline residual before alignment has structure
   double staleness_s = 0.0;
 };
 

@@ -34,8 +34,9 @@ const std::vector<PhysicalRange>& PlausibilityTable() {
              "offset tempco of AMR/MEMS compasses is ~0.01-0.1 uT/C; 0.5 uT/C would move 10 uT over a flight"),
       Effect("current_lag", "s", 0.0, 2.0,
              "current-field lag from ESC/sense filtering and eddy currents: well under a second"),
-      Effect("latency", "s", 0.0, 0.5,
-             "sensor-to-log delays are tens of milliseconds; a half-second delay breaks the autopilot's fusion"),
+      {"latency", "s", 0.0, 0.5, 0.0, 0.1,
+       "sensor-to-log delays are tens of milliseconds (driver filtering, 10-100 Hz reads); a half-second delay "
+       "breaks the autopilot's fusion"},
       Effect("current_staleness", "s", 0.0, 1.0,
              "battery monitors update at 1-10 Hz with filtering: up to a few samples old"),
       // Nuisance terms of every compass fit (normal range: nothing to act on).
