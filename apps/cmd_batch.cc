@@ -1,5 +1,5 @@
 // hexsim batch BATCH.yaml [--jobs N] [--shard i/N] [--resume] [--run-timeout S] [--keep-logs] [--list] --out DIR
-// hexsim batch-report DIR [--json FILE] [--no-plots]
+// hexsim batch-report DIR [--json FILE] [--no-plots]   (table on stdout, report.json, report.png, report.html)
 // hexsim batch-merge OUT SHARD_DIR...
 #include <unistd.h>
 
@@ -25,6 +25,7 @@
 #include "hexsim/experiments/ground_calibration.h"
 #include "hexsim/experiments/point_runner.h"
 #include "hexsim/reports/batch_report.h"
+#include "hexsim/reports/headline.h"
 
 namespace hexsim::app {
 
@@ -162,19 +163,22 @@ Status ReportCommand(const ReportArgs& args, int* exit_code) {
   if (!rows.ok()) return rows.status();
   if (rows->empty()) return Status::BadInput(db_path + ": holds no runs");
   const auto groups = batch::AggregateRuns(*rows);
+  for (const std::string& sentence : reports::BatchHeadline(groups)) std::printf("%s\n", sentence.c_str());
   std::fputs(reports::NumberedReportTable(groups).c_str(), stdout);
   const std::string dir = fs::is_directory(args.dir) ? args.dir : DirName(db_path);
   const std::string json_path = args.json_path.empty() ? dir + "/report.json" : args.json_path;
   HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(json_path, batch::ReportJson(groups).dump(2) + "\n"));
   *exit_code = 0;
+  bool figure = false;
   if (args.plots) {
     const Status s = reports::WriteBatchReportFigure(groups, dir + "/report.png");
+    figure = s.ok();
     if (!s.ok()) {
       std::fprintf(stderr, "hexsim: batch-report: plots not written: %s\n", s.message().c_str());
       *exit_code = 1;
     }
   }
-  return Status::Ok();
+  return reports::WriteBatchReportHtml(groups, figure ? "report.png" : "", dir + "/report.html");
 }
 
 // ---- batch-merge ----
@@ -248,7 +252,7 @@ void AddBatchCommands(CLI::App& app, int* exit_code) {
   });
 
   auto rargs = std::make_shared<ReportArgs>();
-  CLI::App* rep = app.add_subcommand("batch-report", "Aggregate a batch's results per group: table, report.json, report.png");
+  CLI::App* rep = app.add_subcommand("batch-report", "Aggregate a batch's results per group: table, report.json, report.png, report.html");
   rep->add_option("dir", rargs->dir, "Batch output directory (or a results.sqlite)")->required();
   rep->add_option("--json", rargs->json_path, "Write the JSON here (default DIR/report.json)");
   rep->add_flag("!--no-plots", rargs->plots, "Skip report.png");

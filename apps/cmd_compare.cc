@@ -13,6 +13,7 @@
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/experiments/compare.h"
 #include "hexsim/reports/compare_report.h"
+#include "hexsim/reports/headline.h"
 #include "turntable_util.h"
 
 namespace hexsim::app {
@@ -50,6 +51,7 @@ Status CompareCommand(const CompareArgs& a) {
   HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out.File("comparison.json"), experiments::ToJson(result->comparison).dump(2) + "\n"));
   out.Commit();
   std::fputs(table.c_str(), stdout);
+  for (const std::string& sentence : reports::CompareHeadline(result->comparison)) std::printf("%s\n", sentence.c_str());
   std::printf("compare: %s\n", out.File(a.no_report ? "comparison.json" : "report.html").c_str());
   return Status::Ok();
 }

@@ -177,7 +177,12 @@ TEST_F(CompareReport, GivenComparisonJsonWhenReportWrittenThenBothTablesShowItsN
     for (const char* m : {"yaw_error_deg.max", "cross_track_m.rms"}) {
       const auto& v = g["metrics"][m];
       EXPECT_NE(html.find(Fixed(v["mean"].get<double>(), 2) + " ± " + Fixed(v["std"].get<double>(), 2)), std::string::npos) << m;
-      EXPECT_NE(html.find("CI95 [" + Fixed(v["ci95"][0].get<double>(), 2) + ", " + Fixed(v["ci95"][1].get<double>(), 2) + "]"), std::string::npos)
+      // A non-negative figure's interval stops at 0, marked "*" (ci95_clipped).
+      EXPECT_GE(v["ci95"][0].get<double>(), 0.0) << m;
+      const std::string clip = v.value("ci95_clipped", false) ? "*" : "";
+      EXPECT_NE(html.find("CI95 [" + Fixed(v["ci95"][0].get<double>(), 2) + clip + ", " +
+                          Fixed(v["ci95"][1].get<double>(), 2) + "]"),
+                std::string::npos)
           << m;
     }
   }

@@ -62,7 +62,10 @@ std::vector<GroupReport> AggregateRuns(const std::vector<RunRow>& rows) {
   }
   for (size_t i = 0; i < groups.size(); ++i) {
     for (const auto& m : MetricColumns()) {
-      groups[i].metrics[m.column] = Summarize(values[i][m.column]);
+      // Non-negative figures (all but the currents) keep their interval at or above 0.
+      const bool signed_figure = std::string(m.column).rfind("current_", 0) == 0;
+      groups[i].metrics[m.column] =
+          signed_figure ? Summarize(values[i][m.column]) : SummarizeNonNegative(values[i][m.column]);
       groups[i].values[m.column] = values[i][m.column];
     }
   }
@@ -80,7 +83,8 @@ json ReportJson(const std::vector<GroupReport>& groups) {
       metrics[name] = {{"n", s.n},
                        {"mean", s.n ? json(s.mean) : json(nullptr)},
                        {"std", opt(s.std)},
-                       {"ci95", s.ci95_lo ? json::array({*s.ci95_lo, *s.ci95_hi}) : json(nullptr)}};
+                       {"ci95", s.ci95_lo ? json::array({*s.ci95_lo, *s.ci95_hi}) : json(nullptr)},
+                       {"ci95_clipped", s.ci95_clipped}};
     }
     out["groups"].push_back(
         {{"label", g.label}, {"params", g.params}, {"runs", g.runs}, {"status", g.status_counts}, {"metrics", metrics}});

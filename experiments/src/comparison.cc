@@ -43,7 +43,9 @@ std::map<std::string, SampleStats> GroupMetrics(const std::vector<json>& summari
       double v = 0;
       if (Lookup(s, f, &v)) x.push_back(v);
     }
-    if (!x.empty()) m[f] = Summarize(x);
+    // Every figure but the current is a magnitude, a length, an energy or a time: its interval stays
+    // at or above 0 (SummarizeNonNegative says when it clipped).
+    if (!x.empty()) m[f] = f.rfind("current_A", 0) == 0 ? Summarize(x) : SummarizeNonNegative(x);
   }
   return m;
 }
@@ -65,6 +67,7 @@ json ToJson(const Comparison& c) {
       metrics[f] = {{"mean", s.mean},
                     {"std", s.std.value_or(0.0)},
                     {"ci95", {s.ci95_lo.value_or(s.mean), s.ci95_hi.value_or(s.mean)}},
+                    {"ci95_clipped", s.ci95_clipped},
                     {"n", s.n}};
     }
     cmp["groups"].push_back({{"calibration", g.calibration}, {"n", g.n}, {"metrics", metrics}});

@@ -40,6 +40,9 @@ TEST(GroupMetrics, GivenTwoSeedsThenEachFigureHasItsMeanStdAndStudentInterval) {
   EXPECT_DOUBLE_EQ(yaw.mean, 3.0);
   EXPECT_DOUBLE_EQ(*yaw.std, std::sqrt(2.0));
   EXPECT_NEAR(*yaw.ci95_hi - 3.0, 12.7062 * 1.0, 1e-4);  // t_{0.975,1}·s/√2 with s = √2
+  // 3 − 12.7 < 0: a yaw error magnitude's interval is clipped at 0, and says so.
+  EXPECT_EQ(*yaw.ci95_lo, 0.0);
+  EXPECT_TRUE(yaw.ci95_clipped);
   EXPECT_EQ(m.count("mission_time_s"), 0u);  // absent from every summary: not a figure of the group
 }
 

@@ -73,7 +73,7 @@ std::string ReportTable(const std::vector<batch::GroupReport>& groups) {
     std::string status;
     for (const auto& [s, n] : g.status_counts) status += fmt::format("{}{} {}", status.empty() ? "" : ", ", n, s);
     out += fmt::format("{}  ({} runs: {})\n", g.label, g.runs, status);
-    out += fmt::format("  {:<20} {:>4} {:>12} {:>12} {:>27}\n", "metric", "n", "mean", "std", "95% CI of mean");
+    out += fmt::format("  {:<20} {:>4} {:>12} {:>12} {:>27}\n", "metric", "n", "mean", "std", "95% CI of mean (*: 0 clip)");
     for (const auto& m : batch::MetricColumns()) {
       const batch::MetricStats& s = g.metrics.at(m.column);
       if (s.n == 0) {
@@ -82,7 +82,9 @@ std::string ReportTable(const std::vector<batch::GroupReport>& groups) {
       }
       out += fmt::format("  {:<20} {:>4} {:>12.4g} {:>12} {:>27}\n", m.column, s.n, s.mean,
                          s.std ? fmt::format("{:.4g}", *s.std) : "-",
-                         s.ci95_lo ? fmt::format("[{:.4g}, {:.4g}]", *s.ci95_lo, *s.ci95_hi) : "-");
+                         s.ci95_lo ? fmt::format("[{:.4g}{}, {:.4g}]", *s.ci95_lo, s.ci95_clipped ? "*" : "",
+                                                 *s.ci95_hi)
+                                   : "-");
     }
   }
   return out;

@@ -16,6 +16,7 @@
 #include "hexsim/render/html.h"
 #include "hexsim/render/paper_figures.h"
 #include "hexsim/render/plot.h"
+#include "hexsim/reports/headline.h"
 
 namespace hexsim::reports {
 
@@ -289,7 +290,8 @@ border-bottom:1px solid #ccc;padding-bottom:.2em}p.meta{color:#555;margin-top:0}
 margin:1em 0;font-size:.92em}th,td{border:1px solid #bbb;padding:.3em .6em;text-align:right}th{background:#f0f0f0}
 td.name,th.name{text-align:left}td.paper{background:#f7f7ff;color:#335}.ci{color:#666;font-size:.85em}
 .wrap{overflow-x:auto}figure{margin:1.5em 0}figure img{max-width:100%;border:1px solid #ddd}
-figcaption{color:#444;font-size:.93em;margin-top:.3em}figcaption b{color:#222}.note{color:#555;font-size:.9em})";
+figcaption{color:#444;font-size:.93em;margin-top:.3em}figcaption b{color:#222}.note{color:#555;font-size:.9em}
+.headline{background:#f4f8fc;border-left:4px solid #1f77b4;padding:.2em 1em;margin:1em 0}.headline p{margin:.5em 0})";
 
 std::string HeadingTable(const experiments::HeadingErrorTable& he) {
   const std::vector<double>& controls = he.control_u;
@@ -359,8 +361,9 @@ std::string TrackTable(const std::vector<experiments::ComparisonGroup>& groups) 
       }
       const SampleStats& v = it->second;
       // One run: the interval collapses onto the mean (as comparison.json writes it).
-      const std::string ci = fmt::format("<br><span class=\"ci\">CI95 [{:.2f}, {:.2f}]</span>",
-                                         v.ci95_lo.value_or(v.mean), v.ci95_hi.value_or(v.mean));
+      const std::string ci = fmt::format("<br><span class=\"ci\">CI95 [{:.2f}{}, {:.2f}]</span>",
+                                         v.ci95_lo.value_or(v.mean), v.ci95_clipped ? "*" : "",
+                                         v.ci95_hi.value_or(v.mean));
       h += fmt::format("<td>{:.2f} ± {:.2f}{}</td>", v.mean, v.std.value_or(0.0), ci);
     }
     h += "</tr>\n";
@@ -383,6 +386,9 @@ Status WriteReport(const Comparison& c, const CompareEvidence& ev, const std::st
   std::string h = "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>hexsim comparison: " +
                   Escape(c.mission) + "</title>\n<style>" + kCss + "</style></head><body>\n";
   h += fmt::format("<h1>Compass calibration comparison — {}</h1>\n", Escape(c.mission));
+  h += "<div class=\"headline\">";
+  for (const std::string& sentence : CompareHeadline(c)) h += "<p>" + Escape(sentence) + "</p>";
+  h += "</div>\n";
   h += fmt::format(
       "<p class=\"meta\">vehicle <b>{}</b>, world <b>{}</b>, estimator <b>{}</b>, {} run(s). Data beside this file: "
       "<a href=\"comparison.json\">comparison.json</a>, <a href=\"heading_residuals.csv\">heading_residuals.csv</a>, "
@@ -398,7 +404,7 @@ Status WriteReport(const Comparison& c, const CompareEvidence& ev, const std::st
   }
   h += "<h2>Flight: track and yaw error per calibration</h2>\n";
   h += "<p>Mean ± standard deviation over the seeds, with the 95 % confidence interval of the mean (Student's t; "
-       "empty with one seed).</p>\n";
+       "empty with one seed; * marks a lower end clipped at 0, below which no error, distance or energy goes).</p>\n";
   h += TrackTable(c.groups);
 
   auto section = [&](const std::string& title, auto pred) {

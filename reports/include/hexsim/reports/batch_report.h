@@ -17,5 +17,9 @@ std::string ReportTable(const std::vector<batch::GroupReport>& groups);
 std::string NumberedReportTable(const std::vector<batch::GroupReport>& groups);
 // report.png: mean and 95 % interval per group for cross-track RMS, yaw RMS, energy and mean current.
 Status WriteBatchReportFigure(const std::vector<batch::GroupReport>& groups, const std::string& path);
+// report.html beside report.json: the headline (headline.h), one table row per group with each figure's
+// mean and 95 % interval, and report.png when `figure` names it (relative link). batch_report_html.cc.
+Status WriteBatchReportHtml(const std::vector<batch::GroupReport>& groups, const std::string& figure,
+                            const std::string& path);
 
 }  // namespace hexsim::reports
