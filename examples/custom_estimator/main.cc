@@ -190,14 +190,15 @@ int main() {
     std::fprintf(stderr, "custom_estimator: %s\n", field.status().message().c_str());
     return 2;
   }
-  auto sim = hexsim::sim::Simulation::Create(*setup);
+  hexsim::nav::EarthFieldReference earth;
+  earth.B_N_uT = field->B_N_uT;
+  hexsim::sim::Plugins plugins;
+  plugins.estimator = std::make_unique<SimpleEstimator>(earth, SimpleGains{});
+  auto sim = hexsim::sim::Simulation::Create(*setup, std::move(plugins));
   if (!sim.ok()) {
     std::fprintf(stderr, "custom_estimator: %s\n", sim.status().message().c_str());
     return 2;
   }
-  hexsim::nav::EarthFieldReference earth;
-  earth.B_N_uT = field->B_N_uT;
-  (*sim)->SetEstimator(std::make_unique<SimpleEstimator>(earth, SimpleGains{}));
   double max_pos_err_m = 0.0;
   while ((*sim)->Step()) {
     if ((*sim)->estimate().healthy) {

@@ -97,12 +97,14 @@ int main() {
     std::fprintf(stderr, "geometric_controller: %s\n", setup.status().message().c_str());
     return 2;
   }
-  auto sim = hexsim::sim::Simulation::Create(*setup);
+  hexsim::sim::Plugins plugins;
+  plugins.controller =
+      std::make_unique<GeometricController>(hexsim::sim::ControlModelFor(setup->vehicle), GeometricGains{});
+  auto sim = hexsim::sim::Simulation::Create(*setup, std::move(plugins));
   if (!sim.ok()) {
     std::fprintf(stderr, "geometric_controller: %s\n", sim.status().message().c_str());
     return 2;
   }
-  (*sim)->SetController(std::make_unique<GeometricController>((*sim)->control_model(), GeometricGains{}));
   double max_tilt_deg = 0.0;
   while ((*sim)->Step()) {
     const Eigen::Vector3d z_B = (*sim)->true_state().q_NB * Eigen::Vector3d(0, 0, 1);

@@ -72,22 +72,24 @@ double AxisOutput(ResponseAxis axis, const BodyState& s) {
   return 0.0;
 }
 
-// A hover run of `total_s`: the setpoint hook keeps the vehicle out of the mission (armed, hover).
-Result<std::unique_ptr<Simulation>> MakeHoverSim(const RunSetup& base, double total_s, const HoverOptions& hover) {
+// A hover run of `total_s` flown by `controller`: the setpoint hook keeps the vehicle out of the
+// mission (armed, hover).
+Result<std::unique_ptr<Simulation>> MakeHoverSim(const RunSetup& base, double total_s, const HoverOptions& hover,
+                                                 std::unique_ptr<control::Controller> controller) {
   if (!(hover.hover_alt_m > 1.0 && hover.settle_s > 0 && hover.sample_hz > 0)) {
     return Status::BadInput("hover: need hover_alt_m > 1, settle_s > 0, sample_hz > 0");
   }
   RunSetup setup = base;
   setup.options.duration_s = total_s;
   setup.options.write_log = false;
-  auto sim = Simulation::Create(setup);
-  if (!sim.ok()) return sim.status();
   const Eigen::Vector3d p(0.0, 0.0, -hover.hover_alt_m);
-  (*sim)->SetSetpointHook([p](double, const control::NavState&, control::Setpoint* sp) {
+  Plugins plugins;
+  plugins.controller = std::move(controller);
+  plugins.setpoint_hook = [p](double, const control::NavState&, control::Setpoint* sp) {
     *sp = control::Setpoint{};
     sp->p_N_m = p;
-  });
-  return sim;
+  };
+  return Simulation::Create(setup, std::move(plugins));
 }
 
 int SampleEvery(const RunSetup& setup, const HoverOptions& hover) {
@@ -137,13 +139,13 @@ Result<StepTestResult> RunStepTest(const RunSetup& setup, ResponseAxis axis, dou
   if (IsAttitudeAxis(axis) && std::fabs(size) > 45.0) return Status::BadInput("--size: attitude steps up to 45 deg");
   if (!(after_s > 0)) return Status::BadInput("--duration: must be > 0");
   const double t0 = hover.settle_s;
-  auto sim_or = MakeHoverSim(setup, t0 + after_s, hover);
+  const double scale = IsAttitudeAxis(axis) ? 1.0 / kDegPerRad : 1.0;
+  auto sim_or = MakeHoverSim(setup, t0 + after_s, hover,
+                             std::make_unique<AxisTestController>(setup.control, ControlModelFor(setup.vehicle), axis,
+                                                                  Eigen::Vector3d(0, 0, -hover.hover_alt_m), t0,
+                                                                  [size, scale](double) { return size * scale; }));
   if (!sim_or.ok()) return sim_or.status();
   Simulation& sim = **sim_or;
-  const double scale = IsAttitudeAxis(axis) ? 1.0 / kDegPerRad : 1.0;
-  sim.SetController(std::make_unique<AxisTestController>(setup.control, sim.control_model(), axis,
-                                                         Eigen::Vector3d(0, 0, -hover.hover_alt_m), t0,
-                                                         [size, scale](double) { return size * scale; }));
   StepTestResult res;
   res.t_step_s = t0;
   const int every = SampleEvery(setup, hover);
@@ -179,13 +181,13 @@ Result<FreqTestResult> RunFrequencyTest(const RunSetup& setup, ResponseAxis axis
   const Multisine ms = *ms_or;
   const double t0 = hover.settle_s;
   const double total = t0 + (o.periods + 1) * ms.period_s();
-  auto sim_or = MakeHoverSim(setup, total, hover);
+  const double scale = IsAttitudeAxis(axis) ? 1.0 / kDegPerRad : 1.0;
+  auto sim_or = MakeHoverSim(setup, total, hover,
+                             std::make_unique<AxisTestController>(setup.control, ControlModelFor(setup.vehicle), axis,
+                                                                  Eigen::Vector3d(0, 0, -hover.hover_alt_m), t0,
+                                                                  [&ms, scale](double t) { return scale * ms.At(t); }));
   if (!sim_or.ok()) return sim_or.status();
   Simulation& sim = **sim_or;
-  const double scale = IsAttitudeAxis(axis) ? 1.0 / kDegPerRad : 1.0;
-  sim.SetController(std::make_unique<AxisTestController>(setup.control, sim.control_model(), axis,
-                                                         Eigen::Vector3d(0, 0, -hover.hover_alt_m), t0,
-                                                         [&ms, scale](double t) { return scale * ms.At(t); }));
   FreqTestResult res;
   const int every = SampleEvery(setup, hover);
   int64_t n = 0;
@@ -224,7 +226,7 @@ Result<DisturbTestResult> RunDisturbTest(const RunSetup& setup, const Disturbanc
     return Status::BadInput("disturb: give --gust N,E,D or --payload-release KG");
   }
   const double t0 = hover.settle_s;
-  auto sim_or = MakeHoverSim(setup, t0 + spec.after_s, hover);
+  auto sim_or = MakeHoverSim(setup, t0 + spec.after_s, hover, nullptr);
   if (!sim_or.ok()) return sim_or.status();
   Simulation& sim = **sim_or;
   const Eigen::Vector3d p_hover(0, 0, -hover.hover_alt_m);

@@ -64,9 +64,10 @@ class CountingController final : public control::Controller {
 
 TEST(Simulation, GivenAPluggedInController_WhenTheMissionIsFlown_ThenItIsCalledAtTheImuRateAndCompletes) {
   const RunSetup setup = MakeSetup("truth");
-  auto sim = Simulation::Create(setup).value();
   int calls = 0;
-  sim->SetController(std::make_unique<CountingController>(setup.control, sim->control_model(), &calls));
+  Plugins plugins;
+  plugins.controller = std::make_unique<CountingController>(setup.control, ControlModelFor(setup.vehicle), &calls);
+  auto sim = Simulation::Create(setup, std::move(plugins)).value();
   EXPECT_EQ(sim->builtin_controller(), nullptr);
   sim->RunToEnd();
   const RunOutput out = sim->Finish();
@@ -77,13 +78,14 @@ TEST(Simulation, GivenAPluggedInController_WhenTheMissionIsFlown_ThenItIsCalledA
 
 TEST(Simulation, GivenAnExternalForceAndPayload_WhenApplied_ThenTheStateAccessorsShowThem) {
   const RunSetup setup = MakeSetup("truth");
-  auto sim = Simulation::Create(setup).value();
+  Plugins plugins;
+  plugins.setpoint_hook = [](double, const control::NavState&, control::Setpoint* sp) { sp->idle = true; };
+  auto sim = Simulation::Create(setup, std::move(plugins)).value();
   sim->ChangePayload(0.5);
   EXPECT_DOUBLE_EQ(sim->payload_kg(), setup.mission.payload_kg + 0.5);
   sim->ChangePayload(-10.0);
   EXPECT_DOUBLE_EQ(sim->payload_kg(), 0.0);  // never negative
   // Motors idle on the ground: 2 s of a 30 N northward push slides the vehicle north.
-  sim->SetSetpointHook([](double, const control::NavState&, control::Setpoint* sp) { sp->idle = true; });
   sim->SetExternalForce(Eigen::Vector3d(30.0, 0.0, 0.0));
   for (int i = 0; i < 2000; ++i) ASSERT_TRUE(sim->Step());
   EXPECT_NEAR(sim->time_s(), 2.0, 1e-9);

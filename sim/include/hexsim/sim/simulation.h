@@ -60,6 +60,10 @@ struct RunOutput {
   Status status;
 };
 
+// The vehicle's rigid body: mass (vehicle + payload_kg, the one place the total mass is formed),
+// inertia, landing-gear box, ground friction.
+RigidBodyParams BodyParamsFor(const vehicle::VehicleParams& vehicle, const WorldParams& world, double payload_kg);
+
 // Validates cross-file consistency (e.g. the date against the field model) before anything runs.
 Status ValidateRunSetup(const RunSetup& setup);
 
@@ -67,41 +71,52 @@ Status ValidateRunSetup(const RunSetup& setup);
 // Simulation::Create(setup) → RunToEnd() → Finish().
 RunOutput RunMission(const RunSetup& setup);
 
+// Called after the mission sequencer, before the controller, on every autopilot tick: may rewrite
+// the setpoint (e.g. a step or a chirp on one loop). `nav` is what the controller will read.
+using SetpointHook = std::function<void(double t_s, const control::NavState& nav, control::Setpoint* setpoint)>;
+// Called after the controller, before the mixer: may rewrite its output (actuator-point injection).
+using OutputHook = std::function<void(double t_s, const control::NavState& nav, control::ControlOutput* output)>;
+
+// What a caller plugs into the autopilot, given to Simulation::Create (the compass compensation is
+// RunSetup::compensator). Every member is optional.
+struct Plugins {
+  // Replaces the built-in CascadedController (build it from ControlModelFor(setup.vehicle)).
+  std::unique_ptr<control::Controller> controller;
+  // Replaces the estimator SimOptions::estimator names (the run's "estimator" becomes its name());
+  // it is Reset() with a static-alignment request at the start position.
+  std::unique_ptr<nav::Estimator> estimator;
+  SetpointHook setpoint_hook;
+  OutputHook output_hook;
+};
+
+// The vehicle model the built-in controller is given (mass, inertia, the largest collective thrust
+// at full charge): what a plug-in controller is built from.
+control::VehicleModelForControl ControlModelFor(const vehicle::VehicleParams& vehicle);
+
 // The closed loop as a steppable object, for controller development and response tools:
 //
-//   auto sim = Simulation::Create(setup).value();
-//   sim->SetController(std::make_unique<MyController>(sim->control_model()));
+//   Plugins plugins;
+//   plugins.controller = std::make_unique<MyController>(ControlModelFor(setup.vehicle));
+//   auto sim = Simulation::Create(setup, std::move(plugins)).value();
 //   while (sim->Step()) { ... sim->true_state() ... }
 //   RunOutput out = sim->Finish();
 //
-// One Step() is one physics step (SimOptions::physics_dt_s): sensors sample, the autopilot runs on
-// each fresh IMU sample (estimator ← compensated compass, sequencer, setpoint hook, controller,
-// mixer), a log row is written at the log rate, then ODE advances. The hot path does not allocate
-// (apart from log rows and the estimator's own work).
+// One Step() is one physics step (SimOptions::physics_dt_s), in stages (sim/src/stages.h): the
+// sensors sample the truth; the autopilot runs on each fresh IMU sample (estimator ← compensated
+// compass, sequencer, setpoint hook, controller, mixer); the observers (FlightLog recorder at the
+// log rate, scorer; step_record.h) read the step's record; then physics advances (powertrain, rotor
+// wrench and aerodynamics, drag, ODE). The hot path does not allocate (apart from log rows and the
+// estimator's own work).
 class Simulation {
  public:
-  // Called after the mission sequencer, before the controller, on every autopilot tick: may rewrite
-  // the setpoint (e.g. a step or a chirp on one loop). `nav` is what the controller will read.
-  using SetpointHook = std::function<void(double t_s, const control::NavState& nav, control::Setpoint* setpoint)>;
-  // Called after the controller, before the mixer: may rewrite its output (actuator-point injection).
-  using OutputHook = std::function<void(double t_s, const control::NavState& nav, control::ControlOutput* output)>;
+  using SetpointHook = sim::SetpointHook;
+  using OutputHook = sim::OutputHook;
 
   // Validates (ValidateRunSetup) and builds everything; the vehicle rests on the ground at t = 0.
-  static Result<std::unique_ptr<Simulation>> Create(const RunSetup& setup);
+  static Result<std::unique_ptr<Simulation>> Create(const RunSetup& setup, Plugins plugins = {});
   ~Simulation();
   Simulation(const Simulation&) = delete;
   Simulation& operator=(const Simulation&) = delete;
-
-  // --- Plug-ins (any time; take effect at the next autopilot tick) ---------------------------
-  // Replaces the built-in CascadedController. nullptr restores a fresh built-in one.
-  void SetController(std::unique_ptr<control::Controller> controller);
-  // Replaces the estimator (the run's "estimator" name becomes estimator->name()); it is Reset()
-  // with a static-alignment request at the vehicle's current position. nullptr: fly on truth.
-  void SetEstimator(std::unique_ptr<nav::Estimator> estimator);
-  // Compass-1 compensation before the estimator; nullptr = raw reading.
-  void SetCompensator(std::shared_ptr<const magnetics::Compensator> compensator);
-  void SetSetpointHook(SetpointHook hook);
-  void SetOutputHook(OutputHook hook);
 
   // --- Disturbances ----------------------------------------------------------------------------
   // Sets the mean wind (NED, m/s) from now on, e.g. a gust step; turbulence stays as configured.

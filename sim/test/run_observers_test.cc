@@ -1,0 +1,82 @@
+// The run's observers (LogRecorder, RunScorer) on hand-made step records: no ODE, no autopilot.
+#include "hexsim/sim/step_record.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+namespace hexsim::sim {
+namespace {
+
+// A record of a vehicle 3 m east of a north-going leg, yaw estimate 2° off, 6 motors at 0.4.
+struct Fixture {
+  BodyState truth;
+  vehicle::SensorReadings readings;
+  nav::NavEstimate estimate;
+  std::vector<double> commands = std::vector<double>(6, 0.4);
+  vehicle::PowertrainOutput pt;
+
+  Fixture() {
+    truth.p_N_m = Eigen::Vector3d(5.0, 3.0, -10.0);
+    estimate.q_NB = Eigen::Quaterniond(Eigen::AngleAxisd(2.0 * M_PI / 180.0, Eigen::Vector3d::UnitZ()));
+    pt.motors.resize(6);
+    pt.bus_V = 24.0;
+    pt.battery_A = 40.0;
+    pt.power_in_W = 960.0;
+  }
+  StepRecord Record(int64_t step, control::FlightMode mode) const {
+    StepRecord r;
+    r.step = step;
+    r.t_s = 0.001 * static_cast<double>(step);
+    r.truth = &truth;
+    r.readings = &readings;
+    r.estimate = &estimate;
+    r.estimated = true;
+    r.commands = &commands;
+    r.powertrain = &pt;
+    r.mode = mode;
+    r.active_leg = 0;
+    r.landed = false;
+    return r;
+  }
+};
+
+TEST(RunScorer, GivenStepsOnALegAndOnTheGround_WhenScored_ThenOnlyTheLegCountsForCrossTrackAndYaw) {
+  const Fixture f;
+  RunScorer scorer({Eigen::Vector3d(0, 0, -10), Eigen::Vector3d(100, 0, -10)});
+  for (int k = 0; k < 10; ++k) scorer.OnStep(f.Record(k, control::FlightMode::kWaypoint));
+  scorer.OnStep(f.Record(10, control::FlightMode::kTakeoff));  // not on a leg: yaw_all only
+  StepInterval iv;
+  iv.dt_s = 0.5;
+  iv.powertrain = &f.pt;
+  iv.p_after_N_m = Eigen::Vector3d(3.0, 4.0, 0.0);
+  scorer.OnInterval(iv);
+  nlohmann::json sum;
+  scorer.WriteSummary(&sum);
+  EXPECT_NEAR(sum["cross_track_m"]["max"].get<double>(), 3.0, 1e-12);
+  EXPECT_NEAR(sum["cross_track_m"]["rms"].get<double>(), 3.0, 1e-12);
+  EXPECT_NEAR(sum["yaw_error_deg"]["max"].get<double>(), 2.0, 1e-9);
+  EXPECT_EQ(scorer.yaw_error_deg().n, 10);
+  EXPECT_EQ(scorer.yaw_error_all_deg().n, 11);
+  EXPECT_NEAR(sum["energy_Wh"].get<double>(), 960.0 * 0.5 / 3600.0, 1e-12);
+  EXPECT_NEAR(sum["distance_m"].get<double>(), 5.0, 1e-12);
+  EXPECT_EQ(sum["current_A"]["max"].get<double>(), 40.0);
+}
+
+TEST(LogRecorder, GivenTenRecordsAndEveryFifthLogged_WhenRecorded_ThenTwoRowsCarryTheRecordsValues) {
+  const Fixture f;
+  logs::FlightLog log;
+  LogRecorder recorder(&log, 6, 1, 5);
+  for (int k = 0; k < 10; ++k) recorder.OnStep(f.Record(k, control::FlightMode::kWaypoint));
+  ASSERT_EQ(log.rows(), 2u);
+  EXPECT_EQ(log.Column(recorder.time_column())[1], 0.005);
+  const auto col = [&](const std::string& name) { return log.Column(name); };
+  EXPECT_EQ(col("pos_E_m")[0], 3.0);
+  EXPECT_EQ(col("motor_6_u")[1], 0.4);
+  EXPECT_EQ(col("voltage_V")[0], 24.0);
+  EXPECT_NEAR(col("yaw_est_deg")[0], 2.0, 1e-9);
+  EXPECT_TRUE(std::isnan(col("gps_N_m")[0]));  // no GPS sample yet
+}
+
+}  // namespace
+}  // namespace hexsim::sim
