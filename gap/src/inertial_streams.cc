@@ -9,7 +9,7 @@
 //            f_B = (Σ_i k_T·ω_i²·a_i + F_drag(R_NBᵀ·v_N)) / m,
 //          ω_i from the configured powertrain stepped through the RCOU samples (each command held
 //          until the next, as the ESC sees it) at the latest logged bus voltage; v_N and R_NB are the
-//          latest EKF/attitude samples at or before the IMU sample.
+//          latest EKF/attitude samples at or before the IMU sample; flight windows only (realdata).
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -19,6 +19,7 @@
 
 #include "channels.h"
 #include "hexsim/common/rotation.h"
+#include "hexsim/realdata/windows.h"
 #include "hexsim/vehicle/powertrain.h"
 
 namespace hexsim::gap::internal {
@@ -153,6 +154,9 @@ bool ReplayAccelStream(const logs::FlightLog& log, const vehicle::VehicleParams&
     }
   }
 
+  // Flight windows (realdata: armed, throttle above idle, before any flip or crash): ground contact
+  // is not in the thrust model.
+  const realdata::FlightWindows windows = realdata::FindFlightWindows(log);
   vehicle::VehicleParams stiff = v;  // the ESCs run at the logged bus voltage
   stiff.battery.internal_resistance_ohm = 0.0;
   stiff.battery.cells_series = 1;
@@ -197,7 +201,7 @@ bool ReplayAccelStream(const logs::FlightLog& log, const vehicle::VehicleParams&
       }
     }
     // Ground contact is not in the model: airborne samples only.
-    if (!flying || !(pd0 - pd[row] > kMinHeight_m)) continue;
+    if (!flying || !(pd0 - pd[row] > kMinHeight_m) || windows.row_kind[row] != realdata::RowKind::kFlight) continue;
     const Vec3 meas(ax[k], ay[k], az[k]);
     const Vec3 vel(vn[row], ve[row], vd[row]);
     const Eigen::Quaterniond q = RowQuat(log, row);

@@ -406,6 +406,7 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
   res.windows = s.windows;
   res.data_source = s.source;
   res.v_ref_V = s.V_ref;
+  res.blocks = s.blocks;
   const double expo = ExpoOf(log, &res.thrust_expo_source);
   res.thrust_expo = expo;
 
@@ -449,6 +450,7 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
   if (fit.empty()) {
     for (size_t b = 0; b < G; ++b) fit.push_back(static_cast<int>(b));
   }
+  res.fit_blocks = fit;
   std::vector<double> w(G, 0.0);
   for (int b : fit) w[static_cast<size_t>(b)] = 1.0;
   const std::vector<double> w_fit = w;
@@ -494,6 +496,8 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
       const double* hi = std::lower_bound(g0, g1, p.ci95[1] - 1e-12);
       if (lo != g0 && lo != g1) p.ci95[0] = 0.5 * (*(lo - 1) + *lo);
       if (hi != g1 && hi + 1 != g1) p.ci95[1] = 0.5 * (*hi + *(hi + 1));
+      p.ci95[0] = std::max(p.ci95[0], *g0);  // nothing outside the profiled grid was tried
+      p.ci95[1] = std::min(p.ci95[1], *(g1 - 1));
     }
     p.unit = sp.unit;
     p.range[0] = sp.lo;

@@ -7,6 +7,8 @@
 #include <Eigen/Geometry>
 #include <fmt/format.h>
 
+#include "hexsim/realdata/windows.h"
+
 namespace hexsim::identify::internal {
 namespace {
 
@@ -14,11 +16,6 @@ constexpr double kMinFlightOutput = 0.05;  // every motor above this output: tur
 constexpr double kMinWindow_s = 2.0;       // shorter flight windows (after trimming) are left out
 constexpr double kCommandGapReset_s = 0.5; // the motor-lag filter restarts after a longer RCOU gap
 constexpr double kImuGapFactor = 3.0;      // consecutive IMU samples further apart are not differenced
-// A flip or crash ends the usable log: tilt above kMaxTilt_deg for kSustained_s; everything from
-// kCutLead_s before it on is excluded (a multirotor in controlled flight stays well below 60°).
-constexpr double kMaxTilt_deg = 60.0;
-constexpr double kSustained_s = 0.5;
-constexpr double kCutLead_s = 1.0;
 
 double Median(std::vector<double> v) {
   if (v.empty()) return std::nan("");
@@ -58,6 +55,21 @@ struct BlockMap {
       before += x.end_s - x.start_s;
     }
     return -1;
+  }
+  // The time spans of every block (a block may straddle two windows).
+  std::vector<BlockSpan> Spans() const {
+    std::vector<BlockSpan> out;
+    double before = 0.0;
+    for (const auto& x : w) {
+      const double len = x.end_s - x.start_s;
+      for (int b = 0; b < blocks; ++b) {
+        const double b0 = total_s * b / blocks - before, b1 = total_s * (b + 1) / blocks - before;
+        const double s0 = std::max(0.0, b0), s1 = std::min(len, b1);
+        if (s1 > s0) out.push_back({x.start_s + s0, x.start_s + s1, b});
+      }
+      before += len;
+    }
+    return out;
   }
 };
 
@@ -120,23 +132,14 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
       break;
     }
   }
-  // The flip/crash cut.
-  double cut_s = INFINITY, tilted_since = NAN;
-  for (size_t r = 0; r < log.rows() && !std::isfinite(cut_s); ++r) {
-    const Eigen::Quaterniond q(log.Column("q_w")[r], log.Column("q_x")[r], log.Column("q_y")[r], log.Column("q_z")[r]);
-    if (!q.coeffs().allFinite()) continue;
-    const double cos_tilt = (q.normalized().toRotationMatrix() * Vec3::UnitZ()).z();
-    if (cos_tilt < std::cos(kMaxTilt_deg * M_PI / 180.0)) {
-      if (!std::isfinite(tilted_since)) tilted_since = t_row[r];
-      if (t_row[r] - tilted_since >= kSustained_s) cut_s = tilted_since - kCutLead_s;
-    } else {
-      tilted_since = NAN;
-    }
-  }
+  // realdata's flight windows (armed, throttle above idle, attitude sane, before any flip or
+  // crash), further restricted to every motor turning clear of the ground.
+  const realdata::FlightWindows rw = realdata::FindFlightWindows(log);
+  const double cut_s = std::isfinite(rw.cut_at_s) ? rw.cut_at_s : INFINITY;
   std::vector<char> flying(log.rows(), 0);
   size_t ir = 0;
   for (size_t r = 0; r < log.rows(); ++r) {
-    if (t_row[r] >= cut_s || !Held(tr, t_row[r], &ir)) continue;
+    if (rw.row_kind[r] != realdata::RowKind::kFlight || !Held(tr, t_row[r], &ir)) continue;
     bool ok = (up * (*alt)[r] - h0) > options.min_height_m && (!armed || (*armed)[r] != 0);
     for (size_t m = 0; ok && m < n; ++m) ok = (*mu[m])[ir] > kMinFlightOutput;
     flying[r] = ok ? 1 : 0;
@@ -152,7 +155,7 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
     size_t e = r;
     while (e + 1 < log.rows() && flying[e + 1]) ++e;
     FlightWindow w{t_row[r] + options.window_edge_s, t_row[e] - options.window_edge_s, "flight",
-                   "every motor output > 0.05 and CG above the take-off point (edges trimmed)"};
+                   "realdata flight window, every motor output > 0.05, CG above the take-off point (edges trimmed)"};
     if (w.end_s - w.start_s >= kMinWindow_s) {
       out.windows.push_back({ground_from, t_row[r], "ground", "motors idle or stopped, or near the ground"});
       bm.w.push_back(w);
@@ -167,14 +170,14 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
     out.windows.push_back({ground_from, log_end, "ground", "motors idle or stopped, or near the ground"});
   }
   if (std::isfinite(cut_s) && !t_row.empty()) {
-    out.windows.push_back({cut_s, t_row.back(), "excluded",
-                           fmt::format("tilt above {:.0f} deg for {:.1f} s (flip or crash) and after", kMaxTilt_deg, kSustained_s)});
+    out.windows.push_back({cut_s, t_row.back(), "excluded", rw.cut_why});
   }
   if (bm.total_s < options.min_flight_s) {
     return Status::BadInput(fmt::format("{}: t_s: {:.1f} s of flight found (needs {:.0f} s with every motor turning above "
                                         "{:.1f} m)", name, bm.total_s, options.min_flight_s, options.min_height_m));
   }
 
+  out.blocks = bm.Spans();
   // Battery: flight voltage, reference voltage, charge drawn.
   const std::vector<double>* bV = Col(batt, "voltage_V");
   const std::vector<double>* bI = Col(batt, "current_A");

@@ -44,6 +44,7 @@ struct FlightSamples {
   std::vector<Vec3> d_gyro, d_accel;
   std::vector<int> d_block;
   std::vector<FlightWindow> windows;
+  std::vector<BlockSpan> blocks;
   std::string source;
 };
 

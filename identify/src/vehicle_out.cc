@@ -6,6 +6,8 @@
 #include <yaml-cpp/yaml.h>
 
 #include "hexsim/common/rotation.h"
+#include "hexsim/common/yaml_reader.h"
+#include "hexsim/control/controller.h"
 #include "hexsim/identify/identify.h"
 
 namespace hexsim::identify {
@@ -38,6 +40,36 @@ double SocForOcv(const vehicle::BatteryParams& b, double V) {
     if (cell <= c[i]) return s[i - 1] + (s[i] - s[i - 1]) * (cell - c[i - 1]) / (c[i] - c[i - 1]);
   }
   return s.back();
+}
+
+// Hover rotor time constant τ = J/(K_t²/R + 2·k_Q·ω_h) (0 when undefined).
+double HoverTau_s(const vehicle::VehicleParams& v) {
+  if (v.rotors.empty() || !(v.motor.winding_resistance_ohm > 0)) return 0.0;
+  const auto& r = v.rotors.front();
+  const double omega_h = std::sqrt((v.mass_kg + v.payload.mass_kg) * kGravity_mps2 /
+                                   (static_cast<double>(v.rotors.size()) * r.k_T_Nprps2));
+  const double Kt = v.motor.Kt_Nm_per_A();
+  return v.RotorInertia_kgm2(0) / (Kt * Kt / v.motor.winding_resistance_ohm + 2.0 * r.k_Q_Nmprps2 * omega_h);
+}
+
+// The controller's gains act on accelerations (τ = J·α, a = thrust/m: see control/controller.h),
+// so thrust and inertia ratios enter through the vehicle model, not the gains. A slower rotor
+// (identified τ above the base's) is met by slowing the whole cascade by k = τ_base/τ: every loop's
+// crossover scales with k (kp ×k, ki ×k², kd unchanged; rate, attitude, velocity and position), so
+// each loop keeps its phase margin against the slower rotor (L = kp/(s(τs + 1)) time-scaled).
+control::ControllerParams RescaledControl(const control::ControllerParams& c, double k) {
+  control::ControllerParams o = c;
+  auto pid = [k](control::PidGains* g) {
+    g->kp *= k;
+    g->ki *= k * k;
+  };
+  for (control::PidGains* g : {&o.rate_roll, &o.rate_pitch, &o.rate_yaw, &o.vel_xy, &o.vel_z}) pid(g);
+  o.att_roll_kp *= k;
+  o.att_pitch_kp *= k;
+  o.att_yaw_kp *= k;
+  o.pos_xy_kp *= k;
+  o.pos_z_kp *= k;
+  return o;
 }
 
 }  // namespace
@@ -98,6 +130,20 @@ Result<std::string> IdentifiedVehicleYaml(const std::string& base_yaml_text, con
   doc["battery"]["internal_resistance_ohm"] = v.battery.internal_resistance_ohm;
   doc["battery"]["cells_series"] = v.battery.cells_series;
   doc["battery"]["initial_soc"] = v.battery.initial_soc;
+  // Control: the base's section (or the defaults), rescaled for a slower rotor.
+  const double tau_base = HoverTau_s(base), tau_id = HoverTau_s(v);
+  const double k = tau_base > 0 && tau_id > tau_base ? tau_base / tau_id : 1.0;
+  std::string control_note = "the base's gains (the identified rotor is not slower than the base's)";
+  if (k < 1.0) {
+    control::ControllerParams cp;
+    if (doc["control"]) {
+      YamlReader reader(doc["control"], "base vehicle", "control");
+      HEXSIM_RETURN_IF_ERROR(control::ParseControllerParams(reader, &cp));
+    }
+    doc["control"] = control::ControllerParamsToYaml(RescaledControl(cp, k));
+    control_note = fmt::format("the base's gains slowed by k = tau_base/tau = {:.3g}/{:.3g} = {:.3f} (kp x k, ki x k^2)",
+                               tau_base, tau_id, k);
+  }
   YAML::Emitter e;
   e << doc;
   if (!e.good()) return Status::CheckFailed(std::string("identify: YAML emitter: ") + e.GetLastError());
@@ -109,10 +155,11 @@ Result<std::string> IdentifiedVehicleYaml(const std::string& base_yaml_text, con
     head += fmt::format("#   {:<32} {:>12.5g} [{:.5g}, {:.5g}] {} ({}{})\n", k, p.value, p.ci95[0], p.ci95[1], p.unit,
                         p.source, p.source == "fitted" ? (p.applied ? ", applied" : ", not applied: interval leaves the range") : "");
   }
+  head += "# Control: " + control_note + ".\n";
   head += "# Applied: k_T (thrust_scale), k_Q (yaw_torque_coefficient_m), motor inertia (motor_time_constant_s),\n"
           "# drag, battery resistance/cells/initial SoC (IMU noise is reported only); only values whose interval lies inside the physical range are applied.\n"
-          "# The control section is the base's: the controller's gains act on angular accelerations and its\n"
-          "# model of thrust and inertia comes from this file, so the identified thrust rescales it.\n";
+          "# The controller's gains act on accelerations and its model of thrust and inertia comes from this\n"
+          "# file, so the identified thrust enters through the model; a slower rotor slows the cascade.\n";
   return head + e.c_str() + "\n";
 }
 

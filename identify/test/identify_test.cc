@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include "hexsim/common/atomic_file.h"
 #include "hexsim/common/rotation.h"
 #include "hexsim/sim/run_config.h"
 #include "hexsim/sim/simulation.h"
@@ -100,6 +101,18 @@ TEST(Identify, GivenASimulatedQuadLog_WhenIdentified_ThenBatteryResistanceCovers
   // The held-out vertical fit explains most of the vertical specific force's variation.
   ASSERT_FALSE(r->heldout.empty());
   EXPECT_GT(r->heldout[0].r2, 0.5) << r->heldout[0].rms_residual;
+  // The vehicle file written from the shipped quad's document loads as a run's vehicle, control included.
+  auto text = ReadFile(std::string(HEXSIM_SOURCE_DIR) + "/worlds/vehicles/quad_x.yaml");
+  ASSERT_TRUE(text.ok());
+  auto yaml = IdentifiedVehicleYaml(*text, f.setup.vehicle, *r);
+  ASSERT_TRUE(yaml.ok()) << yaml.status().message();
+  const std::string path = ::testing::TempDir() + "/identified_quad.yaml";
+  ASSERT_TRUE(WriteFileAtomic(path, *yaml).ok());
+  sim::RunRequest req;
+  req.vehicle = path;
+  req.mission = "square";
+  auto setup = sim::LoadRunSetup(req);
+  ASSERT_TRUE(setup.ok()) << setup.status().message();
   const vehicle::VehicleParams v = ApplyIdentified(f.setup.vehicle, *r);
   EXPECT_EQ(v.mass_kg, f.setup.vehicle.mass_kg);
   EXPECT_NEAR(v.rotors[0].k_T_Nprps2 / f.setup.vehicle.rotors[0].k_T_Nprps2, 1.0, 0.1);

@@ -60,6 +60,12 @@ struct FlightWindow {
   std::string why;
 };
 
+// One contiguous time block of the flight windows.
+struct BlockSpan {
+  double start_s = 0.0, end_s = 0.0;
+  int block = 0;
+};
+
 // Fit quality on held-out blocks (fitted on the even blocks, evaluated on the odd ones).
 struct HeldoutFit {
   std::string output, unit;
@@ -83,6 +89,8 @@ struct IdentifyResult {
   std::map<std::string, Param> params;
   std::vector<std::string> param_order;  // report order
   std::vector<FlightWindow> windows;
+  std::vector<BlockSpan> blocks;
+  std::vector<int> fit_blocks;  // the blocks the parameters were fitted on
   std::vector<HeldoutFit> heldout;
   // Dynamics residual on the held-out blocks, 3 axes, RMS about zero: measured specific force
   // against (−Σ_i T_i(u_i, V)·ẑ + F_drag(v_B))/m through hexsim's steady powertrain, for the base
@@ -115,6 +123,17 @@ Result<std::string> IdentifiedVehicleYaml(const std::string& base_yaml_text, con
                                           const IdentifyResult& result);
 // The base vehicle with the identified values applied (what the YAML describes).
 vehicle::VehicleParams ApplyIdentified(const vehicle::VehicleParams& base, const IdentifyResult& result);
+
+// The log with its measured sensor columns (gyro_*, accel_*, mag*_x/y/z_uT, in the table and in the
+// imu/mag streams) emptied inside the fitting blocks: what `gap diagnose` without `--sim` diagnoses,
+// so the identified vehicle is judged on data it was not fitted to.
+logs::FlightLog HeldOutLog(const logs::FlightLog& log, const IdentifyResult& result);
+// How far `vehicle` is from the identified one: per comparable parameter, the identified value and
+// interval, the vehicle's value through hexsim's models (hover output at the log's V_ref, thrust
+// scale 1, motor time constant at hover, k_Q/k_T, drag per mass, battery resistance), and whether the
+// interval holds it. `lines` (optional) gets one readable line per parameter.
+nlohmann::json DistanceFromVehicle(const IdentifyResult& result, const vehicle::VehicleParams& vehicle,
+                                   std::vector<std::string>* lines = nullptr);
 
 // identify.json (hexsim.identify/1).
 nlohmann::json ToJson(const IdentifyResult& result);
