@@ -53,7 +53,7 @@ gen_compare() {
 
 gen_selftest() {
   # Exit 1 (a target missed) is a result, not a failure of this script.
-  "$hexsim" gap selftest --trials 100 --json "$work/selftest.json" > /dev/null || [ $? -eq 1 ]
+  "$hexsim" gap selftest --profile ideal --trials 100 --json "$work/selftest.json" > /dev/null || [ $? -eq 1 ]
   python3 "$tables" selftest "$work/selftest.json" "$machine" "$date"
 }
 

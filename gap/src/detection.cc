@@ -217,6 +217,7 @@ Structure DetectStructure(const std::vector<double>& t, const std::vector<Vec3>&
   double p_lb = 1.0;
   for (int axis = 0; axis < 3; ++axis) {
     std::vector<double> x;
+    x.reserve(r.size());
     for (const auto& v : r) x.push_back(v[axis]);
     p_lb = std::min(p_lb, 3.0 * LjungBoxP(x, kLjungBoxLags));
   }
@@ -234,11 +235,13 @@ nlohmann::json ResidualLeft(const std::vector<double>& t, const std::vector<Vec3
   double f_dom = 0;
   if (n >= 32) {
     std::vector<double> dts;
+    dts.reserve(n);
     for (size_t k = 1; k < n; ++k) dts.push_back(t[k] - t[k - 1]);
     std::nth_element(dts.begin(), dts.begin() + static_cast<std::ptrdiff_t>(dts.size() / 2), dts.end());
     const size_t step = std::max<size_t>(1, n / 2048);
     const double dt = dts[dts.size() / 2] * static_cast<double>(step);
     std::vector<Vec3> x;
+    x.reserve(n / step + 1);
     for (size_t k = 0; k < n; k += step) x.push_back(after[k]);
     const size_t m = x.size();
     Vec3 mean = Vec3::Zero();

@@ -126,12 +126,10 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
   RngStream rng(options.seed, "gap_bootstrap");
   const bool sim_truth = log.meta.value("source", std::string()) == "hexsim";
   const realdata::LagEstimate stale = internal::CurrentStaleness(log, fw.row_kind, options);
-  // The logged current trails the throttle by the motors' own response (the configured vehicle's
-  // rotor time constant at hover) plus the logging staleness; only a staleness whose interval clears
-  // that response is aligned.
-  const double tau_motor_s = HoverRotorTimeConstant_s(vehicle);
-  const double shift_s = stale.ok() && stale.ci95_s[0] > tau_motor_s && std::isfinite(tau_motor_s)
-                             ? std::min(stale.value_s - tau_motor_s, realdata::FindRange("current_staleness")->hi)
+  // The logged current trails the throttle by its logging staleness (plus the motors' own response,
+  // tens of ms, which the scan cannot separate): a staleness whose interval clears zero is aligned.
+  const double shift_s = stale.ok() && stale.ci95_s[0] > 0 && realdata::IsPlausible("current_staleness", stale.value_s)
+                             ? stale.value_s
                              : 0.0;
   double flight_s = 0;
   for (const auto& w : fw.windows) flight_s += w.kind == "flight" ? w.end_s - w.start_s : 0.0;
@@ -179,7 +177,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
     const ChannelData ground = internal::ReplayCompass(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro);
     r.ground_vs_flight = internal::GroundVsFlight(ch, ground, r.nuisance);
     if (ro.calibrated_log) {
-      r.findings.push_back("logged values are the autopilot's calibrated ones: the configured hard and soft iron are not "
+      r.findings.emplace_back("logged values are the autopilot's calibrated ones: the configured hard and soft iron are not "
                            "applied, the configured wiring field is");
     }
     finish(std::move(r), ch);

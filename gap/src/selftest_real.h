@@ -23,7 +23,7 @@ const std::vector<std::string>& OutOfLibraryFamilies();
 // Adds `family` to compass `compass` (0-based) of a trial log, in the sensor frame.
 Status InjectOutOfLibrary(logs::FlightLog* log, size_t compass, const std::string& family, RngStream* rng);
 // The log as a real autopilot would have logged it (see selftest_real.cc).
-Result<logs::FlightLog> DegradeToRealLog(const logs::FlightLog& log, const vehicle::VehicleParams& configured,
+Result<logs::FlightLog> DegradeToRealLog(const logs::FlightLog& in, const vehicle::VehicleParams& configured,
                                          RngStream* rng, RealLogTruth* truth);
 
 }  // namespace hexsim::gap::internal

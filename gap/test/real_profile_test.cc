@@ -36,9 +36,11 @@ TEST(GapRealProfile, GivenADegradedTrial_WhenDiagnosed_ThenRowsAre10HzAndTimingR
   EXPECT_LE(st["ci95"][0].get<double>(), truth.staleness_s + 0.1) << Summary(*rep);
   EXPECT_GE(st["ci95"][1].get<double>(), truth.staleness_s) << Summary(*rep);
   // With a stale current updated at 5 Hz, the smooth throttle can carry the current-driven field
-  // better than the logged current: either is the right physical answer here (they separate only
-  // by a manoeuvre, SeparatingManoeuvre), and the untouched compasses show no gap.
-  EXPECT_TRUE(mag2->verdict == "current_hard_iron" || mag2->verdict == "throttle_hard_iron") << Summary(*rep);
+  // as well as the logged current: either, or "ambiguous" between them, is the right answer here
+  // (they separate only by a manoeuvre, SeparatingManoeuvre); the untouched compasses show no gap.
+  EXPECT_TRUE(mag2->verdict == "current_hard_iron" || mag2->verdict == "throttle_hard_iron" ||
+              mag2->verdict == "ambiguous")
+      << Summary(*rep);
   EXPECT_EQ(gaptest::FindChannel(*rep, "mag")->verdict, "none") << Summary(*rep);
 }
 

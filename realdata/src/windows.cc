@@ -214,7 +214,8 @@ FlightWindows WindowsFromRange(const logs::FlightLog& log, double from_s, double
   return fw;
 }
 
-std::vector<std::string> PhaseLabels(const logs::FlightLog& log, const FlightWindows& fw, double min_segment_s) {
+std::vector<std::string> PhaseLabels(const logs::FlightLog& log, const FlightWindows& windows, double min_segment_s) {
+  const FlightWindows& fw = windows;
   const size_t n = log.rows();
   std::vector<std::string> ph(n, "unknown");
   if (n == 0 || !log.Has("t_s")) return ph;

@@ -91,8 +91,8 @@ TEST(FlightWindows, GivenFromAndTo_WhenOverridden_ThenOnlyThatRangeIsFlight) {
 }
 
 TEST(MergeShortSegments, GivenAOneSampleBlip_WhenMerged_ThenItJoinsItsLongerNeighbourButFixedLabelsStay) {
-  std::vector<double> t;
-  for (int i = 0; i < 100; ++i) t.push_back(0.1 * i);
+  std::vector<double> t(100);
+  for (int i = 0; i < 100; ++i) t[static_cast<size_t>(i)] = 0.1 * i;
   std::vector<std::string> l(100, "hover");
   l[40] = "landing";
   for (int i = 90; i < 100; ++i) l[i] = "excluded";
