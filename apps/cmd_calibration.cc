@@ -10,7 +10,6 @@
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/paths.h"
 #include "hexsim/common/yaml_reader.h"
-#include "hexsim/magnetics/calib_io.h"
 #include "hexsim/magnetics/compensator.h"
 #include "hexsim/magnetics/heading_error.h"
 #include "turntable_util.h"
@@ -45,28 +44,6 @@ Status TurntableCommand(const TurntableArgs& a) {
   out.Commit();
   std::printf("turntable: %zu samples (%zu planes x %zu control amounts) -> %s\n", rows->size(), opt.planes.size(),
               opt.control_u.size(), out.File("samples.csv").c_str());
-  return Status::Ok();
-}
-
-struct CalibrateArgs {
-  std::string samples, method = "adaptive", out, compass = "mag";
-};
-
-Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
-  auto text = ReadFile(a.samples);
-  if (!text.ok()) return text.status();
-  auto samples = magnetics::ParseSamplesCsv(*text, a.samples, a.compass);
-  if (!samples.ok()) return samples.status();
-  nlohmann::json report;
-  auto comp = magnetics::LearnCompensator(a.method, *samples, magnetics::LearnOptions{}, &report);
-  if (!comp.ok()) return comp.status().WithContext(a.samples);
-  const std::string report_path = DirName(a.out) + "/" + FileStem(a.out) + ".report.json";
-  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(report_path, report.dump(2) + "\n"));
-  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(a.out, magnetics::CompensatorToYamlText(**comp)));
-  const bool accepted = report.value("accepted", false);
-  std::printf("calibrate: %s %s (rms residual %.3f uT) -> %s\n", a.method.c_str(),
-              accepted ? "accepted" : "REJECTED by its gate", report.value("rms_residual_uT", 0.0), a.out.c_str());
-  if (!accepted) *exit_code = 1;
   return Status::Ok();
 }
 
@@ -149,19 +126,6 @@ void AddCalibrationCommands(CLI::App& app, int* exit_code) {
     c->add_option("--seed", a->seed, "Random seed")->capture_default_str();
     c->add_option("--out", a->out, "Output directory")->required();
     c->callback([a, exit_code] { *exit_code = Report(TurntableCommand(*a)); });
-  }
-  {
-    auto a = std::make_shared<CalibrateArgs>();
-    CLI::App* c = app.add_subcommand("calibrate", "Fit a compass calibration from samples -> calib.yaml + calib.report.json");
-    c->add_option("samples", a->samples, "samples.csv from hexsim turntable (or a logged ramp)")->required();
-    c->add_option("--method", a->method, "none|traditional|adaptive|adaptive-current|compassmot|px4-ls")
-        ->capture_default_str();
-    c->add_option("--compass", a->compass, "Which compass columns: mag, mag2, ...")->capture_default_str();
-    c->add_option("--out", a->out, "calib.yaml to write")->required();
-    c->callback([a, exit_code] {
-      const Status s = CalibrateCommand(*a, exit_code);
-      if (!s.ok()) *exit_code = Report(s);
-    });
   }
   {
     auto a = std::make_shared<HeadingErrorArgs>();

@@ -8,6 +8,8 @@ void RegisterCommands(CLI::App& app, int* exit_code) {
   AddIdentifyCommand(app, exit_code);
   AddBatchCommands(app, exit_code);
   AddCalibrationCommands(app, exit_code);
+  AddCalibrateCommand(app, exit_code);
+  AddFieldCommand(app, exit_code);
   AddCompareCommand(app, exit_code);
   AddImportCommand(app, exit_code);
   AddPlotCommand(app, exit_code);

@@ -1,6 +1,7 @@
 # Generates a C++ source with the WMM coefficient tables compiled in, so that the magnetics library
 # reads no file at run time.
-#   cmake -DWMM_DIR=<dir with WMM20xx.COF> -DEPOCHS=2015,2020,2025 -DOUTPUT=<file.cc> -P generate_wmm.cmake
+#   cmake -DWMM_DIR=<dir with WMM<id>.COF> -DEPOCHS=2015,2015v2,2020,2025 -DOUTPUT=<file.cc> -P generate_wmm.cmake
+# Each id is a model: its first four characters are the epoch year (2015v2: epoch 2015).
 # COF layout (NOAA): a header line "epoch model date", then "n m g h g_dot h_dot" lines (nT, nT/yr),
 # ending with a line of 9s.
 cmake_minimum_required(VERSION 3.22)
@@ -15,8 +16,9 @@ math(EXPR kCount "(${kMaxDegree} + 1) * (${kMaxDegree} + 2) / 2")
 
 set(body "")
 set(table_entries "")
-foreach(epoch IN LISTS EPOCHS)
-  set(file "${WMM_DIR}/WMM${epoch}.COF")
+foreach(id IN LISTS EPOCHS)
+  string(SUBSTRING "${id}" 0 4 epoch)
+  set(file "${WMM_DIR}/WMM${id}.COF")
   if(NOT EXISTS "${file}")
     message(FATAL_ERROR "generate_wmm.cmake: ${file}: missing coefficient file")
   endif()
@@ -88,10 +90,10 @@ foreach(epoch IN LISTS EPOCHS)
     foreach(k RANGE 0 ${last})
       string(APPEND values "${${name}_${k}}, ")
     endforeach()
-    string(APPEND body "static const double k${name}_${epoch}[kWmmCoefficientCount] = {${values}};\n")
+    string(APPEND body "static const double k${name}_${id}[kWmmCoefficientCount] = {${values}};\n")
   endforeach()
   string(APPEND table_entries
-    "    {${epoch}, ${epoch_year}, \"${model_name}\", \"${release_date}\", kg_${epoch}, kh_${epoch}, kgd_${epoch}, khd_${epoch}},\n")
+    "    {${epoch}, ${epoch_year}, \"${model_name}\", \"${release_date}\", kg_${id}, kh_${id}, kgd_${id}, khd_${id}, \"wmm${id}\"},\n")
 endforeach()
 
 list(LENGTH EPOCHS num_epochs)

@@ -202,7 +202,9 @@ Result<std::unique_ptr<Compensator>> CompensatorFromYaml(const YAML::Node& node,
   std::unique_ptr<Compensator> out;
   if (method == "none") {
     out = MakeNoneCompensator();
-  } else if (method == "traditional") {
+  } else if (method == "traditional" || method == "sphere" || method == "sphere-planar" || method == "ellipsoid" ||
+             method == "robust-sphere" || method == "robust-sphere-planar" || method == "robust-ellipsoid") {
+    // K⁻¹(H − β); the free-hand fits of field_calibration.h write K = A⁻¹ (any scale).
     ReadSoftIron(r, &K);
     r.Req("hard_iron_uT", &beta);
     if (r.ok()) out = std::make_unique<EllipsoidCompensator>(method, K, beta);

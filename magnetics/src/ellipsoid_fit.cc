@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <Eigen/SVD>
@@ -23,6 +24,12 @@ Status CheckSamples(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o
   }
   for (size_t i = 0; i < H.size(); ++i) {
     if (!H[i].allFinite()) return Status::BadInput(fmt::format("sample {} is not finite", i));
+  }
+  if (!o.weights.empty() && o.weights.size() != H.size()) {
+    return Status::BadInput(fmt::format("weights: {} given for {} samples", o.weights.size(), H.size()));
+  }
+  for (double w : o.weights) {
+    if (!(w >= 0.0 && std::isfinite(w))) return Status::BadInput("weights: must be finite and >= 0");
   }
   return Status::Ok();
 }
@@ -67,12 +74,14 @@ bool SqrtSpd(const Matrix3d& A, Matrix3d* out) {
 // Li & Griffiths (2004): least-squares ellipsoid a x² + b y² + c z² + 2f yz + 2g xz + 2h xy
 // + 2p x + 2q y + 2r z + d = 0 subject to 4J − I² = 1. On centred, scaled data x_n.
 // Out: centre β_n and M_n with ‖M_n(x_n − β_n)‖ = 1 on the ellipsoid.
-Status AlgebraicEllipsoid(const std::vector<Vector3d>& xn, Vector3d* beta_n, Matrix3d* M_n) {
+Status AlgebraicEllipsoid(const std::vector<Vector3d>& xn, const std::vector<double>& w, Vector3d* beta_n,
+                          Matrix3d* M_n) {
   const Eigen::Index n = static_cast<Eigen::Index>(xn.size());
   Eigen::MatrixXd D(n, 10);
   for (Eigen::Index i = 0; i < n; ++i) {
     const double x = xn[i](0), y = xn[i](1), z = xn[i](2);
     D.row(i) << x * x, y * y, z * z, 2 * y * z, 2 * x * z, 2 * x * y, 2 * x, 2 * y, 2 * z, 1.0;
+    if (!w.empty()) D.row(i) *= std::sqrt(w[static_cast<size_t>(i)]);
   }
   // S = DᵀD from column dot products, upper triangle mirrored (half a GEMM, no packing).
   Eigen::Matrix<double, 10, 10> S;
@@ -131,9 +140,9 @@ struct LmResult {
 };
 
 // Levenberg–Marquardt on e_i = ‖M(H_i − β)‖ − 1, p = [M00 M11 M22 M01 M02 M12 βx βy βz].
-// `fit_shape` false keeps M fixed at a multiple of I (sphere: only M00 = M11 = M22 free).
+// `sphere` keeps M at a multiple of I (only M00 = M11 = M22 free); `planar` also keeps βz fixed.
 LmResult RefineLm(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, bool sphere,
-                  Eigen::Matrix<double, 9, 1>* params) {
+                  Eigen::Matrix<double, 9, 1>* params, bool planar = false) {
   using Vec9 = Eigen::Matrix<double, 9, 1>;
   using Mat9 = Eigen::Matrix<double, 9, 9>;
   const Eigen::Index n = static_cast<Eigen::Index>(H.size());
@@ -162,6 +171,11 @@ LmResult RefineLm(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, 
         (*J)(i, 5) = u(1) * v(2) + u(2) * v(1);
       }
       J->block<1, 3>(i, 6) = -(u.transpose() * M);
+      if (!o.weights.empty()) {  // Σ w e²: rows scaled by √w
+        const double sw = std::sqrt(o.weights[static_cast<size_t>(i)]);
+        (*e)(i) *= sw;
+        J->row(i) *= sw;
+      }
     }
   };
   // Normal equations of the full 9 columns, JᵀJ and Jᵀe, as column dot products (contiguous
@@ -174,6 +188,7 @@ LmResult RefineLm(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, 
   };
   // Active parameter mask.
   std::vector<int> active = sphere ? std::vector<int>{0, 6, 7, 8} : std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7, 8};
+  if (planar) active = {0, 6, 7};
   const Eigen::Index na = static_cast<Eigen::Index>(active.size());
   // Active-parameter sized (≤ 9) matrices and vectors, stored inline: no heap in the iterations.
   using MatA = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 9, 9>;
@@ -222,6 +237,12 @@ LmResult RefineLm(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, 
         continue;
       }
       p_new = apply_step(p, dx);
+      // Constrained to the positive definite region (an ellipsoid, never a hyperboloid): a step
+      // that leaves it is rejected like one that raises the cost.
+      if (!sphere && SymFromParams(p_new).llt().info() != Eigen::Success) {
+        lambda *= 10.0;
+        continue;
+      }
       evaluate(p_new, &e_new, &J_new);
       const double cost_new = e_new.squaredNorm();
       if (std::isfinite(cost_new) && cost_new <= cost) {
@@ -317,15 +338,20 @@ void EvaluateGate(const EllipsoidFitOptions& o, EllipsoidFit* f) {
 void FinishFit(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, EllipsoidFit* f) {
   std::vector<Vector3d> corrected;
   corrected.reserve(H.size());
-  double ss = 0.0, mx = 0.0;
-  for (const auto& h : H) {
-    const Vector3d c = f->Correct(h);
-    corrected.push_back(c);
+  double ss = 0.0, sw = 0.0, mx = 0.0;
+  for (size_t i = 0; i < H.size(); ++i) {
+    const Vector3d c = f->Correct(H[i]);
+    const double w = o.weights.empty() ? 1.0 : o.weights[i];
     const double e = c.norm() - f->radius_uT;
-    ss += e * e;
-    mx = std::max(mx, std::abs(e));
+    // Weighted (robust fits): a down-weighted sample counts neither in the RMS nor in coverage.
+    ss += w * e * e;
+    sw += w;
+    if (w > 0.5) {
+      corrected.push_back(c);
+      mx = std::max(mx, std::abs(e));
+    }
   }
-  f->rms_residual_uT = std::sqrt(ss / static_cast<double>(H.size()));
+  f->rms_residual_uT = sw > 0.0 ? std::sqrt(ss / sw) : 0.0;
   f->max_residual_uT = mx;
   f->coverage_fraction = DirectionCoverage(corrected, o.coverage_bins);
   EvaluateGate(o, f);
@@ -463,7 +489,7 @@ EllipsoidFit FitEllipsoid(const std::vector<Vector3d>& H, const EllipsoidFitOpti
   for (const auto& h : H) xn.emplace_back((h - mean) / scale);
   Vector3d beta_n;
   Matrix3d M_n;
-  f.status = AlgebraicEllipsoid(xn, &beta_n, &M_n);
+  f.status = AlgebraicEllipsoid(xn, o.weights, &beta_n, &M_n);
   if (!f.status.ok()) return f;
   // Back to µT: M_n (x_n − β_n) = (M_n / s)(H − (μ + s β_n)).
   Eigen::Matrix<double, 9, 1> p;
@@ -508,6 +534,11 @@ EllipsoidFit FitSphere(const std::vector<Vector3d>& H, const EllipsoidFitOptions
     const Vector3d x = (H[i] - mean) / scale;
     A.row(i) << 2 * x(0), 2 * x(1), 2 * x(2), 1.0;
     b(i) = x.squaredNorm();
+    if (!o.weights.empty()) {
+      const double sw = std::sqrt(o.weights[static_cast<size_t>(i)]);
+      A.row(i) *= sw;
+      b(i) *= sw;
+    }
   }
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeThinV);
   const auto& sv = svd.singularValues();
@@ -542,6 +573,66 @@ EllipsoidFit FitSphere(const std::vector<Vector3d>& H, const EllipsoidFitOptions
   f.soft_iron_inv.setIdentity();
   f.radius_uT = 1.0 / p(0);
   f.hard_iron_uT = p.tail<3>();
+  FinishFit(H, o, &f);
+  return f;
+}
+
+EllipsoidFit FitSpherePlanar(const std::vector<Vector3d>& H, const Vector3d& normal, const EllipsoidFitOptions& o) {
+  EllipsoidFit f;
+  Vector3d mean;
+  double scale = 0.0;
+  if (!PrepareFit(H, o, &f, &mean, &scale)) return f;
+  if (!(normal.norm() > 0.0) || !normal.allFinite()) {
+    f.status = Status::BadInput("planar sphere fit: the plane's normal must be a non-zero vector");
+    return f;
+  }
+  // Frame with z' along the normal: H' = Rᵀ H, β' = (cx, cy, 0).
+  const Vector3d nz = normal.normalized();
+  const Vector3d ax = (std::abs(nz.x()) < 0.9 ? Vector3d::UnitX() : Vector3d::UnitY()).cross(nz).normalized();
+  Matrix3d R;
+  R.col(0) = ax;
+  R.col(1) = nz.cross(ax);
+  R.col(2) = nz;
+  std::vector<Vector3d> Hr;
+  Hr.reserve(H.size());
+  for (const auto& h : H) Hr.emplace_back(R.transpose() * h / scale);
+  // ‖h'‖² = 2 cx x' + 2 cy y' + (r² − cx² − cy²), on scaled data (z' is carried in ‖h'‖²).
+  const Eigen::Index n = static_cast<Eigen::Index>(H.size());
+  Eigen::MatrixXd A(n, 3);
+  Eigen::VectorXd b(n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Vector3d& x = Hr[static_cast<size_t>(i)];
+    const double sw = o.weights.empty() ? 1.0 : std::sqrt(o.weights[static_cast<size_t>(i)]);
+    A.row(i) << 2 * x(0) * sw, 2 * x(1) * sw, sw;
+    b(i) = x.squaredNorm() * sw;
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  if (!(svd.singularValues()(2) > 1e-9 * svd.singularValues()(0))) {
+    f.status = Status::BadInput("samples do not determine a circle in the plane (degenerate geometry)");
+    return f;
+  }
+  const Eigen::Vector3d sol = svd.solve(b);
+  const double r2 = sol(2) + sol(0) * sol(0) + sol(1) * sol(1);
+  if (!(r2 > 0.0)) {
+    f.status = Status::Numerical("planar sphere fit: negative squared radius");
+    return f;
+  }
+  for (auto& h : Hr) h *= scale;
+  Eigen::Matrix<double, 9, 1> p;
+  const double m0 = 1.0 / (std::sqrt(r2) * scale);
+  p << m0, m0, m0, 0, 0, 0, sol(0) * scale, sol(1) * scale, 0.0;
+  const LmResult lm = RefineLm(Hr, o, /*sphere=*/true, &p, /*planar=*/true);
+  f.iterations = lm.iterations;
+  f.converged = lm.converged;
+  f.condition_number = lm.condition_number;
+  if (!lm.status.ok() || !(p(0) > 0.0)) {
+    f.status = lm.status.ok() ? Status::Numerical("planar sphere fit: non-positive radius") : lm.status;
+    return f;
+  }
+  f.soft_iron.setIdentity();
+  f.soft_iron_inv.setIdentity();
+  f.radius_uT = 1.0 / p(0);
+  f.hard_iron_uT = R * Vector3d(p(6), p(7), 0.0);
   FinishFit(H, o, &f);
   return f;
 }

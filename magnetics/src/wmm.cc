@@ -3,6 +3,9 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+
+#include <fmt/format.h>
 
 #include "hexsim/common/rotation.h"
 #include "wmm_coefficients.h"
@@ -21,19 +24,18 @@ constexpr double kWgs84InvF = 298.257223563;
 constexpr double kWmmRefRadius_km = 6371.2;
 constexpr double kNtPerUt = 1000.0;
 
-std::string FormatYear(double y) {
-  char buf[64];
-  std::snprintf(buf, sizeof(buf), "%.4g", y);
-  return buf;
-}
+// Shortest round-trip form: 2030.4 prints as 2030.4 (a %.4g format printed "2030").
+std::string FormatYear(double y) { return fmt::format("{}", y); }
 
+// The default model of an epoch: the last table with it (WMM2015v2 over WMM2015).
 const WmmCoefficients* FindEpoch(int epoch) {
   int count = 0;
   const WmmCoefficients* tables = internal::WmmTables(&count);
+  const WmmCoefficients* found = nullptr;
   for (int i = 0; i < count; ++i) {
-    if (tables[i].epoch == epoch) return &tables[i];
+    if (tables[i].epoch == epoch) found = &tables[i];
   }
-  return nullptr;
+  return found;
 }
 
 Status CheckPoint(const GeodeticPoint& where) {
@@ -144,6 +146,7 @@ EarthField Evaluate(const WmmCoefficients& c, const GeodeticPoint& where, double
   out.declination_deg = std::atan2(Y, X) * kRadToDeg;
   out.inclination_deg = std::atan2(Z, std::hypot(X, Y)) * kRadToDeg;
   out.model = c.model;
+  out.model_id = c.id;
   return out;
 }
 
@@ -153,9 +156,60 @@ std::vector<int> WmmEpochs() {
   int count = 0;
   const WmmCoefficients* tables = internal::WmmTables(&count);
   std::vector<int> epochs;
-  epochs.reserve(static_cast<size_t>(count));
-  for (int i = 0; i < count; ++i) epochs.push_back(tables[i].epoch);
+  for (int i = 0; i < count; ++i) {
+    if (epochs.empty() || epochs.back() != tables[i].epoch) epochs.push_back(tables[i].epoch);
+  }
   return epochs;
+}
+
+std::vector<std::string> WmmModelIds() {
+  int count = 0;
+  const WmmCoefficients* tables = internal::WmmTables(&count);
+  std::vector<std::string> ids;
+  for (int i = 0; i < count; ++i) ids.emplace_back(tables[i].id);
+  return ids;
+}
+
+Result<EarthField> EvaluateWmmModel(const std::string& id, const GeodeticPoint& where, double decimal_year,
+                                    bool allow_extrapolation) {
+  int count = 0;
+  const WmmCoefficients* tables = internal::WmmTables(&count);
+  const WmmCoefficients* c = nullptr;
+  std::string all;
+  for (int i = 0; i < count; ++i) {
+    if (id == tables[i].id) c = &tables[i];
+    all += std::string(all.empty() ? "" : ", ") + tables[i].id;
+  }
+  if (c == nullptr) return Status::BadInput(fmt::format("model: unknown WMM model '{}' (one of: {})", id, all));
+  if (!std::isfinite(decimal_year)) return Status::BadInput("decimal_year: not a finite number");
+  const double last = c->epoch_year + kWmmModelSpan_yr;
+  if (!allow_extrapolation && (decimal_year < c->epoch_year || decimal_year > last)) {
+    return Status::BadInput(fmt::format("decimal_year: {} outside {} validity {:.1f}–{:.1f}", FormatYear(decimal_year), id,
+                                        c->epoch_year, last));
+  }
+  HEXSIM_RETURN_IF_ERROR(CheckPoint(where));
+  return Evaluate(*c, where, decimal_year);
+}
+
+Result<double> DecimalYearFromDate(const std::string& text) {
+  char* end = nullptr;
+  const double plain = std::strtod(text.c_str(), &end);
+  if (!text.empty() && end == text.c_str() + text.size() && std::isfinite(plain)) return plain;
+  int y = 0, m = 0, d = 0;
+  char tail = 0;
+  if (text.size() != 10 || std::sscanf(text.c_str(), "%4d-%2d-%2d%c", &y, &m, &d, &tail) != 3 || text[4] != '-' ||
+      text[7] != '-') {
+    return Status::BadInput(fmt::format("date: '{}': expected a decimal year (2016.5) or YYYY-MM-DD", text));
+  }
+  const bool leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
+  static const int kDays[12] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
+  if (m < 1 || m > 12 || d < 1 || d > kDays[m - 1] + (m == 2 && leap ? 1 : 0)) {
+    return Status::BadInput(fmt::format("date: '{}': no such day", text));
+  }
+  int day_of_year = d - 1;
+  for (int k = 0; k < m - 1; ++k) day_of_year += kDays[k] + (k == 1 && leap ? 1 : 0);
+  // NOAA's convention (WMM software): year + (day of year − 1) / days in the year, at 00:00 UTC.
+  return y + day_of_year / (leap ? 366.0 : 365.0);
 }
 
 Result<EarthField> EvaluateWmmEpoch(int epoch, const GeodeticPoint& where, double decimal_year) {

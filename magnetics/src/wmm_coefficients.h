@@ -18,9 +18,10 @@ struct WmmCoefficients {
   const double* h_nT = nullptr;
   const double* g_dot_nTpyr = nullptr;  // secular variation
   const double* h_dot_nTpyr = nullptr;
+  const char* id = "";              // "wmm2015", "wmm2015v2", ...: the name users select
 };
 
-// All compiled-in epochs, in ascending order; *count receives their number.
+// All compiled-in models, ascending by epoch (for one epoch, the default model last); *count receives their number.
 const WmmCoefficients* WmmTables(int* count);
 
 }  // namespace hexsim::magnetics::internal

@@ -1,5 +1,6 @@
 #include "hexsim/magnetics/wmm.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -20,8 +21,9 @@ struct TestPoint {
   int line = 0;
 };
 
-std::vector<TestPoint> ReadTestPoints(int epoch) {
-  const std::string path = std::string(HEXSIM_SOURCE_DIR) + "/data/wmm/test_values_" + std::to_string(epoch) + ".csv";
+// id "wmm2015v2" → data/wmm/test_values_2015v2.csv
+std::vector<TestPoint> ReadTestPoints(const std::string& id) {
+  const std::string path = std::string(HEXSIM_SOURCE_DIR) + "/data/wmm/test_values_" + id.substr(3) + ".csv";
   std::ifstream in(path);
   EXPECT_TRUE(in.good()) << path;
   std::vector<TestPoint> points;
@@ -59,22 +61,22 @@ std::vector<TestPoint> ReadTestPoints(int epoch) {
 constexpr double kFieldTol_uT = 0.001;
 constexpr double kAngleTol_deg = 0.01;
 
-class WmmOfficialPoints : public ::testing::TestWithParam<int> {};
+class WmmOfficialPoints : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(WmmOfficialPoints, GivenOfficialTestPoints_WhenEvaluated_ThenComponentsWithin1nTAndAnglesWithin001Deg) {
-  const int epoch = GetParam();
-  const std::vector<TestPoint> points = ReadTestPoints(epoch);
+  const std::string id = GetParam();
+  const std::vector<TestPoint> points = ReadTestPoints(id);
   ASSERT_GE(points.size(), 12u);
   for (const TestPoint& p : points) {
-    SCOPED_TRACE("test_values_" + std::to_string(epoch) + ".csv:" + std::to_string(p.line));
+    SCOPED_TRACE("test_values_" + id.substr(3) + ".csv:" + std::to_string(p.line));
     const GeodeticPoint where{p.lat_deg, p.lon_deg, p.alt_km * 1000.0};
-    const Result<EarthField> by_epoch = EvaluateWmmEpoch(epoch, where, p.year);
+    const Result<EarthField> by_epoch = EvaluateWmmModel(id, where, p.year);
     ASSERT_TRUE(by_epoch.ok()) << by_epoch.status().message();
+    EXPECT_EQ(by_epoch->model_id, id);
     const Result<EarthField> by_date = EvaluateWmm(where, p.year);
     ASSERT_TRUE(by_date.ok()) << by_date.status().message();
-    // The date alone picks this epoch for every official point.
-    EXPECT_EQ(by_date->model, by_epoch->model);
-    EXPECT_EQ(by_date->model, "WMM-" + std::to_string(epoch));
+    // The date alone picks this model for every official point, except the superseded original WMM2015.
+    EXPECT_EQ(by_date->model_id, id == "wmm2015" ? "wmm2015v2" : id);
     const EarthField& f = *by_epoch;
     EXPECT_NEAR(f.B_N_uT.x(), p.x_nT / 1000.0, kFieldTol_uT);
     EXPECT_NEAR(f.B_N_uT.y(), p.y_nT / 1000.0, kFieldTol_uT);
@@ -86,8 +88,40 @@ TEST_P(WmmOfficialPoints, GivenOfficialTestPoints_WhenEvaluated_ThenComponentsWi
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(AllEpochs, WmmOfficialPoints, ::testing::Values(2015, 2020, 2025),
-                         [](const ::testing::TestParamInfo<int>& info) { return "WMM" + std::to_string(info.param); });
+INSTANTIATE_TEST_SUITE_P(AllModels, WmmOfficialPoints, ::testing::Values("wmm2015", "wmm2015v2", "wmm2020", "wmm2025"),
+                         [](const ::testing::TestParamInfo<std::string>& info) { return info.param; });
+
+TEST(Wmm, GivenWmm2015AndItsV2_WhenEvaluatedIn2019_ThenTheyDifferByTheCorrection) {
+  // NOAA replaced WMM2015 in 2018 because it had drifted by up to ~190 nT: v2 and the original
+  // differ by tens to hundreds of nT in 2019 somewhere, and by far less than the field.
+  double max_nT = 0.0;
+  for (double lat = -80; lat <= 80; lat += 20) {
+    for (double lon = -180; lon < 180; lon += 30) {
+      const auto a = EvaluateWmmModel("wmm2015", {lat, lon, 0.0}, 2019.5);
+      const auto b = EvaluateWmmModel("wmm2015v2", {lat, lon, 0.0}, 2019.5);
+      ASSERT_TRUE(a.ok() && b.ok());
+      max_nT = std::max(max_nT, (a->B_N_uT - b->B_N_uT).norm() * 1000.0);
+    }
+  }
+  EXPECT_GT(max_nT, 50.0);
+  EXPECT_LT(max_nT, 400.0);
+  EXPECT_EQ(WmmModelIds(), (std::vector<std::string>{"wmm2015", "wmm2015v2", "wmm2020", "wmm2025"}));
+  const auto out = EvaluateWmmModel("wmm2015", {0.0, 0.0, 0.0}, 2021.2);
+  ASSERT_FALSE(out.ok());
+  EXPECT_NE(out.status().message().find("2021.2 outside wmm2015 validity 2015.0–2020.0"), std::string::npos)
+      << out.status().message();
+  EXPECT_EQ(EvaluateWmmModel("wmm1990", {0.0, 0.0, 0.0}, 2016.0).status().code(), StatusCode::kBadInput);
+}
+
+TEST(Wmm, GivenDates_WhenConverted_ThenNoaaDecimalYears) {
+  EXPECT_DOUBLE_EQ(*DecimalYearFromDate("2016.5"), 2016.5);
+  EXPECT_DOUBLE_EQ(*DecimalYearFromDate("2015-01-01"), 2015.0);
+  EXPECT_DOUBLE_EQ(*DecimalYearFromDate("2016-07-02"), 2016.0 + 183.0 / 366.0);  // leap year
+  EXPECT_DOUBLE_EQ(*DecimalYearFromDate("2019-12-31"), 2019.0 + 364.0 / 365.0);
+  for (const char* bad : {"2019-02-29", "2016-13-01", "2016/07/02", "yesterday", "", "2016-07-02x"}) {
+    EXPECT_EQ(DecimalYearFromDate(bad).status().code(), StatusCode::kBadInput) << bad;
+  }
+}
 
 TEST(Wmm, GivenDateOutsideValidity_WhenEvaluatedWithoutExtrapolation_ThenBadInputNamingTheYear) {
   const GeodeticPoint where{43.88, 125.35, 200.0};
@@ -98,13 +132,15 @@ TEST(Wmm, GivenDateOutsideValidity_WhenEvaluatedWithoutExtrapolation_ThenBadInpu
     EXPECT_NE(r.status().message().find("decimal_year"), std::string::npos) << r.status().message();
     EXPECT_NE(r.status().message().find("outside WMM validity 2015.0–2030.0"), std::string::npos);
   }
+  // The year is printed as given (a %.4g format once printed 2030.4 as "2030").
+  EXPECT_NE(EvaluateWmm(where, 2030.4).status().message().find("2030.4 outside"), std::string::npos);
 }
 
 TEST(Wmm, GivenDateOutsideValidity_WhenExtrapolationAllowed_ThenNearestEpochIsUsed) {
   const GeodeticPoint where{43.88, 125.35, 200.0};
   const Result<EarthField> early = EvaluateWmm(where, 2013.0, /*allow_extrapolation=*/true);
   ASSERT_TRUE(early.ok());
-  EXPECT_EQ(early->model, "WMM-2015");
+  EXPECT_EQ(early->model, "WMM-2015v2");
   const Result<EarthField> late = EvaluateWmm(where, 2031.0, /*allow_extrapolation=*/true);
   ASSERT_TRUE(late.ok());
   EXPECT_EQ(late->model, "WMM-2025");
@@ -117,8 +153,8 @@ TEST(Wmm, GivenDateOutsideValidity_WhenExtrapolationAllowed_ThenNearestEpochIsUs
 TEST(Wmm, GivenEpochBoundaries_WhenEvaluated_ThenTheNewerModelOwnsTheBoundaryAnd2030BelongsToWmm2025) {
   EXPECT_EQ(WmmEpochs(), (std::vector<int>{2015, 2020, 2025}));
   const GeodeticPoint where{0.0, 0.0, 0.0};
-  EXPECT_EQ(EvaluateWmm(where, 2015.0)->model, "WMM-2015");
-  EXPECT_EQ(EvaluateWmm(where, 2019.999)->model, "WMM-2015");
+  EXPECT_EQ(EvaluateWmm(where, 2015.0)->model, "WMM-2015v2");
+  EXPECT_EQ(EvaluateWmm(where, 2019.999)->model, "WMM-2015v2");
   EXPECT_EQ(EvaluateWmm(where, 2020.0)->model, "WMM-2020");
   EXPECT_EQ(EvaluateWmm(where, 2025.0)->model, "WMM-2025");
   EXPECT_EQ(EvaluateWmm(where, 2030.0)->model, "WMM-2025");
@@ -135,7 +171,7 @@ TEST(Wmm, GivenPaperLocation_WhenEvaluatedIn2016_ThenTotalFieldIsAMidLatitudeNor
   // Changchun, 43.88 N 125.35 E, 200 m, 2016.5: |B| ≈ 53–56 µT, dipping steeply down, small west declination.
   const Result<EarthField> f = EvaluateWmm({43.88, 125.35, 200.0}, 2016.5);
   ASSERT_TRUE(f.ok());
-  EXPECT_EQ(f->model, "WMM-2015");
+  EXPECT_EQ(f->model, "WMM-2015v2");
   EXPECT_GT(f->total_uT, 53.0);
   EXPECT_LT(f->total_uT, 56.0);
   EXPECT_GT(f->inclination_deg, 55.0);

@@ -46,6 +46,9 @@ struct EllipsoidFitOptions {
   double min_coverage_fraction = 0.35;
   int planes_present = 0;           // 0 = unknown (free-hand data)
   int min_planes_for_coverage = 3;
+  // Per-sample weights w_i ≥ 0 (robust reweighting): the algebraic fit and LM minimise
+  // Σ w_i e_i². Empty = all 1; otherwise one per sample.
+  std::vector<double> weights;
 
   Status IsValid() const;
 };
@@ -97,6 +100,11 @@ EllipsoidFit FitEllipsoid(const std::vector<Eigen::Vector3d>& H_uT, const Ellips
 // Hard iron only (K = I): ‖H − β‖ = r, linear least squares then Gauss–Newton on the geometric
 // residual. The diagonal/off-diagonal criteria pass trivially.
 EllipsoidFit FitSphere(const std::vector<Eigen::Vector3d>& H_uT, const EllipsoidFitOptions& options);
+
+// Hard iron only, for samples from a flat spin: the offset along `normal` (the spin axis) is not
+// determined by such data and is held at 0; the in-plane offset and r are fitted.
+EllipsoidFit FitSpherePlanar(const std::vector<Eigen::Vector3d>& H_uT, const Eigen::Vector3d& normal,
+                             const EllipsoidFitOptions& options);
 
 // Fraction of `bins` Fibonacci-sphere direction bins hit by the directions of `v`.
 double DirectionCoverage(const std::vector<Eigen::Vector3d>& v, int bins);

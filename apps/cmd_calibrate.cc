@@ -1,0 +1,110 @@
+// hexsim calibrate: compass calibration from plain x,y,z, a FlightLog, an ArduPilot .bin or turntable
+// samples. Flags only: reading is logs/mag_input, fitting magnetics/calibrate.
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "cli_util.h"
+#include "commands.h"
+#include "hexsim/common/atomic_file.h"
+#include "hexsim/common/paths.h"
+#include "hexsim/logs/mag_input.h"
+#include "hexsim/magnetics/calib_io.h"
+#include "hexsim/magnetics/calibrate.h"
+#include "hexsim/render/figures.h"
+#include "hexsim/render/image.h"
+
+namespace hexsim::app {
+namespace {
+
+struct CalibrateArgs {
+  std::string samples, method = "auto", out, compass = "mag", units = "auto";
+  double field_norm_uT = 0.0;
+};
+
+// Samples on three planes before (with the fitted ellipsoid) and after (with the target sphere).
+Status WriteBeforeAfterPng(const magnetics::CalibrateOutcome& o, const std::string& path) {
+  render::SampleCloud before{"raw", {}, std::nullopt}, after{"calibrated", {}, std::nullopt};
+  for (const auto& b : o.raw_uT) {
+    const Eigen::Vector3d c = o.field.Correct(b);
+    before.points_uT.push_back({b(0), b(1), b(2)});
+    after.points_uT.push_back({c(0), c(1), c(2)});
+  }
+  // |A(raw − b)| = F on the fitted ellipsoid raw = b + F·A⁻¹u, F = ∛det A · r (A = (F/r)K⁻¹, det K = 1).
+  const double target = std::cbrt(o.field.A.determinant()) * o.field.radius_uT;
+  const Eigen::Matrix3d shape = target * o.field.A.inverse();
+  render::Ellipsoid3D fitted, sphere;
+  fitted.centre = {o.field.offset_uT(0), o.field.offset_uT(1), o.field.offset_uT(2)};
+  fitted.label = "fit";
+  sphere.label = "target";
+  for (int i = 0; i < 3; ++i) {
+    fitted.shape[static_cast<size_t>(i)] = {shape(i, 0), shape(i, 1), shape(i, 2)};
+    sphere.shape[static_cast<size_t>(i)] = {i == 0 ? target : 0.0, i == 1 ? target : 0.0, i == 2 ? target : 0.0};
+  }
+  auto image = render::RenderEllipsoidClouds({before, after}, {fitted, sphere});
+  if (!image.ok()) return image.status();
+  return render::WritePng(*image, path);
+}
+
+Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
+  auto input = logs::ReadMagInput(a.samples, a.compass);
+  if (!input.ok()) return input.status();
+  magnetics::CalibrateRequest rq;
+  rq.method = a.method;
+  rq.units = a.units == "auto" && !input->units.empty() ? input->units : a.units;
+  rq.field_norm_uT = a.field_norm_uT;
+  rq.compass_index = logs::CompassIndex(a.compass);
+  rq.prior_offset = input->prior_offset;
+  std::vector<magnetics::MagSample> samples(input->field.size());
+  for (size_t i = 0; i < samples.size(); ++i) {
+    samples[i].mag_B_uT = input->field[i];
+    if (!input->control_u.empty()) samples[i].control_u = input->control_u[i];
+    if (!input->current_A.empty()) samples[i].current_A = input->current_A[i];
+    if (!input->angle_deg.empty()) samples[i].angle_deg = input->angle_deg[i];
+    if (!input->plane.empty()) samples[i].plane = input->plane[i];
+  }
+  auto o = magnetics::Calibrate(std::move(samples), rq);
+  if (!o.ok()) return o.status().WithContext(a.samples);
+  o->report["input"] = {{"file", a.samples}, {"format", input->format}, {"compass", a.compass}, {"notes", input->notes}};
+  const std::string base = DirName(a.out) + "/" + FileStem(a.out);
+  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(base + ".report.json", o->report.dump(2) + "\n"));
+  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(base + ".parm", magnetics::ArduPilotParmText(o->ardupilot)));
+  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(base + ".params", magnetics::Px4ParamsText(o->px4)));
+  HEXSIM_RETURN_IF_ERROR(WriteBeforeAfterPng(*o, base + ".png"));
+  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(a.out, magnetics::CompensatorToYamlText(*o->compensator)));
+  for (const auto& n : input->notes) std::printf("input: %s\n", n.c_str());
+  const auto& f = o->field;
+  std::printf("units: %s\nmethod: %s (%s)\n", o->units.assumption.c_str(), f.method_used.c_str(), f.why.c_str());
+  std::printf("coverage eigenvalues: %.3f %.3f %.3f; norm spread %.2f %% -> %.2f %%; fitness %.3f uT\n",
+              f.coverage.eigenvalues(0), f.coverage.eigenvalues(1), f.coverage.eigenvalues(2),
+              100 * f.norm_spread_before, 100 * f.norm_spread_after, f.fitness_uT);
+  std::printf("offset %.3f %.3f %.3f uT\n", f.offset_uT(0), f.offset_uT(1), f.offset_uT(2));
+  for (const auto& w : f.warnings) std::printf("warning: %s\n", w.c_str());
+  std::printf("calibrate: %s -> %s (+ .report.json .parm .params .png)\n",
+              o->exit_code == 0 ? "accepted" : "REJECTED by its gate", a.out.c_str());
+  *exit_code = o->exit_code;
+  return Status::Ok();
+}
+
+}  // namespace
+
+void AddCalibrateCommand(CLI::App& app, int* exit_code) {
+  auto a = std::make_shared<CalibrateArgs>();
+  CLI::App* c = app.add_subcommand("calibrate", "Fit a compass calibration -> calib.yaml, .report.json, .parm, .params, .png");
+  c->add_option("samples", a->samples, "x,y,z text, FlightLog CSV, samples.csv or ArduPilot .bin (detected from content)")
+      ->required();
+  c->add_option("--method", a->method,
+                "auto|sphere|ellipsoid|robust|robust-sphere|robust-ellipsoid|none|traditional|adaptive|adaptive-current|"
+                "compassmot|px4-ls")
+      ->capture_default_str();
+  c->add_option("--compass", a->compass, "Which compass: mag, mag2, mag3")->capture_default_str();
+  c->add_option("--units", a->units, "auto|uT|mG|G|nT|counts")->capture_default_str();
+  c->add_option("--field-norm", a->field_norm_uT, "Local field norm in uT (e.g. from hexsim field); needed with counts");
+  c->add_option("--out", a->out, "calib.yaml to write")->required();
+  c->callback([a, exit_code] {
+    const Status s = CalibrateCommand(*a, exit_code);
+    if (!s.ok()) *exit_code = Report(s);
+  });
+}
+
+}  // namespace hexsim::app

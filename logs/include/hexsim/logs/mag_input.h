@@ -1,0 +1,47 @@
+// Compass samples for `hexsim calibrate`, from whatever the user has, the format decided by content:
+//   plain x,y,z text    CSV, TSV or whitespace columns, with or without a header (a header names the
+//                       axes: x, mag_x, mx, magX, x_raw, ...; exactly three columns without one);
+//   FlightLog CSV       columns <compass>_x_uT ... (`hexsim import`, `hexsim run`, turntable
+//                       samples.csv with plane/control_u/current_A/angle_deg), one sample per new
+//                       <compass>_t_s where that column exists (rows hold the latest sample);
+//   ArduPilot .bin      through the DataFlash importer;
+//   PX4 .ulg            recognised, and refused with a reason until the ULog importer exists.
+// An ArduPilot log (.bin, or a FlightLog imported from one, via its meta side file) holds the field
+// with the autopilot's corrections applied, logged = M·(raw + OFS) + MOT (CONTRACTS): the raw field
+// is rebuilt as raw = M⁻¹·(logged − MOT) − OFS, with the log's COMPASS_OFS/DIA/ODI and the per-sample
+// motor offsets, so that the result is an absolute calibration.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include "hexsim/common/status.h"
+
+namespace hexsim::logs {
+
+struct MagInput {
+  std::string format;                  // "xyz", "flightlog", "dataflash"
+  std::string units;                   // "uT" when the format fixes it; "" = unknown (plain x,y,z)
+  std::vector<Eigen::Vector3d> field;  // raw readings, corrections undone where known
+  // Present (same length as field) only when the input has the column.
+  std::vector<double> control_u, current_A, angle_deg;
+  std::vector<std::string> plane;
+  std::vector<std::string> notes;      // what was read and how (printed by the command)
+  // The offset b (raw = … + b) the autopilot's own calibration implies (ArduPilot: b = −OFS), in the
+  // field's units; a fit holds a component its samples cannot determine at this value. Else zero.
+  Eigen::Vector3d prior_offset = Eigen::Vector3d::Zero();
+};
+
+// compass: "mag", "mag2", "mag3" (the FlightLog prefix). Bad input names FILE[:LINE] and the field.
+Result<MagInput> ParseMagInput(const std::string& bytes, const std::string& name, const std::string& compass,
+                               const nlohmann::json& meta = nullptr);
+// Reads `path` (and, for a FlightLog CSV, its meta side file when present).
+Result<MagInput> ReadMagInput(const std::string& path, const std::string& compass);
+
+// 0 for "mag", n − 1 for "magn"; -1 when `compass` is not such a prefix.
+int CompassIndex(const std::string& compass);
+
+}  // namespace hexsim::logs

@@ -1,0 +1,330 @@
+#include "hexsim/logs/mag_input.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <optional>
+
+#include <Eigen/LU>
+#include <fmt/format.h>
+
+#include "hexsim/common/atomic_file.h"
+#include "hexsim/logs/dataflash_import.h"
+#include "hexsim/logs/flight_log.h"
+
+namespace hexsim::logs {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+bool ParseNumber(const std::string& s, double* v) {
+  if (s.empty()) return false;
+  char* end = nullptr;
+  *v = std::strtod(s.c_str(), &end);
+  return end == s.c_str() + s.size() && std::isfinite(*v);
+}
+
+std::string Trim(const std::string& s) {
+  size_t a = 0, b = s.size();
+  while (a < b && std::isspace(static_cast<unsigned char>(s[a])) != 0) ++a;
+  while (b > a && std::isspace(static_cast<unsigned char>(s[b - 1])) != 0) --b;
+  return s.substr(a, b - a);
+}
+
+std::vector<std::string> SplitFields(const std::string& line, char delim) {
+  std::vector<std::string> out;
+  if (delim == ' ') {
+    size_t i = 0;
+    while (i < line.size()) {
+      while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i])) != 0) ++i;
+      size_t j = i;
+      while (j < line.size() && std::isspace(static_cast<unsigned char>(line[j])) == 0) ++j;
+      if (j > i) out.push_back(line.substr(i, j - i));
+      i = j;
+    }
+    return out;
+  }
+  size_t start = 0;
+  for (size_t i = 0; i <= line.size(); ++i) {
+    if (i == line.size() || line[i] == delim) {
+      out.push_back(Trim(line.substr(start, i - start)));
+      start = i + 1;
+    }
+  }
+  return out;
+}
+
+// Lower-case letters and digits only: "Mag_X (uT)" → "magxut".
+std::string Normalised(const std::string& s) {
+  std::string o;
+  for (char c : s) {
+    if (std::isalnum(static_cast<unsigned char>(c)) != 0) o += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  }
+  return o;
+}
+
+// Whether a plain header name names axis `a` ("x", "mag_x", "mx", "magX", "x_raw", "Bx_uT", ...).
+bool NamesAxis(const std::string& header, char a) {
+  std::string n = Normalised(header);
+  for (const char* suffix : {"ut", "mg", "nt", "gauss", "raw", "counts"}) {
+    const std::string s(suffix);
+    if (n.size() > s.size() && n.compare(n.size() - s.size(), s.size(), s) == 0) {
+      n.resize(n.size() - s.size());
+      break;
+    }
+  }
+  for (const char* prefix : {"magnetometer", "compass", "magraw", "rawmag", "mag", "raw", "m", "b", "h"}) {
+    const std::string p(prefix);
+    if (n.size() == p.size() + 1 && n.compare(0, p.size(), p) == 0) {
+      n = n.substr(p.size());
+      break;
+    }
+  }
+  return n.size() == 1 && n[0] == a;
+}
+
+struct Table {
+  std::vector<std::string> header;  // empty: no header
+  std::vector<std::vector<std::string>> rows;
+  std::vector<size_t> line_of_row;
+};
+
+Result<Table> SplitTable(const std::string& text, const std::string& name) {
+  Table t;
+  char delim = 0;
+  size_t line_no = 0, pos = 0;
+  while (pos <= text.size()) {
+    size_t nl = text.find('\n', pos);
+    if (nl == std::string::npos) nl = text.size();
+    std::string line = text.substr(pos, nl - pos);
+    pos = nl + 1;
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const std::string trimmed = Trim(line);
+    if (trimmed.empty() || trimmed[0] == '#') {
+      if (nl == text.size()) break;
+      continue;
+    }
+    if (delim == 0) delim = line.find(',') != std::string::npos ? ',' : line.find('\t') != std::string::npos ? '\t' : ' ';
+    auto f = SplitFields(trimmed, delim);
+    if (t.header.empty() && t.rows.empty()) {
+      double v = 0.0;
+      const bool numeric = std::all_of(f.begin(), f.end(), [&](const std::string& s) { return ParseNumber(s, &v); });
+      if (!numeric) {
+        t.header = f;
+        continue;
+      }
+    }
+    t.rows.push_back(std::move(f));
+    t.line_of_row.push_back(line_no);
+    if (nl == text.size()) break;
+  }
+  if (t.rows.empty()) return Status::BadInput(name + ": no data rows");
+  return t;
+}
+
+int Find(const std::vector<std::string>& h, const std::string& col) {
+  const auto it = std::find(h.begin(), h.end(), col);
+  return it == h.end() ? -1 : static_cast<int>(it - h.begin());
+}
+
+// Undoes ArduPilot's corrections of compass `compass` when the meta describes them.
+void UndoArduPilot(const nlohmann::json& meta, const std::string& compass, const std::vector<Vector3d>& mot_uT,
+                   MagInput* in) {
+  if (!meta.is_object() || meta.value("format", "") != "ardupilot-dataflash" || !meta.contains("compasses")) return;
+  for (const auto& c : meta["compasses"]) {
+    if (c.value("column", "") != compass) continue;
+    auto vec = [&](const char* key, const Vector3d& fallback) {
+      if (!c.contains(key) || !c[key].is_array() || c[key].size() != 3) return fallback;
+      return Vector3d(c[key][0].get<double>(), c[key][1].get<double>(), c[key][2].get<double>());
+    };
+    const Vector3d ofs_uT = vec("offsets_mG", Vector3d::Zero()) / 10.0;  // 1 µT = 10 mG
+    Vector3d dia = vec("diagonals", Vector3d::Ones());
+    const Vector3d odi = vec("offdiagonals", Vector3d::Zero());
+    if (dia.isZero()) dia.setOnes();  // ArduPilot treats all-zero diagonals as identity
+    Matrix3d M;
+    M << dia(0), odi(0), odi(1), odi(0), dia(1), odi(2), odi(1), odi(2), dia(2);
+    double scale = c.contains("scale") && c["scale"].is_number() ? c["scale"].get<double>() : 1.0;
+    if (!(scale > 0.0)) scale = 1.0;
+    const Matrix3d Minv = (M * scale).inverse();
+    for (size_t i = 0; i < in->field.size(); ++i) {
+      const Vector3d mot = i < mot_uT.size() ? mot_uT[i] : Vector3d::Zero();
+      in->field[i] = Minv * (in->field[i] - mot) - ofs_uT;
+    }
+    in->prior_offset = -ofs_uT;
+    in->notes.push_back(fmt::format(
+        "ArduPilot log: raw field rebuilt from the logged one (COMPASS_OFS {:.1f},{:.1f},{:.1f} mG, DIA/ODI {}, motor "
+        "offsets {}): the calibration is absolute",
+        10 * ofs_uT(0), 10 * ofs_uT(1), 10 * ofs_uT(2), c["diagonals"].is_array() ? "inverted" : "not set (identity)",
+        mot_uT.empty() ? "all zero" : "per sample"));
+  }
+}
+
+// A header table: the compass's FlightLog columns, or plain axis names.
+Result<MagInput> FromHeaderTable(const Table& t, const std::string& name, const std::string& compass,
+                                 const nlohmann::json& meta) {
+  MagInput in;
+  const auto& h = t.header;
+  int ix = Find(h, compass + "_x_uT"), iy = Find(h, compass + "_y_uT"), iz = Find(h, compass + "_z_uT");
+  const bool flightlog = ix >= 0 && iy >= 0 && iz >= 0;
+  if (flightlog) {
+    in.format = "flightlog";
+    in.units = "uT";
+  } else {
+    in.format = "xyz";
+    ix = iy = iz = -1;
+    for (size_t k = 0; k < h.size(); ++k) {
+      if (ix < 0 && NamesAxis(h[k], 'x')) ix = static_cast<int>(k);
+      if (iy < 0 && NamesAxis(h[k], 'y')) iy = static_cast<int>(k);
+      if (iz < 0 && NamesAxis(h[k], 'z')) iz = static_cast<int>(k);
+    }
+    if (ix < 0 || iy < 0 || iz < 0) {
+      return Status::BadInput(fmt::format("{}:1: header: no {}_x_uT/{}_y_uT/{}_z_uT columns and no x, y, z column names",
+                                          name, compass, compass, compass));
+    }
+  }
+  const int it = Find(h, compass + "_t_s"), ic = Find(h, "control_u"), ii = Find(h, "current_A"),
+            ia = Find(h, "angle_deg"), ip = Find(h, "plane");
+  const int im[3] = {Find(h, compass + "_mot_x_uT"), Find(h, compass + "_mot_y_uT"), Find(h, compass + "_mot_z_uT")};
+  const bool has_mot = im[0] >= 0 && im[1] >= 0 && im[2] >= 0;
+  std::vector<Vector3d> mot;
+  double last_t = std::nan("");
+  for (size_t r = 0; r < t.rows.size(); ++r) {
+    const auto& f = t.rows[r];
+    const size_t line = t.line_of_row[r];
+    if (f.size() != h.size()) {
+      return Status::BadInput(fmt::format("{}:{}: row: expected {} cells, found {}", name, line, h.size(), f.size()));
+    }
+    auto num = [&](int col, double* v) -> Status {
+      if (!ParseNumber(f[static_cast<size_t>(col)], v)) {
+        return Status::BadInput(fmt::format("{}:{}: {}: not a finite number: '{}'", name, line, h[static_cast<size_t>(col)],
+                                            f[static_cast<size_t>(col)]));
+      }
+      return Status::Ok();
+    };
+    // A FlightLog row before the compass's first sample has empty cells; later rows repeat a held sample.
+    if (flightlog && f[static_cast<size_t>(ix)].empty()) continue;
+    if (it >= 0) {
+      double ts = 0.0;
+      if (!ParseNumber(f[static_cast<size_t>(it)], &ts)) continue;
+      if (ts == last_t) continue;
+      last_t = ts;
+    }
+    Vector3d b;
+    HEXSIM_RETURN_IF_ERROR(num(ix, &b(0)));
+    HEXSIM_RETURN_IF_ERROR(num(iy, &b(1)));
+    HEXSIM_RETURN_IF_ERROR(num(iz, &b(2)));
+    in.field.push_back(b);
+    auto opt = [&](int col, std::vector<double>* v) -> Status {
+      if (col < 0) return Status::Ok();
+      double x = 0.0;
+      if (f[static_cast<size_t>(col)].empty()) x = std::nan("");
+      else HEXSIM_RETURN_IF_ERROR(num(col, &x));
+      v->push_back(x);
+      return Status::Ok();
+    };
+    HEXSIM_RETURN_IF_ERROR(opt(ic, &in.control_u));
+    HEXSIM_RETURN_IF_ERROR(opt(ii, &in.current_A));
+    HEXSIM_RETURN_IF_ERROR(opt(ia, &in.angle_deg));
+    if (ip >= 0) in.plane.push_back(f[static_cast<size_t>(ip)]);
+    if (has_mot) {
+      Vector3d m = Vector3d::Zero();
+      for (int k = 0; k < 3; ++k) {
+        if (!f[static_cast<size_t>(im[k])].empty()) HEXSIM_RETURN_IF_ERROR(num(im[k], &m(k)));
+      }
+      mot.push_back(m);
+    }
+  }
+  if (in.field.empty()) return Status::BadInput(fmt::format("{}: {}: no samples (the column is empty)", name, compass + "_x_uT"));
+  in.notes.push_back(fmt::format("{}: {} {} samples ({}{})", name, in.field.size(), flightlog ? compass : "x,y,z",
+                                 flightlog ? "FlightLog CSV" : "plain columns with a header",
+                                 it >= 0 ? ", one per new " + compass + "_t_s" : ""));
+  UndoArduPilot(meta, compass, mot, &in);
+  return in;
+}
+
+Result<MagInput> FromPlain(const Table& t, const std::string& name) {
+  MagInput in;
+  in.format = "xyz";
+  for (size_t r = 0; r < t.rows.size(); ++r) {
+    const auto& f = t.rows[r];
+    if (f.size() != 3) {
+      return Status::BadInput(fmt::format("{}:{}: row: expected 3 numbers x y z, found {} (give a header naming x, y, z)",
+                                          name, t.line_of_row[r], f.size()));
+    }
+    Vector3d b;
+    for (int k = 0; k < 3; ++k) ParseNumber(f[static_cast<size_t>(k)], &b(k));  // numeric: checked by SplitTable
+    in.field.push_back(b);
+  }
+  in.notes.push_back(fmt::format("{}: {} plain x,y,z samples, no header", name, in.field.size()));
+  return in;
+}
+
+Result<MagInput> FromFlightLog(const FlightLog& log, const std::string& name, const std::string& compass) {
+  // Re-use the header-table path on the log's own columns (cells as shortest round-trip text).
+  Table t;
+  t.header = log.columns();
+  for (size_t r = 0; r < log.rows(); ++r) {
+    std::vector<std::string> row;
+    row.reserve(t.header.size());
+    for (size_t c = 0; c < t.header.size(); ++c) {
+      const double v = log.At(r, c);
+      row.push_back(std::isfinite(v) ? fmt::format("{}", v) : "");
+    }
+    t.rows.push_back(std::move(row));
+    t.line_of_row.push_back(r + 2);
+  }
+  if (!log.Has(compass + "_x_uT")) {
+    return Status::BadInput(fmt::format("{}: {}: the log has no such compass", name, compass));
+  }
+  return FromHeaderTable(t, name, compass, log.meta);
+}
+
+}  // namespace
+
+int CompassIndex(const std::string& compass) {
+  if (compass == "mag") return 0;
+  if (compass.size() == 4 && compass.compare(0, 3, "mag") == 0 && compass[3] >= '2' && compass[3] <= '9') {
+    return compass[3] - '1';
+  }
+  return -1;
+}
+
+Result<MagInput> ParseMagInput(const std::string& bytes, const std::string& name, const std::string& compass,
+                               const nlohmann::json& meta) {
+  if (CompassIndex(compass) < 0) return Status::BadInput(fmt::format("--compass: '{}': must be mag, mag2 or mag3", compass));
+  if (bytes.empty()) return Status::BadInput(name + ": empty file");
+  if (bytes.size() >= 2 && static_cast<unsigned char>(bytes[0]) == 0xA3 && static_cast<unsigned char>(bytes[1]) == 0x95) {
+    auto imp = ImportDataFlash(bytes, name);
+    if (!imp.ok()) return imp.status();
+    auto in = FromFlightLog(imp->log, name, compass);
+    if (!in.ok()) return in.status();
+    in->format = "dataflash";
+    return in;
+  }
+  if (bytes.compare(0, 4, "ULog") == 0) {
+    return Status::BadInput(name + ": format: PX4 ULog is not readable by calibrate yet: convert it to x,y,z text");
+  }
+  if (bytes.find('\0') != std::string::npos) {
+    return Status::BadInput(name + ": format: binary, but neither ArduPilot DataFlash nor PX4 ULog");
+  }
+  auto t = SplitTable(bytes, name);
+  if (!t.ok()) return t.status();
+  return t->header.empty() ? FromPlain(*t, name) : FromHeaderTable(*t, name, compass, meta);
+}
+
+Result<MagInput> ReadMagInput(const std::string& path, const std::string& compass) {
+  auto bytes = ReadFile(path);
+  if (!bytes.ok()) return bytes.status();
+  nlohmann::json meta = nullptr;
+  auto meta_text = ReadFile(MetaPathFor(path));
+  if (meta_text.ok() && path.size() > 4 && path.compare(path.size() - 4, 4, ".csv") == 0) {
+    meta = nlohmann::json::parse(*meta_text, nullptr, /*allow_exceptions=*/false);
+    if (meta.is_discarded()) return Status::BadInput(MetaPathFor(path) + ": JSON: not valid");
+  }
+  return ParseMagInput(*bytes, path, compass, meta);
+}
+
+}  // namespace hexsim::logs

@@ -1,0 +1,113 @@
+// Compass calibration from free-hand samples (any attitudes, no rig): units, orientation coverage,
+// and the sphere / ellipsoid / robust fits behind `hexsim calibrate`.
+//
+// Convention (Magneto's): calibrated = A·(raw − b), b = offset_uT (hard iron), A symmetric positive
+// definite. With the sensor model raw = K·B + b (ellipsoid_fit.h, det K = 1), A = (F/r)·K⁻¹: F is the
+// local field norm when it is known (FieldCalibrationOptions::field_norm_uT), else r, the fitted
+// radius, so that det A = 1 and |A·(raw − b)| ≈ r.
+//
+// Coverage: the eigenvalues λ1 ≤ λ2 ≤ λ3 of the sample covariance divided by s², s = the median
+// sample norm: samples spread evenly over the whole sphere give ≈ 1/3 each (less when a large hard
+// iron inflates s); a flat spin about one body axis gives λ1 ≈ 0 with that axis as its eigenvector;
+// little rotation gives all three small. The missing rotation is named from λ1's eigenvector.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "hexsim/common/status.h"
+#include "hexsim/magnetics/ellipsoid_fit.h"
+
+namespace hexsim::magnetics {
+
+// Physical ranges, in one place. (The real-data plausibility table of realdata/ had not landed
+// when this was written; these are the compass's own.)
+struct FieldRanges {
+  // Earth's main field at the surface (WMM): 22–67 µT. Raw norms may stray further by hard iron.
+  double earth_min_uT = 22.0;
+  double earth_max_uT = 67.0;
+  // Median raw norm accepted as "this unit" (µT window × the unit's size): 0.5×min … 2.5×max.
+  double unit_window_lo = 0.5;
+  double unit_window_hi = 2.5;
+};
+
+// The unit of the raw numbers, from the median norm or as given.
+struct UnitGuess {
+  std::string unit;          // "uT", "mG", "G", "nT" or "counts"
+  double to_uT = 1.0;        // µT per input unit (counts: F / median norm, refined after the fit)
+  double median_norm = 0.0;  // in input units
+  std::string assumption;    // the printed sentence
+};
+
+// units: "auto" | "uT" | "mG" | "G" | "nT" | "counts". counts needs field_norm_uT > 0.
+// BadInput when "auto" matches no unit, or counts lacks the field norm.
+Result<UnitGuess> DetectUnits(const std::vector<Eigen::Vector3d>& raw, const std::string& units,
+                              double field_norm_uT, const FieldRanges& ranges = {});
+
+struct Coverage {
+  Eigen::Vector3d eigenvalues = Eigen::Vector3d::Zero();  // ascending, dimensionless (see top)
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();     // column k: eigenvector of eigenvalues(k)
+  std::string weak_axis;         // body axis nearest λ1's eigenvector: "x", "y" or "z"
+  std::string missing_rotation;  // "" when coverage is full
+};
+
+Coverage ComputeCoverage(const std::vector<Eigen::Vector3d>& B, double median_norm);
+
+// std(|B|) / mean(|B|): the relative spread of the field norm (0.01 = 1 %).
+double NormSpread(const std::vector<Eigen::Vector3d>& B);
+
+struct FieldCalibrationOptions {
+  // auto | sphere | ellipsoid | robust | robust-sphere | robust-ellipsoid | none
+  std::string method = "auto";
+  double field_norm_uT = 0.0;  // local field (e.g. `hexsim field`); 0 = unknown
+  // A flat spin does not determine the offset along its axis: that component is held at this prior
+  // (the autopilot's current offset for a log, else 0).
+  Eigen::Vector3d prior_offset_uT = Eigen::Vector3d::Zero();
+  EllipsoidFitOptions fit;     // LM settings and acceptance gate
+  int min_sphere_samples = 8;       // 4 parameters, twice over
+  int min_ellipsoid_samples = 12;   // 9 parameters
+  int auto_ellipsoid_samples = 50;  // auto prefers a sphere below this
+  // Coverage thresholds on λ (see top): λ1 ≥ ellipsoid_eigen for an ellipsoid; λ1 below
+  // sphere_eigen makes the offset along the weak axis undetermined (fixed at 0); λ2 below
+  // sphere_eigen is too little rotation for any fit.
+  double ellipsoid_eigen = 0.05;
+  double sphere_eigen = 0.01;
+  double consistent_spread = 0.03;  // norm spread below this: "already consistent"
+  // Robust reweighting (Tukey biweight, c·σ with σ = 1.4826·MAD of the residuals).
+  double tukey_c = 4.685;
+  int robust_iterations = 12;
+  double outlier_sigmas = 5.0;  // auto switches to robust when a residual exceeds this many σ
+  FieldRanges ranges;
+};
+
+struct FieldCalibration {
+  std::string method_used;  // none | sphere | sphere-planar | ellipsoid | robust-sphere | robust-ellipsoid
+  std::string why;          // why this method (auto says what it looked at)
+  Eigen::Vector3d offset_uT = Eigen::Vector3d::Zero();  // b
+  Eigen::Matrix3d A = Eigen::Matrix3d::Identity();      // calibrated = A·(raw − b)
+  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();      // soft iron, det 1 (ellipsoid_fit.h)
+  double radius_uT = 0.0;
+  double fitness_uT = 0.0;  // RMS of |A(raw − b)| − target norm (robust: weighted)
+  double norm_spread_before = 0.0;
+  double norm_spread_after = 0.0;
+  Coverage coverage;
+  std::vector<std::string> warnings;
+  std::vector<size_t> downweighted;  // robust: samples whose weight ended below 0.1 (outliers)
+  EllipsoidFit fit;                  // gate, iterations, ...; status OK and defaults for "none"
+  bool accepted = true;              // the fit's gate
+
+  Eigen::Vector3d Correct(const Eigen::Vector3d& raw_uT) const { return A * (raw_uT - offset_uT); }
+};
+
+// Fits raw samples (µT). BadInput (exit 2): unknown method, too few samples (naming the minimum),
+// coverage that cannot support the explicit method (naming the missing rotation), too little
+// rotation for any fit. Numerical (exit 3): a fit that fails on usable input.
+Result<FieldCalibration> CalibrateField(const std::vector<Eigen::Vector3d>& raw_uT,
+                                        const FieldCalibrationOptions& options);
+
+// auto sphere ellipsoid robust robust-sphere robust-ellipsoid none
+std::vector<std::string> FieldMethodNames();
+
+}  // namespace hexsim::magnetics

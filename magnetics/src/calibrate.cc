@@ -1,0 +1,167 @@
+#include "hexsim/magnetics/calibrate.h"
+
+#include <algorithm>
+#include <set>
+
+#include <Eigen/LU>
+#include <fmt/format.h>
+
+#include "hexsim/magnetics/calib_io.h"
+#include "hexsim/magnetics/compensators.h"
+
+namespace hexsim::magnetics {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+nlohmann::json Vec(const Vector3d& v) { return nlohmann::json::array({v(0), v(1), v(2)}); }
+nlohmann::json Mat(const Matrix3d& m) {
+  return nlohmann::json::array({Vec(m.row(0).transpose()), Vec(m.row(1).transpose()), Vec(m.row(2).transpose())});
+}
+nlohmann::json Params(const ParamList& p) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [k, v] : p) j[k] = v;
+  return j;
+}
+
+bool IsFieldMethod(const std::string& m) {
+  const auto names = FieldMethodNames();
+  return std::find(names.begin(), names.end(), m) != names.end();
+}
+
+// The free-hand path: one fit of field_calibration.h, written as an ellipsoid compensator.
+Result<CalibrateOutcome> FieldPath(CalibrateOutcome out, const std::string& method, const CalibrateRequest& rq) {
+  FieldCalibrationOptions fo = rq.field;
+  fo.method = method;
+  fo.field_norm_uT = rq.field_norm_uT;
+  fo.prior_offset_uT = rq.prior_offset * out.units.to_uT;
+  auto fc = CalibrateField(out.raw_uT, fo);
+  if (!fc.ok()) return fc.status();
+  out.field = std::move(*fc);
+  const FieldCalibration& f = out.field;
+  out.compensator = std::make_unique<EllipsoidCompensator>(f.method_used, f.A.inverse(), f.offset_uT);
+  nlohmann::json& r = out.report;
+  r["accepted"] = f.accepted;
+  r["gate"] = f.method_used == "none" ? nlohmann::json{{"accepted", true}, {"criteria", nlohmann::json::array()}, {"failures", ""}}
+                                      : GateToJson(f.fit.gate);
+  r["fits"] = f.method_used == "none" ? nlohmann::json::array() : nlohmann::json::array({EllipsoidFitToJson(f.fit)});
+  r["diagnostics"] = nlohmann::json::object();
+  if (!f.method_used.empty() && f.method_used != "none") {
+    r["coverage"] = {{"fraction", f.fit.coverage_fraction}, {"planes", 0}};
+  }
+  out.exit_code = f.accepted ? 0 : 1;
+  return out;
+}
+
+// The turntable path: LearnCompensator, then the ground fit's offset and soft iron as A and b.
+Result<CalibrateOutcome> TurntablePath(CalibrateOutcome out, const std::vector<MagSample>& s, const std::string& method,
+                                       const CalibrateRequest& rq) {
+  nlohmann::json learnt;
+  auto comp = LearnCompensator(method, s, rq.learn, &learnt);
+  if (!comp.ok()) return comp.status();
+  out.compensator = std::move(*comp);
+  FieldCalibration& f = out.field;
+  f.method_used = method;
+  f.why = method == rq.method ? "requested" : "turntable samples (3 or more planes, 2 or more control amounts): the paper's adaptive method";
+  std::vector<double> norms;
+  for (const auto& b : out.raw_uT) norms.push_back(b.norm());
+  std::nth_element(norms.begin(), norms.begin() + static_cast<std::ptrdiff_t>(norms.size() / 2), norms.end());
+  f.coverage = ComputeCoverage(out.raw_uT, norms[norms.size() / 2]);
+  f.norm_spread_before = NormSpread(out.raw_uT);
+  std::vector<Vector3d> after;
+  for (const auto& x : s) after.push_back(out.compensator->Correct(x.mag_B_uT, {x.control_u, x.current_A}));
+  f.norm_spread_after = NormSpread(after);
+  f.accepted = learnt.value("accepted", true);
+  const auto& fits = learnt["fits"];
+  if (!fits.empty() && fits[0].value("ok", false)) {
+    for (int i = 0; i < 3; ++i) {
+      f.offset_uT(i) = fits[0]["hard_iron_uT"][i].get<double>();
+      for (int j = 0; j < 3; ++j) f.K(i, j) = fits[0]["soft_iron"][i][j].get<double>();
+    }
+    f.radius_uT = fits[0]["radius_uT"].get<double>();
+    f.fitness_uT = fits[0]["rms_residual_uT"].get<double>();
+    const double target = rq.field_norm_uT > 0.0 ? rq.field_norm_uT : f.radius_uT;
+    f.A = f.K.inverse() * (target / f.radius_uT);
+  }
+  if (!f.accepted) f.warnings.push_back("acceptance gate: " + learnt["gate"].value("failures", std::string()));
+  const nlohmann::json keep = out.report;
+  out.report = learnt;
+  for (const auto& [k, v] : keep.items()) out.report[k] = v;
+  out.exit_code = f.accepted ? 0 : 1;
+  return out;
+}
+
+}  // namespace
+
+bool HasTurntableColumns(const std::vector<MagSample>& s) {
+  std::set<std::string> planes;
+  std::set<double> controls;
+  for (const auto& x : s) {
+    if (!x.plane.empty()) planes.insert(x.plane);
+    controls.insert(x.control_u);
+  }
+  return planes.size() >= 3 && controls.size() >= 2;
+}
+
+Result<CalibrateOutcome> Calibrate(std::vector<MagSample> samples, const CalibrateRequest& rq) {
+  const auto learn_names = CompensatorNames();
+  const bool turntable_method =
+      std::find(learn_names.begin(), learn_names.end(), rq.method) != learn_names.end() && rq.method != "none";
+  if (!IsFieldMethod(rq.method) && !turntable_method) {
+    std::string all;
+    for (const auto& n : FieldMethodNames()) all += n + ", ";
+    for (const auto& n : learn_names) {
+      if (n != "none") all += n + (n == learn_names.back() ? "" : ", ");
+    }
+    return Status::BadInput(fmt::format("--method: unknown method '{}' (one of: {})", rq.method, all));
+  }
+  if (samples.empty()) return Status::BadInput("no samples");
+  CalibrateOutcome out;
+  for (const auto& s : samples) out.raw_uT.push_back(s.mag_B_uT);
+  auto units = DetectUnits(out.raw_uT, rq.units, rq.field_norm_uT, rq.field.ranges);
+  if (!units.ok()) return units.status();
+  out.units = *units;
+  for (auto& b : out.raw_uT) b *= out.units.to_uT;
+  for (size_t i = 0; i < samples.size(); ++i) samples[i].mag_B_uT = out.raw_uT[i];
+  const std::string method = rq.method == "auto" && HasTurntableColumns(samples) ? "adaptive" : rq.method;
+  out.report = nlohmann::json::object();
+  Result<CalibrateOutcome> done = IsFieldMethod(method) ? FieldPath(std::move(out), method, rq)
+                                                        : TurntablePath(std::move(out), samples, method, rq);
+  if (!done.ok()) return done.status();
+  CalibrateOutcome& o = *done;
+  const FieldCalibration& f = o.field;
+  o.ardupilot = ArduPilotCompassParams(f.offset_uT, f.A, rq.compass_index);
+  o.px4 = Px4CompassParams(f.offset_uT, f.A, rq.compass_index);
+  nlohmann::json& r = o.report;
+  r["schema"] = "hexsim.calib/1";
+  r["method"] = rq.method;
+  r["method_used"] = f.method_used;
+  r["why"] = f.why;
+  r["units_assumed"] = o.units.unit;
+  r["units_note"] = o.units.assumption;
+  r["offset_uT"] = Vec(f.offset_uT);
+  r["A"] = Mat(f.A);
+  r["K"] = Mat(f.K);
+  r["radius_uT"] = f.radius_uT;
+  r["fitness_uT"] = f.fitness_uT;
+  r["rms_residual_uT"] = f.fitness_uT;
+  r["norm_spread_before"] = f.norm_spread_before;
+  r["norm_spread_after"] = f.norm_spread_after;
+  r["coverage_eigenvalues"] = Vec(f.coverage.eigenvalues);
+  if (!r.contains("coverage") || r["coverage"].is_null()) r["coverage"] = {{"fraction", nullptr}, {"planes", 0}};
+  r["coverage"]["eigenvalues"] = Vec(f.coverage.eigenvalues);
+  r["coverage"]["weak_axis"] = f.coverage.weak_axis;
+  r["coverage"]["missing_rotation"] = f.coverage.eigenvalues(0) < rq.field.ellipsoid_eigen ? f.coverage.missing_rotation : "";
+  r["warnings"] = f.warnings;
+  nlohmann::json dw = nlohmann::json::array();
+  for (size_t i = 0; i < f.downweighted.size() && i < 200; ++i) dw.push_back(f.downweighted[i]);
+  r["downweighted"] = {{"count", f.downweighted.size()}, {"samples", dw}, {"indexing", "0-based, in input order, first 200"}};
+  r["ardupilot_params"] = Params(o.ardupilot);
+  r["px4_params"] = Params(o.px4);
+  r["params"] = YamlToJson(o.compensator->ToYaml());
+  r["num_samples"] = o.raw_uT.size();
+  return done;
+}
+
+}  // namespace hexsim::magnetics

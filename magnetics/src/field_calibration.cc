@@ -1,0 +1,322 @@
+#include "hexsim/magnetics/field_calibration.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+namespace hexsim::magnetics {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+// A sample whose robust weight ends below this is reported as an outlier (Tukey: |e| beyond ≈ 4.4 σ).
+constexpr double kOutlierWeight = 0.1;
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const size_t m = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(m), v.end());
+  const double hi = v[m];
+  if (v.size() % 2 == 1) return hi;
+  return 0.5 * (hi + *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(m)));
+}
+
+std::vector<double> Norms(const std::vector<Vector3d>& B) {
+  std::vector<double> n;
+  n.reserve(B.size());
+  for (const auto& b : B) n.push_back(b.norm());
+  return n;
+}
+
+// Residuals |K⁻¹(h − β)| − r of a fit.
+std::vector<double> Residuals(const std::vector<Vector3d>& H, const EllipsoidFit& f) {
+  std::vector<double> e;
+  e.reserve(H.size());
+  for (const auto& h : H) e.push_back(f.Correct(h).norm() - f.radius_uT);
+  return e;
+}
+
+// Robust scale of residuals: 1.4826·MAD (σ of a Gaussian), floored at 1e-9·r so weights stay finite.
+double RobustSigma(const std::vector<double>& e, double r) {
+  const double med = Median(e);
+  std::vector<double> dev;
+  dev.reserve(e.size());
+  for (double x : e) dev.push_back(std::abs(x - med));
+  return std::max(1.4826 * Median(dev), 1e-9 * std::max(r, 1.0));
+}
+
+enum class Base { kSphere, kSpherePlanar, kEllipsoid };
+
+const char* BaseName(Base b) {
+  switch (b) {
+    case Base::kSphere: return "sphere";
+    case Base::kSpherePlanar: return "sphere-planar";
+    case Base::kEllipsoid: return "ellipsoid";
+  }
+  return "?";
+}
+
+EllipsoidFit RunBase(Base base, const std::vector<Vector3d>& H, const Coverage& cov, EllipsoidFitOptions o,
+                     const std::vector<double>& w, const Vector3d& prior) {
+  o.weights = w;
+  // A sphere needs less than the ellipsoid's coverage; poor coverage is a warning of its own.
+  if (base != Base::kEllipsoid) o.min_coverage_fraction = 0.0;
+  switch (base) {
+    case Base::kSphere: return FitSphere(H, o);
+    case Base::kSpherePlanar: {
+      // Fitted about the prior offset: the undetermined component stays at the prior's.
+      std::vector<Vector3d> shifted;
+      shifted.reserve(H.size());
+      for (const auto& h : H) shifted.push_back(h - prior);
+      EllipsoidFit f = FitSpherePlanar(shifted, cov.axes.col(0), o);
+      f.hard_iron_uT += prior;
+      return f;
+    }
+    case Base::kEllipsoid: return FitEllipsoid(H, o);
+  }
+  return {};
+}
+
+// Iteratively reweighted fit: Huber weights for the first three rounds (a least-squares start may
+// be pulled by outliers), then Tukey's biweight w = (1 − (e/c)²)² for |e| < c = tukey_c·σ, else 0.
+EllipsoidFit RobustFit(Base base, const std::vector<Vector3d>& H, const Coverage& cov,
+                       const FieldCalibrationOptions& o, EllipsoidFit f, std::vector<double>* w) {
+  w->assign(H.size(), 1.0);
+  for (int it = 0; it < o.robust_iterations && f.status.ok(); ++it) {
+    const auto e = Residuals(H, f);
+    const double med = Median(e);
+    const double sigma = RobustSigma(e, f.radius_uT);
+    std::vector<double> next(H.size());
+    for (size_t i = 0; i < H.size(); ++i) {
+      const double z = std::abs(e[i] - med) / sigma;
+      if (it < 3) {
+        next[i] = z <= 1.345 ? 1.0 : 1.345 / z;
+      } else {
+        const double u = z / o.tukey_c;
+        next[i] = u < 1.0 ? (1.0 - u * u) * (1.0 - u * u) : 0.0;
+      }
+    }
+    double change = 0.0;
+    for (size_t i = 0; i < H.size(); ++i) change = std::max(change, std::abs(next[i] - (*w)[i]));
+    *w = next;
+    const auto kept = std::count_if(w->begin(), w->end(), [](double x) { return x > 0.0; });
+    if (kept < o.min_ellipsoid_samples) break;
+    f = RunBase(base, H, cov, o.fit, *w, o.prior_offset_uT);
+    if (it >= 3 && change < 1e-6) break;
+  }
+  return f;
+}
+
+std::string Eigs(const Vector3d& l) { return fmt::format("{:.3f}, {:.3f}, {:.3f}", l(0), l(1), l(2)); }
+
+}  // namespace
+
+std::vector<std::string> FieldMethodNames() {
+  return {"auto", "sphere", "ellipsoid", "robust", "robust-sphere", "robust-ellipsoid", "none"};
+}
+
+double NormSpread(const std::vector<Vector3d>& B) {
+  if (B.empty()) return 0.0;
+  double s = 0.0, ss = 0.0;
+  for (const auto& b : B) {
+    s += b.norm();
+    ss += b.squaredNorm();
+  }
+  const double n = static_cast<double>(B.size());
+  const double mean = s / n;
+  return mean > 0.0 ? std::sqrt(std::max(0.0, ss / n - mean * mean)) / mean : 0.0;
+}
+
+Result<UnitGuess> DetectUnits(const std::vector<Vector3d>& raw, const std::string& units, double field_norm_uT,
+                              const FieldRanges& rg) {
+  struct Unit {
+    const char* name;
+    double to_uT;
+  };
+  static const Unit kUnits[] = {{"uT", 1.0}, {"mG", 0.1}, {"G", 100.0}, {"nT", 0.001}};
+  UnitGuess g;
+  g.median_norm = Median(Norms(raw));
+  const double lo_uT = rg.unit_window_lo * rg.earth_min_uT, hi_uT = rg.unit_window_hi * rg.earth_max_uT;
+  if (units == "counts") {
+    if (!(field_norm_uT > 0.0)) return Status::BadInput("--units counts needs --field-norm F (the local field in uT, e.g. from hexsim field)");
+    if (!(g.median_norm > 0.0)) return Status::BadInput("all samples are zero");
+    g.unit = "counts";
+    g.to_uT = field_norm_uT / g.median_norm;
+    g.assumption = fmt::format("raw counts (median norm {:.4g}), scaled to the local field {:.4g} uT", g.median_norm, field_norm_uT);
+    return g;
+  }
+  for (const auto& u : kUnits) {
+    const double m_uT = g.median_norm * u.to_uT;
+    if (units == u.name || (units == "auto" && m_uT >= lo_uT && m_uT <= hi_uT)) {
+      g.unit = u.name;
+      g.to_uT = u.to_uT;
+      g.assumption = fmt::format("{} {} (median norm {:.4g} = {:.4g} uT)", units == "auto" ? "assuming" : "given",
+                                 u.name, g.median_norm, m_uT);
+      if (g.unit == "mG" && units == "auto") {
+        g.assumption += "; raw counts can look like milligauss: if these are counts, give --units counts --field-norm F";
+      }
+      if (m_uT < lo_uT || m_uT > hi_uT) {
+        g.assumption += fmt::format("; WARNING: {:.4g} uT is far from Earth's {:g}-{:g} uT", m_uT, rg.earth_min_uT, rg.earth_max_uT);
+      }
+      return g;
+    }
+  }
+  if (units != "auto") return Status::BadInput(fmt::format("--units: unknown unit '{}' (uT, mG, G, nT, counts)", units));
+  return Status::BadInput(fmt::format(
+      "median field norm {:.4g} matches no unit (Earth's {:g}-{:g} uT is {:g}-{:g} in uT, x10 in mG, /100 in G, x1000 in nT): "
+      "give --units, or --units counts --field-norm F",
+      g.median_norm, rg.earth_min_uT, rg.earth_max_uT, lo_uT, hi_uT));
+}
+
+Coverage ComputeCoverage(const std::vector<Vector3d>& B, double median_norm) {
+  Coverage c;
+  if (B.size() < 2 || !(median_norm > 0.0)) return c;
+  Vector3d mean = Vector3d::Zero();
+  for (const auto& b : B) mean += b;
+  mean /= static_cast<double>(B.size());
+  Matrix3d C = Matrix3d::Zero();
+  for (const auto& b : B) C += (b - mean) * (b - mean).transpose();
+  C /= static_cast<double>(B.size()) * median_norm * median_norm;
+  Eigen::SelfAdjointEigenSolver<Matrix3d> es(C);
+  c.eigenvalues = es.eigenvalues().cwiseMax(0.0);
+  c.axes = es.eigenvectors();
+  Eigen::Index k = 0;
+  c.axes.col(0).cwiseAbs().maxCoeff(&k);
+  static const char* kAxis[3] = {"x", "y", "z"};
+  static const char* kHow[3] = {
+      "pitch the nose up and down and yaw it round (the x axis never pointed along the field)",
+      "roll onto each side and yaw round (the y axis never pointed along the field)",
+      "pitch and roll: nose up and down, onto each side, upside down (the z axis never pointed along the field)"};
+  c.weak_axis = kAxis[k];
+  c.missing_rotation = fmt::format("little spread along body {}: {}", c.weak_axis, kHow[k]);
+  return c;
+}
+
+Result<FieldCalibration> CalibrateField(const std::vector<Vector3d>& H, const FieldCalibrationOptions& o) {
+  const auto names = FieldMethodNames();
+  if (std::find(names.begin(), names.end(), o.method) == names.end()) {
+    return Status::BadInput(fmt::format("--method: unknown method '{}' (one of: {})", o.method, fmt::join(names, ", ")));
+  }
+  const int n = static_cast<int>(H.size());
+  for (size_t i = 0; i < H.size(); ++i) {
+    if (!H[i].allFinite()) return Status::BadInput(fmt::format("sample {}: non-finite field", i + 1));
+  }
+  FieldCalibration c;
+  c.norm_spread_before = NormSpread(H);
+  c.coverage = ComputeCoverage(H, Median(Norms(H)));
+  const Vector3d& l = c.coverage.eigenvalues;
+  const bool consistent = c.norm_spread_before < o.consistent_spread;
+  const std::string spread_note =
+      fmt::format("the field norm is already consistent (spread {:.2f} %): the data may already be calibrated",
+                  100.0 * c.norm_spread_before);
+  if (o.method == "none" || (o.method == "auto" && n >= 1 && consistent && l(1) < o.sphere_eigen)) {
+    c.method_used = "none";
+    c.why = o.method == "none" ? "requested" : fmt::format("little rotation (coverage eigenvalues {}) and {}", Eigs(l), spread_note);
+    double mean = 0.0;
+    for (const auto& h : H) mean += h.norm();
+    c.radius_uT = n > 0 ? mean / n : 0.0;
+    c.fitness_uT = c.norm_spread_before * c.radius_uT;
+    c.norm_spread_after = c.norm_spread_before;
+    if (consistent) c.warnings.push_back(spread_note);
+    return c;
+  }
+  if (n < o.min_sphere_samples) {
+    return Status::BadInput(fmt::format("too few samples: {} (a sphere fit needs at least {}, an ellipsoid {})", n,
+                                        o.min_sphere_samples, o.min_ellipsoid_samples));
+  }
+  if (l(1) < o.sphere_eigen) {
+    return Status::BadInput(fmt::format("too little rotation for any fit (coverage eigenvalues {}, need the middle one >= {:g}): "
+                                        "turn the vehicle through all attitudes{}",
+                                        Eigs(l), o.sphere_eigen, consistent ? "; " + spread_note : ""));
+  }
+  if (consistent) c.warnings.push_back(spread_note);
+  const bool want_ellipsoid = o.method == "ellipsoid" || o.method == "robust-ellipsoid";
+  const bool want_sphere = o.method == "sphere" || o.method == "robust-sphere";
+  bool robust = o.method.rfind("robust", 0) == 0;
+  const std::string poor = fmt::format("poor coverage (coverage eigenvalues {}): {}", Eigs(l), c.coverage.missing_rotation);
+  Base base = Base::kEllipsoid;
+  if (want_ellipsoid) {
+    if (n < o.min_ellipsoid_samples) {
+      return Status::BadInput(fmt::format("too few samples for an ellipsoid: {} (need at least {})", n, o.min_ellipsoid_samples));
+    }
+    if (l(0) < o.ellipsoid_eigen) {
+      return Status::BadInput(fmt::format("{}; an ellipsoid needs the smallest >= {:g}: add that rotation, or use --method sphere",
+                                          poor, o.ellipsoid_eigen));
+    }
+    c.why = "requested";
+  } else if (want_sphere) {
+    base = Base::kSphere;
+    c.why = "requested";
+  } else if (l(0) < o.ellipsoid_eigen) {
+    base = Base::kSphere;
+    c.why = fmt::format("coverage too poor for an ellipsoid (smallest eigenvalue {:.3f} < {:g}): offset only", l(0), o.ellipsoid_eigen);
+    c.warnings.push_back(poor + "; fitted a sphere (offset only)");
+  } else if (n < o.auto_ellipsoid_samples) {
+    base = Base::kSphere;
+    c.why = fmt::format("{} samples (an ellipsoid wants {} or more): offset only", n, o.auto_ellipsoid_samples);
+    c.warnings.push_back(c.why);
+  } else {
+    c.why = fmt::format("full coverage (coverage eigenvalues {}) and {} samples: hard and soft iron", Eigs(l), n);
+  }
+  if (base == Base::kSphere && l(0) < o.sphere_eigen) {
+    base = Base::kSpherePlanar;
+    c.warnings.push_back(fmt::format("flat rotation: the offset along body {} is not determined by these samples and is held at {:.3g} uT{}",
+                                     c.coverage.weak_axis, c.coverage.axes.col(0).dot(o.prior_offset_uT),
+                                     o.prior_offset_uT.isZero() ? "" : " (the autopilot's current offset)"));
+  }
+  EllipsoidFit f = RunBase(base, H, c.coverage, o.fit, {}, o.prior_offset_uT);
+  if (!f.status.ok() && f.status.code() == StatusCode::kNumerical && o.method == "auto" && base == Base::kEllipsoid) {
+    c.warnings.push_back("ellipsoid fit failed (" + f.status.message() + "): fell back to a sphere");
+    base = Base::kSphere;
+    f = RunBase(base, H, c.coverage, o.fit, {}, o.prior_offset_uT);
+  }
+  if (!f.status.ok()) return f.status.WithContext(BaseName(base));
+  if (o.method == "auto") {
+    const auto e = Residuals(H, f);
+    const double med = Median(e), sigma = RobustSigma(e, f.radius_uT);
+    const auto far = std::count_if(e.begin(), e.end(), [&](double x) { return std::abs(x - med) > o.outlier_sigmas * sigma; });
+    if (far > 0) {
+      robust = true;
+      c.why += fmt::format("; {} sample(s) beyond {:g} sigma: reweighted (robust)", far, o.outlier_sigmas);
+    }
+  }
+  std::vector<double> w;
+  if (robust) {
+    f = RobustFit(base, H, c.coverage, o, f, &w);
+    if (!f.status.ok()) return f.status.WithContext(std::string("robust ") + BaseName(base));
+    for (size_t i = 0; i < w.size(); ++i) {
+      if (w[i] < kOutlierWeight) c.downweighted.push_back(i);
+    }
+    if (!c.downweighted.empty()) {
+      c.warnings.push_back(fmt::format("{} sample(s) down-weighted as outliers (weight < {:g})", c.downweighted.size(), kOutlierWeight));
+    }
+  }
+  c.method_used = (robust ? std::string("robust-") : std::string()) + BaseName(base);
+  c.fit = f;
+  c.accepted = f.gate.accepted;
+  if (!c.accepted) c.warnings.push_back("acceptance gate: " + f.gate.Failures());
+  c.offset_uT = f.hard_iron_uT;
+  c.K = f.soft_iron;
+  c.radius_uT = f.radius_uT;
+  const double target = o.field_norm_uT > 0.0 ? o.field_norm_uT : f.radius_uT;
+  c.A = f.soft_iron_inv * (target / f.radius_uT);
+  double ss = 0.0, sw = 0.0;
+  std::vector<Vector3d> after;
+  for (size_t i = 0; i < H.size(); ++i) {
+    const double wi = w.empty() ? 1.0 : w[i];
+    const Vector3d b = c.Correct(H[i]);
+    ss += wi * (b.norm() - target) * (b.norm() - target);
+    sw += wi;
+    if (wi >= kOutlierWeight) after.push_back(b);
+  }
+  c.fitness_uT = sw > 0.0 ? std::sqrt(ss / sw) : 0.0;
+  c.norm_spread_after = NormSpread(after);
+  return c;
+}
+
+}  // namespace hexsim::magnetics

@@ -1,0 +1,194 @@
+// Free-hand compass calibration on dumps generated here, with known offset b and A:
+// raw = A⁻¹·B + b + noise, B = F·u over the attitudes each case describes.
+#include "hexsim/magnetics/field_calibration.h"
+
+#include <cmath>
+#include <set>
+#include <vector>
+
+#include <Eigen/LU>
+#include <gtest/gtest.h>
+
+#include "hexsim/common/rng.h"
+#include "hexsim/magnetics/autopilot_params.h"
+#include "hexsim/magnetics/calibrate.h"
+#include "support/calib_synth.h"
+
+namespace hexsim::magnetics {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+constexpr double kF_uT = 50.0;
+const Vector3d kOffset_uT(14.0, -9.0, 25.0);
+
+Matrix3d TrueK() { return testing::TestSoftIron(); }
+
+// Directions: `kind` "sphere" (uniform), "flat" (a level spin: body z never tilts), "little"
+// (within ~5° of one attitude).
+std::vector<Vector3d> Dump(const std::string& kind, int n, double sigma_uT, uint64_t seed, const Matrix3d& K = TrueK(),
+                           const Vector3d& b = kOffset_uT) {
+  RngStream rng(seed, "field_calibration_test");
+  const Vector3d earth_N(20.0, 0.0, std::sqrt(kF_uT * kF_uT - 400.0));
+  std::vector<Vector3d> H;
+  for (int i = 0; i < n; ++i) {
+    Vector3d B;
+    if (kind == "sphere") {
+      B = rng.Normal3(1.0).normalized() * kF_uT;
+    } else if (kind == "flat") {
+      const double yaw = 2.0 * M_PI * i / n;
+      B = Eigen::AngleAxisd(-yaw, Vector3d::UnitZ()) * earth_N;
+    } else {
+      B = Eigen::AngleAxisd(0.08 * rng.Normal(), rng.Normal3(1.0).normalized()) * earth_N;
+    }
+    H.push_back(K * B + b + rng.Normal3(sigma_uT));
+  }
+  return H;
+}
+
+FieldCalibrationOptions Method(const std::string& m) {
+  FieldCalibrationOptions o;
+  o.method = m;
+  return o;
+}
+
+TEST(FieldCalibration, GivenFullSphere_WhenAuto_ThenEllipsoidRecoversOffsetAndShape) {
+  const auto H = Dump("sphere", 600, 0.05, 1);
+  auto c = CalibrateField(H, Method("auto"));
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  EXPECT_EQ(c->method_used, "ellipsoid");
+  EXPECT_LT((c->offset_uT - kOffset_uT).norm(), 0.03);
+  // det A = 1 without a field norm: A is K⁻¹ itself (the reference-fit tolerance: shape within 0.001).
+  EXPECT_LT((c->A - TrueK().inverse()).cwiseAbs().maxCoeff(), 0.001);
+  EXPECT_NEAR(c->radius_uT, kF_uT, 0.05);
+  EXPECT_LT(c->norm_spread_after, 0.002);
+  EXPECT_GT(c->norm_spread_before, 0.03);
+  EXPECT_GT(c->coverage.eigenvalues(0), 0.1);
+  EXPECT_TRUE(c->accepted);
+  EXPECT_TRUE(c->warnings.empty());
+}
+
+TEST(FieldCalibration, GivenFieldNorm_WhenFitted_ThenAMapsToThatNorm) {
+  const auto H = Dump("sphere", 400, 0.05, 2);
+  FieldCalibrationOptions o = Method("ellipsoid");
+  o.field_norm_uT = 48.0;
+  auto c = CalibrateField(H, o);
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  for (const auto& h : H) EXPECT_NEAR(c->Correct(h).norm(), 48.0, 0.3);
+}
+
+TEST(FieldCalibration, GivenFlatSpin_WhenAuto_ThenSphereInThePlaneAndWarningNamesTheMissingRotation) {
+  const auto H = Dump("flat", 72, 0.05, 3, Matrix3d::Identity());
+  auto c = CalibrateField(H, Method("auto"));
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  EXPECT_EQ(c->method_used, "sphere-planar");
+  EXPECT_EQ(c->coverage.weak_axis, "z");
+  ASSERT_FALSE(c->warnings.empty());
+  EXPECT_NE(c->warnings.front().find("body z"), std::string::npos) << c->warnings.front();
+  EXPECT_NEAR(c->offset_uT(0), kOffset_uT(0), 0.05);
+  EXPECT_NEAR(c->offset_uT(1), kOffset_uT(1), 0.05);
+  // Not determined: held at 0 along the weak eigenvector (body z up to the noise's tilt of it).
+  EXPECT_NEAR(c->offset_uT(2), 0.0, 0.02);
+}
+
+TEST(FieldCalibration, GivenFlatSpin_WhenEllipsoidRequested_ThenBadInputNamingTheMissingRotation) {
+  auto c = CalibrateField(Dump("flat", 72, 0.05, 3), Method("ellipsoid"));
+  ASSERT_FALSE(c.ok());
+  EXPECT_EQ(c.status().code(), StatusCode::kBadInput);
+  EXPECT_NE(c.status().message().find("body z"), std::string::npos) << c.status().message();
+}
+
+TEST(FieldCalibration, GivenAFewOutliers_WhenAuto_ThenRobustAndTheOutliersAreReported) {
+  auto H = Dump("sphere", 500, 0.05, 4);
+  const std::set<size_t> bad = {7, 123, 321, 444, 499};
+  for (size_t i : bad) H[i] *= 1.8;
+  auto c = CalibrateField(H, Method("auto"));
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  EXPECT_EQ(c->method_used, "robust-ellipsoid");
+  EXPECT_EQ(std::set<size_t>(c->downweighted.begin(), c->downweighted.end()), bad);
+  EXPECT_LT((c->offset_uT - kOffset_uT).norm(), 0.05);
+  EXPECT_LT((c->A - TrueK().inverse()).cwiseAbs().maxCoeff(), 0.002);
+}
+
+TEST(FieldCalibration, GivenTenSamples_WhenAuto_ThenSphereWithAWarning) {
+  auto c = CalibrateField(Dump("sphere", 10, 0.05, 5, Matrix3d::Identity()), Method("auto"));
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  EXPECT_EQ(c->method_used, "sphere");
+  EXPECT_LT((c->offset_uT - kOffset_uT).norm(), 0.2);
+  EXPECT_FALSE(c->warnings.empty());
+}
+
+TEST(FieldCalibration, GivenFiveSamples_WhenAnyFit_ThenBadInputNamingTheMinimum) {
+  auto c = CalibrateField(Dump("sphere", 5, 0.05, 6), Method("auto"));
+  ASSERT_FALSE(c.ok());
+  EXPECT_EQ(c.status().code(), StatusCode::kBadInput);
+  EXPECT_NE(c.status().message().find("at least 8"), std::string::npos) << c.status().message();
+}
+
+TEST(FieldCalibration, GivenCalibratedDataWithLittleRotation_WhenAuto_ThenSaysSoAndFitsNothing) {
+  const auto H = Dump("little", 200, 0.05, 7, Matrix3d::Identity(), Vector3d::Zero());
+  auto c = CalibrateField(H, Method("auto"));
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  EXPECT_EQ(c->method_used, "none");
+  EXPECT_NE(c->why.find("already consistent"), std::string::npos) << c->why;
+  auto s = CalibrateField(H, Method("sphere"));
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.status().code(), StatusCode::kBadInput);
+  EXPECT_NE(s.status().message().find("already consistent"), std::string::npos) << s.status().message();
+}
+
+TEST(FieldCalibration, GivenGaussAndNanotesla_WhenDetected_ThenUnitsAndOffsetInMicrotesla) {
+  for (const auto& [unit, per_uT] : std::vector<std::pair<std::string, double>>{{"G", 0.01}, {"nT", 1000.0}, {"mG", 10.0}}) {
+    std::vector<MagSample> s;
+    for (const auto& h : Dump("sphere", 300, 0.05, 8)) s.push_back(MagSample{"", 0, 0, 0, h * per_uT, {}, {}});
+    auto o = Calibrate(s, CalibrateRequest{});
+    ASSERT_TRUE(o.ok()) << o.status().message();
+    EXPECT_EQ(o->units.unit, unit);
+    EXPECT_LT((o->field.offset_uT - kOffset_uT).norm(), 0.05) << unit;
+    EXPECT_EQ(o->units.assumption.find("counts") != std::string::npos, unit == "mG") << o->units.assumption;
+  }
+  auto bad = DetectUnits({Vector3d(3000, 0, 0), Vector3d(0, 3000, 0)}, "auto", 0.0);
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.status().message().find("--units"), std::string::npos);
+}
+
+TEST(FieldCalibration, GivenEveryMethod_WhenReported_ThenTheSameKeys) {
+  const auto H = Dump("sphere", 300, 0.05, 9);
+  std::vector<MagSample> s;
+  for (const auto& h : H) s.push_back(MagSample{"", 0, 0, 0, h, {}, {}});
+  std::set<std::string> first;
+  for (const std::string m : {"none", "sphere", "ellipsoid", "robust", "auto"}) {
+    CalibrateRequest rq;
+    rq.method = m;
+    auto o = Calibrate(s, rq);
+    ASSERT_TRUE(o.ok()) << m << ": " << o.status().message();
+    std::set<std::string> keys;
+    for (const auto& [k, v] : o->report.items()) keys.insert(k);
+    if (first.empty()) first = keys;
+    EXPECT_EQ(keys, first) << m;
+    EXPECT_EQ(o->report["method_used"], m == "auto" ? "ellipsoid" : m == "robust" ? "robust-ellipsoid" : m);
+  }
+}
+
+TEST(AutopilotParams, GivenAFit_WhenAppliedTheArduPilotAndPx4Way_ThenTheNormIsConsistent) {
+  const auto H = Dump("sphere", 400, 0.02, 10);
+  auto c = CalibrateField(H, Method("ellipsoid"));
+  ASSERT_TRUE(c.ok());
+  const ParamList ap = ArduPilotCompassParams(c->offset_uT, c->A, 1);
+  const ParamList px4 = Px4CompassParams(c->offset_uT, c->A, 1);
+  EXPECT_EQ(ap.front().first, "COMPASS_OFS2_X");
+  EXPECT_EQ(px4.front().first, "CAL_MAG1_XOFF");
+  std::vector<Vector3d> by_ap, by_px4;
+  for (const auto& h : H) {
+    by_ap.push_back(ApplyArduPilotCompass(ap, 1, h * 10.0));  // raw in mG
+    by_px4.push_back(ApplyPx4Compass(px4, 1, h * 0.01));      // raw in G
+  }
+  EXPECT_LT(NormSpread(by_ap), 0.002);
+  EXPECT_LT(NormSpread(by_px4), 0.002);
+  EXPECT_GT(NormSpread(H), 0.03);
+  EXPECT_NE(ArduPilotParmText(ap).find("COMPASS_DIA2_X "), std::string::npos);
+}
+
+}  // namespace
+}  // namespace hexsim::magnetics

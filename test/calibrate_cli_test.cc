@@ -1,0 +1,146 @@
+// `hexsim calibrate` on plain dumps written here, and `hexsim field` on official WMM test points:
+// exit codes, outputs, one-line errors, nothing half-written.
+#include <sys/wait.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CliRun {
+  int code = -1;
+  std::string out, err;
+};
+
+fs::path Dir(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("hexsim_calcli_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(p);
+  fs::create_directories(p);
+  return p;
+}
+
+std::string Slurp(const fs::path& p) {
+  std::ifstream f(p);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+CliRun Hexsim(const std::string& args) {
+  const fs::path d = fs::temp_directory_path() / ("hexsim_calcli_io_" + std::to_string(::getpid()));
+  fs::create_directories(d);
+  const int raw = std::system((std::string(HEXSIM_BINARY) + " " + args + " >" + (d / "o").string() + " 2>" +
+                               (d / "e").string()).c_str());
+  return {WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, Slurp(d / "o"), Slurp(d / "e")};
+}
+
+// A dump in mG, whitespace-separated, no header: raw = diag(1.05, 0.97, 1.0)·B + (120, -80, 300) mG,
+// B on a spiral over the whole sphere (full) or a level spin (flat), |B| = 500 mG.
+fs::path WriteDump(const fs::path& dir, const std::string& kind, int n) {
+  const fs::path p = dir / (kind + ".txt");
+  std::ofstream f(p);
+  for (int i = 0; i < n; ++i) {
+    const double z = kind == "flat" ? 0.8 : 1.0 - (2.0 * i + 1.0) / n;
+    const double rho = std::sqrt(1.0 - z * z), phi = kind == "flat" ? 2.0 * M_PI * i / n : 2.39996322972865332 * i;
+    f << 1.05 * 500 * rho * std::cos(phi) + 120 << " " << 0.97 * 500 * rho * std::sin(phi) - 80 << " " << 500 * z + 300 << "\n";
+  }
+  return p;
+}
+
+TEST(CalibrateCli, GivenAPlainDumpInMilligauss_WhenAuto_ThenEllipsoidAndEveryOutputWritten) {
+  const fs::path d = Dir("full");
+  const CliRun r = Hexsim("calibrate " + WriteDump(d, "full", 400).string() + " --out " + (d / "c.yaml").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("assuming mG"), std::string::npos) << r.out;
+  for (const char* f : {"c.yaml", "c.report.json", "c.parm", "c.params", "c.png"}) EXPECT_TRUE(fs::exists(d / f)) << f;
+  const auto j = nlohmann::json::parse(Slurp(d / "c.report.json"));
+  EXPECT_EQ(j["method_used"], "ellipsoid");
+  EXPECT_EQ(j["units_assumed"], "mG");
+  EXPECT_NEAR(j["offset_uT"][0].get<double>(), 12.0, 0.01);
+  EXPECT_NEAR(j["offset_uT"][2].get<double>(), 30.0, 0.01);
+  // COMPASS_OFS = −offset in mG.
+  EXPECT_NE(Slurp(d / "c.parm").find("COMPASS_OFS_X -120"), std::string::npos) << Slurp(d / "c.parm");
+  EXPECT_NE(Slurp(d / "c.params").find("\tCAL_MAG0_XOFF\t0.1"), std::string::npos) << Slurp(d / "c.params");
+  // The written calibration reads back (heading-error takes it).
+  EXPECT_EQ(Hexsim("heading-error --calib " + (d / "c.yaml").string() + " --step-deg 30").code, 0);
+}
+
+TEST(CalibrateCli, GivenMethodNone_WhenRun_ThenExit0WithTheSameReportKeys) {
+  const fs::path d = Dir("none");
+  const CliRun r = Hexsim("calibrate " + WriteDump(d, "full", 100).string() + " --method none --out " + (d / "c.yaml").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(Slurp(d / "c.report.json"));
+  EXPECT_EQ(j["method_used"], "none");
+  EXPECT_TRUE(j["fitness_uT"].is_number());
+  EXPECT_TRUE(j.contains("ardupilot_params"));
+}
+
+TEST(CalibrateCli, GivenAFlatSpin_WhenAutoOrEllipsoid_ThenWarningAndExit0OrExit2NamingTheRotation) {
+  const fs::path d = Dir("flat");
+  const fs::path dump = WriteDump(d, "flat", 72);
+  CliRun r = Hexsim("calibrate " + dump.string() + " --out " + (d / "a.yaml").string());
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("warning: poor coverage"), std::string::npos) << r.out;
+  r = Hexsim("calibrate " + dump.string() + " --method ellipsoid --out " + (d / "e.yaml").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("body z"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("flat.txt"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(d / "e.yaml"));
+  EXPECT_FALSE(fs::exists(d / "e.report.json"));
+}
+
+TEST(CalibrateCli, GivenTooFewSamplesOrBadUnits_WhenRun_ThenExit2NamingWhy) {
+  const fs::path d = Dir("few");
+  CliRun r = Hexsim("calibrate " + WriteDump(d, "full", 5).string() + " --out " + (d / "c.yaml").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("at least 8"), std::string::npos) << r.err;
+  r = Hexsim("calibrate " + WriteDump(d, "full", 50).string() + " --units counts --out " + (d / "c.yaml").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--field-norm"), std::string::npos) << r.err;
+  r = Hexsim("calibrate " + WriteDump(d, "full", 50).string() + " --units counts --field-norm 50 --out " +
+             (d / "c.yaml").string());
+  EXPECT_EQ(r.code, 0) << r.err;
+}
+
+TEST(FieldCli, GivenOfficialTestPoints_WhenAskedPerModel_ThenWithin1nT) {
+  // First official point of each model's test file (data/wmm/test_values_*.csv).
+  for (const std::string id : {"2015", "2015v2", "2020", "2025"}) {
+    std::istringstream csv(Slurp(fs::path(HEXSIM_SOURCE_DIR) / "data" / "wmm" / ("test_values_" + id + ".csv")));
+    std::string header, row;
+    std::getline(csv, header);
+    std::getline(csv, row);
+    std::vector<double> v;
+    std::stringstream ss(row);
+    for (std::string cell; std::getline(ss, cell, ',');) v.push_back(std::stod(cell));
+    ASSERT_EQ(v.size(), 12u);
+    const CliRun r = Hexsim("field " + std::to_string(v[2]) + " " + std::to_string(v[3]) + " " + std::to_string(v[1] * 1000) +
+                         " " + std::to_string(v[0]) + " --model wmm" + id + " --json");
+    ASSERT_EQ(r.code, 0) << r.err;
+    const auto j = nlohmann::json::parse(r.out);
+    EXPECT_EQ(j["schema"], "hexsim.field/1");
+    EXPECT_EQ(j["model_id"], "wmm" + id);
+    EXPECT_NEAR(j["north_nT"].get<double>(), v[4], 1.0) << id;
+    EXPECT_NEAR(j["east_nT"].get<double>(), v[5], 1.0) << id;
+    EXPECT_NEAR(j["down_nT"].get<double>(), v[6], 1.0) << id;
+    EXPECT_NEAR(j["total_nT"].get<double>(), v[8], 1.0) << id;
+    EXPECT_NEAR(j["declination_deg"].get<double>(), v[10], 0.01) << id;
+  }
+  const CliRun out = Hexsim("field 43.88 125.35 200 2030.4");
+  EXPECT_EQ(out.code, 2);
+  EXPECT_NE(out.err.find("2030.4 outside"), std::string::npos) << out.err;
+  const CliRun text = Hexsim("field 43.88 125.35 200 2016-07-02");
+  EXPECT_EQ(text.code, 0) << text.err;
+  EXPECT_NE(text.out.find("WMM-2015v2"), std::string::npos) << text.out;
+}
+
+}  // namespace
