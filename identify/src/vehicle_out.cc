@@ -9,6 +9,7 @@
 #include "hexsim/common/yaml_reader.h"
 #include "hexsim/control/controller.h"
 #include "hexsim/identify/identify.h"
+#include "hexsim/vehicle/powertrain.h"
 
 namespace hexsim::identify {
 namespace {
@@ -82,6 +83,30 @@ vehicle::VehicleParams ApplyIdentified(const vehicle::VehicleParams& base, const
   }
   if (auto q = Fitted(r, "yaw_torque_coefficient_m")) {
     for (auto& rot : v.rotors) rot.k_Q_Nmprps2 = *q * rot.k_T_Nprps2;
+  }
+  // k_Q changes the current a rotor draws at a given thrust, hence its hover command: scale k_T
+  // again (with k_Q/k_T kept) until the vehicle hovers at the identified output on V_ref.
+  if (auto u_h = Fitted(r, "hover_output"); u_h && r.v_ref_V > 0 && Fitted(r, "thrust_scale")) {
+    const double T = m * kGravity_mps2 / static_cast<double>(v.rotors.size());
+    auto cmd = [&](double s) {
+      vehicle::VehicleParams w = v;
+      for (auto& rot : w.rotors) {
+        rot.k_T_Nprps2 *= s;
+        rot.k_Q_Nmprps2 *= s;
+      }
+      return vehicle::CommandForThrust(w, 0, T, r.v_ref_V);
+    };
+    double lo = 0.5, hi = 2.0;
+    if (cmd(lo) >= *u_h && cmd(hi) <= *u_h) {
+      for (int i = 0; i < 50; ++i) {
+        const double mid = std::sqrt(lo * hi);
+        (cmd(mid) > *u_h ? lo : hi) = mid;
+      }
+      for (auto& rot : v.rotors) {
+        rot.k_T_Nprps2 *= std::sqrt(lo * hi);
+        rot.k_Q_Nmprps2 *= std::sqrt(lo * hi);
+      }
+    }
   }
   if (auto tau = Fitted(r, "motor_time_constant_s"); tau && !v.rotors.empty() && v.motor.winding_resistance_ohm > 0) {
     v.motor.inertia_kgm2 = InertiaForTimeConstant(v, *tau);
