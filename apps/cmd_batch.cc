@@ -75,7 +75,7 @@ Result<json> RunOne(const batch::RunPoint& p, batch::SetupCache* cache, const st
   auto out = experiments::FlyPoint(p, cache);
   if (!out.ok()) return out.status();
   if (keep_log) HEXSIM_RETURN_IF_ERROR(experiments::WriteRunLog(*out, run_dir));
-  return std::move(out->summary);
+  return sim::ToJson(out->summary);
 }
 
 Status BatchCommand(const BatchArgs& args, int* exit_code) {

@@ -32,9 +32,8 @@ Status RunCommand(const RunArgs& args, int* exit_code) {
   out.Commit();
   const auto& s = result.summary;
   std::fprintf(stdout, "%s: %s in %.1f s, cross-track rms %.2f m, yaw error rms %.2f deg, energy %.2f Wh -> %s\n",
-               s["mission"].get<std::string>().c_str(), s["status"].get<std::string>().c_str(),
-               s["duration_s"].get<double>(), s["cross_track_m"]["rms"].get<double>(),
-               s["yaw_error_deg"]["rms"].get<double>(), s["energy_Wh"].get<double>(), args.out.c_str());
+               s.mission.c_str(), sim::RunStatusName(s.status), s.duration_s, s.cross_track_m.rms, s.yaw_error_deg.rms,
+               s.energy_Wh, args.out.c_str());
   *exit_code = result.status.ok() ? 0 : Report(result.status);
   return Status::Ok();
 }

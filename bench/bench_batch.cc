@@ -20,7 +20,7 @@ constexpr int kRuns = 8;
 nlohmann::json RunOne(const hexsim::batch::RunPoint& p, hexsim::batch::SetupCache* cache) {
   auto setup = cache->Get(p);
   if (!setup.ok()) return {{"status", "failed"}, {"reason", setup.status().message()}};
-  return hexsim::sim::RunMission(*setup).summary;
+  return hexsim::sim::ToJson(hexsim::sim::RunMission(*setup).summary);
 }
 
 void BM_BatchPool(benchmark::State& state) {

@@ -27,9 +27,9 @@ TEST(ClosedLoop, GivenCalmAirWhenTheSquareIsFlownThenItCompletesWithCrossTrackUn
     const RunOutput out = Fly("square", vehicle, "default");
     ASSERT_TRUE(out.status.ok()) << out.status.message();
     const auto& s = out.summary;
-    EXPECT_EQ(s["status"], "completed") << vehicle << ": " << s["reason"];
-    EXPECT_LT(s["cross_track_m"]["rms"].get<double>(), 0.5) << vehicle;
-    EXPECT_EQ(s["waypoints"].size(), 4u) << vehicle;
+    EXPECT_EQ(s.status, RunStatus::kCompleted) << vehicle << ": " << s.reason;
+    EXPECT_LT(s.cross_track_m.rms, 0.5) << vehicle;
+    EXPECT_EQ(s.waypoints.size(), 4u) << vehicle;
     // Landed: back on the ground (CG at the gear height), still.
     const auto& d = out.log.Column("pos_D_m");
     const auto& vd = out.log.Column("vel_D_mps");
@@ -44,7 +44,7 @@ TEST(ClosedLoop, GivenCalmAirWhenTheSquareIsFlownThenItCompletesWithCrossTrackUn
 
 TEST(ClosedLoop, GivenAPayloadReleasedMidFlightWhenFlownThenMassDropsAndTheMissionCompletes) {
   const RunOutput out = Fly("payload_change", "paper_hex", "changchun");
-  EXPECT_EQ(out.summary["status"], "completed") << out.summary["reason"];
+  EXPECT_EQ(out.summary.status, RunStatus::kCompleted) << out.summary.reason;
   const auto& payload = out.log.Column("payload_kg");
   EXPECT_GT(payload.front(), 0.0);
   EXPECT_EQ(payload.back(), 0.0);
@@ -70,15 +70,15 @@ TEST(ClosedLoop, GivenAPayloadReleasedMidFlightWhenFlownThenMassDropsAndTheMissi
 
 TEST(ClosedLoop, GivenWindWhenTheSquareIsFlownThenItStillCompletes) {
   const RunOutput out = Fly("square", "default_hex", "windy");
-  EXPECT_EQ(out.summary["status"], "completed") << out.summary["reason"];
-  EXPECT_LT(out.summary["cross_track_m"]["rms"].get<double>(), 1.5);
+  EXPECT_EQ(out.summary.status, RunStatus::kCompleted) << out.summary.reason;
+  EXPECT_LT(out.summary.cross_track_m.rms, 1.5);
 }
 
 TEST(ClosedLoop, GivenAnAbsurdGainWhenFlownThenTheMissionFailsWithoutNonFiniteNumbers) {
   // Saturated rotors bound the torque, so an absurd gain tumbles the vehicle rather than blowing
   // up the numbers: the run ends as not completed, with a finite log.
   const RunOutput out = Fly("square", "default_hex", "default", {"control.rate.roll.kp=1e7", "control.rate.roll.output_limit=1e9", "sim.max_duration_s=120"});
-  EXPECT_EQ(out.summary["status"], "not_completed");
+  EXPECT_EQ(out.summary.status, RunStatus::kNotCompleted);
   for (size_t c = 0; c < out.log.columns().size(); ++c) {
     for (double v : out.log.Column(c)) ASSERT_FALSE(std::isinf(v));
   }
@@ -86,9 +86,9 @@ TEST(ClosedLoop, GivenAnAbsurdGainWhenFlownThenTheMissionFailsWithoutNonFiniteNu
 
 TEST(ClosedLoop, GivenAnAbsurdInertiaWhenFlownThenTheRunStopsAsDivergedNamingQuantityAndTime) {
   const RunOutput out = Fly("square", "default_hex", "default", {"vehicle.inertia_kgm2=[1e-9, 1e-9, 1e-9]"});
-  EXPECT_EQ(out.summary["status"], "diverged");
+  EXPECT_EQ(out.summary.status, RunStatus::kDiverged);
   EXPECT_EQ(out.status.code(), StatusCode::kNumerical);
-  const std::string reason = out.summary["reason"];
+  const std::string reason = out.summary.reason;
   EXPECT_NE(reason.find(" at t = "), std::string::npos) << reason;
   // The log stops at the divergence and holds no non-finite number.
   for (size_t c = 0; c < out.log.columns().size(); ++c) {

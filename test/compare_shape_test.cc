@@ -28,10 +28,10 @@ Flight Fly(const std::string& method, uint64_t seed) {
   EXPECT_TRUE(flown.ok()) << flown.status().message();
   const RunOutput& out = *flown;
   Flight f;
-  f.status = out.summary["status"];
-  f.yaw_max_deg = out.summary["yaw_error_deg"]["max"];
-  f.yaw_rms_deg = out.summary["yaw_error_deg"]["rms"];
-  f.xtrack_rms_m = out.summary["cross_track_m"]["rms"];
+  f.status = RunStatusName(out.summary.status);
+  f.yaw_max_deg = out.summary.yaw_error_deg.max;
+  f.yaw_rms_deg = out.summary.yaw_error_deg.rms;
+  f.xtrack_rms_m = out.summary.cross_track_m.rms;
   return f;
 }
 

@@ -73,7 +73,10 @@ RunRow Collect(const Running& r, int wait_status, double wall_s, json* summary) 
     if (text.ok()) {
       try {
         *summary = json::parse(*text);
-        return RowFromSummary(r.point, *summary, wall_s);
+        auto typed = sim::RunSummaryFromJson(*summary, dir + "/summary.json");
+        if (typed.ok()) return RowFromSummary(r.point, *typed, wall_s);
+        *summary = nullptr;
+        return FailedRow(r.point, "crashed", "unreadable summary.json: " + typed.status().message(), wall_s);
       } catch (const json::exception& e) {
         *summary = nullptr;
         return FailedRow(r.point, "crashed", std::string("unreadable summary.json: ") + e.what(), wall_s);

@@ -83,46 +83,42 @@ RunRow BaseRow(const RunPoint& p, double wall_s) {
 }  // namespace
 
 const std::vector<MetricColumn>& MetricColumns() {
+  using S = sim::RunSummary;
   static const std::vector<MetricColumn> kColumns = {
-      {"distance_m", "/distance_m"},
-      {"cross_track_max_m", "/cross_track_m/max"},
-      {"cross_track_rms_m", "/cross_track_m/rms"},
-      {"yaw_error_max_deg", "/yaw_error_deg/max"},
-      {"yaw_error_rms_deg", "/yaw_error_deg/rms"},
-      {"energy_Wh", "/energy_Wh"},
-      {"current_max_A", "/current_A/max"},
-      {"current_mean_A", "/current_A/mean"},
-      {"mission_time_s", "/mission_time_s"},
-      {"flown_s", "/duration_s"},
+      {"distance_m", [](const S& s) -> std::optional<double> { return s.distance_m; }},
+      {"cross_track_max_m", [](const S& s) -> std::optional<double> { return s.cross_track_m.max; }},
+      {"cross_track_rms_m", [](const S& s) -> std::optional<double> { return s.cross_track_m.rms; }},
+      {"yaw_error_max_deg", [](const S& s) -> std::optional<double> { return s.yaw_error_deg.max; }},
+      {"yaw_error_rms_deg", [](const S& s) -> std::optional<double> { return s.yaw_error_deg.rms; }},
+      {"energy_Wh", [](const S& s) -> std::optional<double> { return s.energy_Wh; }},
+      {"current_max_A", [](const S& s) -> std::optional<double> { return s.current_max_A; }},
+      {"current_mean_A", [](const S& s) -> std::optional<double> { return s.current_mean_A; }},
+      {"mission_time_s", [](const S& s) { return s.mission_time_s; }},
+      {"flown_s", [](const S& s) -> std::optional<double> { return s.duration_s; }},
   };
   return kColumns;
 }
 
 bool IsFailure(const std::string& status) { return status != "completed" && status != "not_completed"; }
 
-RunRow RowFromSummary(const RunPoint& point, const json& summary, double wall_s) {
+RunRow RowFromSummary(const RunPoint& point, const sim::RunSummary& summary, double wall_s) {
   RunRow r = BaseRow(point, wall_s);
-  r.status = summary.value("status", std::string("failed"));
-  r.reason = summary.value("reason", std::string());
-  if (summary.contains("mission") && summary["mission"].is_string()) r.mission = summary["mission"].get<std::string>();
-  if (summary.contains("vehicle") && summary["vehicle"].is_string()) r.vehicle = summary["vehicle"].get<std::string>();
-  if (summary.contains("world") && summary["world"].is_string()) r.world = summary["world"].get<std::string>();
-  if (summary.contains("calibration") && summary["calibration"].is_string()) {
-    r.calibration = summary["calibration"].get<std::string>();
-  }
-  if (summary.contains("estimator") && summary["estimator"].is_string()) r.estimator = summary["estimator"].get<std::string>();
+  r.status = sim::RunStatusName(summary.status);
+  r.reason = summary.reason;
+  r.mission = summary.mission;
+  r.vehicle = summary.vehicle;
+  r.world = summary.world;
+  r.calibration = summary.calibration;
+  r.estimator = summary.estimator;
   for (const auto& m : MetricColumns()) {
-    const json::json_pointer ptr(m.pointer);
-    if (summary.contains(ptr) && summary.at(ptr).is_number()) {
-      const double v = summary.at(ptr).get<double>();
-      if (std::isfinite(v)) r.metrics[m.column] = v;
-    }
+    const std::optional<double> v = m.value(summary);
+    if (v && std::isfinite(*v)) r.metrics[m.column] = *v;
   }
-  if (summary.contains("waypoints")) r.waypoints_json = summary["waypoints"].dump();
-  json stored = summary;
+  json stored = sim::ToJson(summary);
+  r.waypoints_json = stored["waypoints"].dump();
   stored.erase("wall_s");
   r.summary_json = stored.dump();
-  if (summary.contains("version") && summary["version"].is_string()) r.version = summary["version"].get<std::string>();
+  r.version = summary.version;
   return r;
 }
 

@@ -29,17 +29,17 @@ Result<json> FakeRun(const RunPoint& p) {
   if (p.seed == 3) std::abort();
   if (p.seed == 4) return Status::BadInput("mission file vanished");
   const double s = static_cast<double>(p.seed);
-  return json{{"status", p.seed == 5 ? "diverged" : "completed"},
-              {"reason", p.seed == 5 ? "non-finite v_N_mps at t = 1.000 s" : ""},
-              {"mission", p.mission},
-              {"cross_track_m", {{"max", 2 * s}, {"rms", s}}},
-              {"yaw_error_deg", {{"max", 0.5 * s}, {"rms", 0.25 * s}}},
-              {"energy_Wh", 1.5 + s},
-              {"duration_s", 10.0},
-              {"mission_time_s", nullptr},
-              {"waypoints", json::array()},
-              {"wall_s", 0.01 * s},
-              {"version", "test"}};
+  sim::RunSummary sum;
+  sum.status = p.seed == 5 ? sim::RunStatus::kDiverged : sim::RunStatus::kCompleted;
+  sum.reason = p.seed == 5 ? "non-finite v_N_mps at t = 1.000 s" : "";
+  sum.mission = p.mission;
+  sum.cross_track_m = {2 * s, s};
+  sum.yaw_error_deg = {0.5 * s, 0.25 * s};
+  sum.energy_Wh = 1.5 + s;
+  sum.duration_s = 10.0;
+  sum.wall_s = 0.01 * s;
+  sum.version = "test";
+  return sim::ToJson(sum);
 }
 
 std::vector<std::string> RunWithJobs(int jobs, const std::string& name, PoolStats* stats_out) {
@@ -118,7 +118,9 @@ TEST(RunPool, GivenARunThatHangsWhenATimeoutIsSetThenItIsKilledAndRecordedAsTime
   opt.progress_stream = nullptr;
   auto hang = [](const RunPoint& p) -> Result<json> {
     if (p.seed == 1) std::this_thread::sleep_for(std::chrono::seconds(30));
-    return json{{"status", "completed"}, {"reason", ""}};
+    sim::RunSummary done;
+    done.status = sim::RunStatus::kCompleted;
+    return sim::ToJson(done);
   };
   const auto t0 = std::chrono::steady_clock::now();
   auto stats = RunPool(Points(2), hang, opt, &*db);

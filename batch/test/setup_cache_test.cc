@@ -8,7 +8,7 @@ namespace hexsim::batch {
 namespace {
 
 nlohmann::json SummaryWithoutWall(const sim::RunSetup& setup) {
-  nlohmann::json s = sim::RunMission(setup).summary;
+  nlohmann::json s = sim::ToJson(sim::RunMission(setup).summary);
   s.erase("wall_s");
   return s;
 }

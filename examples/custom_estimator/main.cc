@@ -209,11 +209,10 @@ int main() {
   const auto& s = out.summary;
   std::printf("custom estimator %s, square: %s (%s) in %.1f s, cross-track rms %.2f m, yaw error rms %.2f deg, "
               "max position error %.2f m\n",
-              s["estimator"].get<std::string>().c_str(), s["status"].get<std::string>().c_str(),
-              s["reason"].get<std::string>().c_str(), s["duration_s"].get<double>(),
-              s["cross_track_m"]["rms"].get<double>(), s["yaw_error_deg"]["rms"].get<double>(), max_pos_err_m);
+              s.estimator.c_str(), hexsim::sim::RunStatusName(s.status), s.reason.c_str(), s.duration_s,
+              s.cross_track_m.rms, s.yaw_error_deg.rms, max_pos_err_m);
   // Completion, with the estimate good enough to follow the legs (uncalibrated compass: a few degrees).
-  const bool ok = s["status"] == "completed" && s["yaw_error_deg"]["rms"].get<double>() < 15.0 &&
-                  s["cross_track_m"]["rms"].get<double>() < 5.0;
+  const bool ok = s.status == hexsim::sim::RunStatus::kCompleted && s.yaw_error_deg.rms < 15.0 &&
+                  s.cross_track_m.rms < 5.0;
   return ok ? 0 : 1;
 }

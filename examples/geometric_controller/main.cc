@@ -114,10 +114,9 @@ int main() {
   const auto& s = out.summary;
   std::printf("geometric SO(3) controller, square: %s (%s) in %.1f s, cross-track max %.2f m rms %.2f m, "
               "%zu waypoints, max tilt %.1f deg\n",
-              s["status"].get<std::string>().c_str(), s["reason"].get<std::string>().c_str(),
-              s["duration_s"].get<double>(), s["cross_track_m"]["max"].get<double>(),
-              s["cross_track_m"]["rms"].get<double>(), s["waypoints"].size(), max_tilt_deg);
+              hexsim::sim::RunStatusName(s.status), s.reason.c_str(), s.duration_s, s.cross_track_m.max,
+              s.cross_track_m.rms, s.waypoints.size(), max_tilt_deg);
   // Completion, and it must actually have tracked the legs (the cascade holds ~0.2 m rms).
-  const bool ok = s["status"] == "completed" && s["cross_track_m"]["rms"].get<double>() < 1.5;
+  const bool ok = s.status == hexsim::sim::RunStatus::kCompleted && s.cross_track_m.rms < 1.5;
   return ok ? 0 : 1;
 }

@@ -88,20 +88,24 @@ Result<CompareResult> RunComparison(const CompareOptions& o, const std::string& 
     auto run = FlyPoint(std::move(*setup), p.calibration);
     if (!run.ok()) return run.status();
     HEXSIM_RETURN_IF_ERROR(WriteRunLog(*run, pool.run_dir(p)));
-    return std::move(run->summary);
+    return sim::ToJson(run->summary);
   };
-  std::map<std::pair<std::string, uint64_t>, json> summaries;
+  std::map<std::pair<std::string, uint64_t>, sim::RunSummary> summaries;
   std::vector<std::string> failures;
   const batch::RecordFn record = [&](const batch::RunRow& row, const json& summary) {
     if (batch::IsFailure(row.status) && row.status != "diverged") {
       failures.push_back(fmt::format("{} seed {}: {}: {}", row.calibration, row.seed, row.status, row.reason));
       return Status::Ok();
     }
-    summaries[{row.calibration, row.seed}] = summary;
+    auto s = sim::RunSummaryFromJson(summary, RunDir(row.calibration, row.seed) + "/summary.json");
+    if (!s.ok()) {
+      failures.push_back(s.status().message());
+      return Status::Ok();
+    }
     std::fprintf(stderr, "compare: %-17s seed %-4llu %-13s yaw max %6.2f deg  cross-track rms %5.2f m\n",
-                 row.calibration.c_str(), static_cast<unsigned long long>(row.seed),
-                 summary["status"].get<std::string>().c_str(), summary["yaw_error_deg"]["max"].get<double>(),
-                 summary["cross_track_m"]["rms"].get<double>());
+                 row.calibration.c_str(), static_cast<unsigned long long>(row.seed), sim::RunStatusName(s->status),
+                 s->yaw_error_deg.max, s->cross_track_m.rms);
+    summaries[{row.calibration, row.seed}] = std::move(*s);
     return Status::Ok();
   };
   auto stats = batch::RunPool(points, fly, pool, record);
@@ -118,7 +122,7 @@ Result<CompareResult> RunComparison(const CompareOptions& o, const std::string& 
     cmp.runs.push_back({p.calibration, p.seed, summaries.at({p.calibration, p.seed}), RunDir(p.calibration, p.seed)});
   }
   for (const auto& c : o.calibrations) {
-    std::vector<json> sums;
+    std::vector<sim::RunSummary> sums;
     for (const auto& r : cmp.runs) {
       if (r.calibration == c) sums.push_back(r.summary);
     }

@@ -8,44 +8,32 @@ namespace hexsim::experiments {
 
 using nlohmann::json;
 
-const std::vector<std::string>& SummaryFigures() {
-  static const std::vector<std::string> k = {"yaw_error_deg.max", "yaw_error_deg.rms", "cross_track_m.max",
-                                             "cross_track_m.rms", "energy_Wh",         "mission_time_s",
-                                             "distance_m",        "current_A.mean",    "current_A.max"};
+const std::vector<SummaryFigure>& SummaryFigures() {
+  using S = sim::RunSummary;
+  static const std::vector<SummaryFigure> k = {
+      {"yaw_error_deg.max", [](const S& s) -> std::optional<double> { return s.yaw_error_deg.max; }},
+      {"yaw_error_deg.rms", [](const S& s) -> std::optional<double> { return s.yaw_error_deg.rms; }},
+      {"cross_track_m.max", [](const S& s) -> std::optional<double> { return s.cross_track_m.max; }},
+      {"cross_track_m.rms", [](const S& s) -> std::optional<double> { return s.cross_track_m.rms; }},
+      {"energy_Wh", [](const S& s) -> std::optional<double> { return s.energy_Wh; }},
+      {"mission_time_s", [](const S& s) { return s.mission_time_s; }},
+      {"distance_m", [](const S& s) -> std::optional<double> { return s.distance_m; }},
+      {"current_A.mean", [](const S& s) -> std::optional<double> { return s.current_mean_A; }},
+      {"current_A.max", [](const S& s) -> std::optional<double> { return s.current_max_A; }}};
   return k;
 }
 
-namespace {
-
-bool Lookup(const json& s, const std::string& path, double* v) {
-  const json* j = &s;
-  size_t start = 0;
-  while (true) {
-    const size_t dot = path.find('.', start);
-    const std::string key = path.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
-    if (!j->is_object() || !j->contains(key)) return false;
-    j = &(*j)[key];
-    if (dot == std::string::npos) break;
-    start = dot + 1;
-  }
-  if (!j->is_number()) return false;
-  *v = j->get<double>();
-  return std::isfinite(*v);
-}
-
-}  // namespace
-
-std::map<std::string, SampleStats> GroupMetrics(const std::vector<json>& summaries) {
+std::map<std::string, SampleStats> GroupMetrics(const std::vector<sim::RunSummary>& summaries) {
   std::map<std::string, SampleStats> m;
   for (const auto& f : SummaryFigures()) {
     std::vector<double> x;
     for (const auto& s : summaries) {
-      double v = 0;
-      if (Lookup(s, f, &v)) x.push_back(v);
+      const std::optional<double> v = f.value(s);
+      if (v && std::isfinite(*v)) x.push_back(*v);
     }
     // Every figure but the current is a magnitude, a length, an energy or a time: its interval stays
     // at or above 0 (SummarizeNonNegative says when it clipped).
-    if (!x.empty()) m[f] = f.rfind("current_A", 0) == 0 ? Summarize(x) : SummarizeNonNegative(x);
+    if (!x.empty()) m[f.path] = std::string(f.path).rfind("current_A", 0) == 0 ? Summarize(x) : SummarizeNonNegative(x);
   }
   return m;
 }
@@ -58,7 +46,7 @@ json ToJson(const Comparison& c) {
   cmp["world"] = c.world;
   cmp["estimator"] = c.estimator;
   cmp["runs"] = json::array();
-  for (const auto& r : c.runs) cmp["runs"].push_back({{"calibration", r.calibration}, {"seed", r.seed}, {"summary", r.summary}});
+  for (const auto& r : c.runs) cmp["runs"].push_back({{"calibration", r.calibration}, {"seed", r.seed}, {"summary", sim::ToJson(r.summary)}});
   cmp["groups"] = json::array();
   for (const auto& g : c.groups) {
     json metrics = json::object();

@@ -22,7 +22,7 @@ Status WriteRunLog(const sim::RunOutput& output, const std::string& dir) {
 }
 
 Status WriteRunSummary(const sim::RunOutput& output, const std::string& dir) {
-  return WriteFileAtomic(dir + "/summary.json", output.summary.dump(2) + "\n");
+  return WriteFileAtomic(dir + "/summary.json", sim::ToJson(output.summary).dump(2) + "\n");
 }
 
 }  // namespace hexsim::experiments

@@ -7,11 +7,13 @@
 namespace hexsim::experiments {
 namespace {
 
-nlohmann::json Summary(double yaw_max_deg, double xtrack_rms_m) {
-  return {{"status", "completed"},
-          {"yaw_error_deg", {{"max", yaw_max_deg}, {"rms", 0.5 * yaw_max_deg}}},
-          {"cross_track_m", {{"max", 2 * xtrack_rms_m}, {"rms", xtrack_rms_m}}},
-          {"energy_Wh", 3.0}};
+sim::RunSummary Summary(double yaw_max_deg, double xtrack_rms_m) {
+  sim::RunSummary s;
+  s.status = sim::RunStatus::kCompleted;
+  s.yaw_error_deg = {yaw_max_deg, 0.5 * yaw_max_deg};
+  s.cross_track_m = {2 * xtrack_rms_m, xtrack_rms_m};
+  s.energy_Wh = 3.0;
+  return s;
 }
 
 TEST(GroundSessionSeed, GivenAFlightSeedThenTheGroundSessionHasItsOwnSeedByTheOneFormula) {
@@ -43,7 +45,7 @@ TEST(GroupMetrics, GivenTwoSeedsThenEachFigureHasItsMeanStdAndStudentInterval) {
   // 3 − 12.7 < 0: a yaw error magnitude's interval is clipped at 0, and says so.
   EXPECT_EQ(*yaw.ci95_lo, 0.0);
   EXPECT_TRUE(yaw.ci95_clipped);
-  EXPECT_EQ(m.count("mission_time_s"), 0u);  // absent from every summary: not a figure of the group
+  EXPECT_EQ(m.count("mission_time_s"), 0u);  // no run landed: not a figure of the group
 }
 
 TEST(ComparisonToJson, GivenOneSeedThenTheContractKeysAreWrittenAndTheIntervalCollapsesOntoTheMean) {

@@ -179,10 +179,7 @@ Status HeadingFigures(const std::vector<experiments::HeadingCurves>& all, const 
 
 // ---- Flight figures (Figs. 8–9, yaw error, current) ----------------------------------------------
 
-std::string SummaryFigure(const nlohmann::json& summary, const char* key, const char* sub) {
-  if (!summary.contains(key) || !summary[key].contains(sub)) return "–";
-  return fmt::format("{:.2f}", summary[key][sub].get<double>());
-}
+std::string Figure2(double v) { return fmt::format("{:.2f}", v); }
 
 Status FlightFigures(const Comparison& c, const CompareEvidence& ev, FigureSink* sink) {
   const std::vector<experiments::FlownRun>& runs = ev.first_flights;
@@ -215,9 +212,12 @@ Status FlightFigures(const Comparison& c, const CompareEvidence& ev, FigureSink*
     view.title = "3-D view";
     view.legend = render::LegendPosition::kNone;
     f.panels = {top, view};
-    nlohmann::json summary;
+    std::string xt_max = "–", xt_rms = "–";
     for (const auto& run : c.runs) {
-      if (run.calibration == r.calibration && run.seed == r.seed) summary = run.summary;
+      if (run.calibration == r.calibration && run.seed == r.seed) {
+        xt_max = Figure2(run.summary.cross_track_m.max);
+        xt_rms = Figure2(run.summary.cross_track_m.rms);
+      }
     }
     HEXSIM_RETURN_IF_ERROR(sink->Add(
         render::Render(f, 1500, 700),
@@ -225,8 +225,7 @@ Status FlightFigures(const Comparison& c, const CompareEvidence& ev, FigureSink*
          fmt::format("Figs. 8–9 — planned vs flown track, {}", DisplayName(r.calibration)),
          fmt::format("The mission's planned path (dashed, waypoints marked) and the true track flown with the {} "
                      "compass calibration (seed {}; cross-track error max {} m, RMS {} m), from above and in 3-D.",
-                     DisplayName(r.calibration), r.seed, SummaryFigure(summary, "cross_track_m", "max"),
-                     SummaryFigure(summary, "cross_track_m", "rms"))}));
+                     DisplayName(r.calibration), r.seed, xt_max, xt_rms)}));
   }
   if (all_tracks.size() > 1) {
     render::Plot2D top = render::TracksTopView(planned ? *planned : no_plan, all_tracks);
@@ -339,8 +338,8 @@ std::string TrackTable(const std::vector<experiments::ComparisonGroup>& groups) 
   std::vector<std::string> metrics;
   for (const auto& f : experiments::SummaryFigures()) {
     for (const auto& g : groups) {
-      if (g.metrics.count(f)) {
-        metrics.push_back(f);
+      if (g.metrics.count(f.path)) {
+        metrics.emplace_back(f.path);
         break;
       }
     }

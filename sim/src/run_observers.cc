@@ -147,9 +147,7 @@ double RunningStats::Mean() const { return n > 0 ? sum / n : 0.0; }
 
 void RunScorer::OnStep(const StepRecord& r) {
   if (r.arrival) {
-    arrivals_.push_back({{"index", r.arrival->waypoint_index},
-                         {"arrival_error_m", r.arrival->error_m},
-                         {"arrival_time_s", r.arrival->t_s}});
+    arrivals_.push_back({r.arrival->waypoint_index, r.arrival->error_m, r.arrival->t_s});
   }
   const bool airborne = r.mode == control::FlightMode::kWaypoint || r.mode == control::FlightMode::kHold;
   if (airborne && r.active_leg >= 0) cross_track_.Add(control::CrossTrackToLeg(path_, r.active_leg, r.truth->p_N_m));
@@ -168,15 +166,16 @@ void RunScorer::OnInterval(const StepInterval& iv) {
   distance_m_ += (iv.p_after_N_m - iv.p_before_N_m).norm();
 }
 
-void RunScorer::WriteSummary(nlohmann::json* summary) const {
-  nlohmann::json& sum = *summary;
-  sum["distance_m"] = distance_m_;
-  sum["cross_track_m"] = {{"max", cross_track_.max}, {"rms", cross_track_.Rms()}};
-  sum["yaw_error_deg"] = {{"max", yaw_err_.max}, {"rms", yaw_err_.Rms()}};
-  sum["yaw_error_all_deg"] = {{"max", yaw_err_all_.max}, {"rms", yaw_err_all_.Rms()}};
-  sum["energy_Wh"] = energy_J_ / 3600.0;
-  sum["current_A"] = {{"max", current_.max}, {"mean", current_.Mean()}};
-  sum["waypoints"] = arrivals_;
+void RunScorer::WriteSummary(RunSummary* summary) const {
+  RunSummary& sum = *summary;
+  sum.distance_m = distance_m_;
+  sum.cross_track_m = {cross_track_.max, cross_track_.Rms()};
+  sum.yaw_error_deg = {yaw_err_.max, yaw_err_.Rms()};
+  sum.yaw_error_all_deg = {yaw_err_all_.max, yaw_err_all_.Rms()};
+  sum.energy_Wh = energy_J_ / 3600.0;
+  sum.current_max_A = current_.max;
+  sum.current_mean_A = current_.Mean();
+  sum.waypoints = arrivals_;
 }
 
 }  // namespace hexsim::sim

@@ -186,21 +186,22 @@ RunOutput Simulation::Impl::Finish() {
                                 : fmt::format("mission not finished within {} s", opt.max_duration_s);
   }
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  nlohmann::json& sum = out.summary;
-  sum["schema"] = "hexsim.summary/1";
-  sum["status"] = status;
-  sum["reason"] = reason;
-  sum["mission"] = setup.mission_name;
-  sum["vehicle"] = setup.vehicle_name;
-  sum["world"] = setup.world_name;
-  sum["calibration"] = setup.calibration_name;
-  sum["estimator"] = autopilot.estimator_name();
-  sum["seed"] = opt.seed;
-  sum["duration_s"] = log.rows() > 0 ? log.Column(recorder.time_column()).back() : 0.0;
+  RunSummary& sum = out.summary;
+  sum.status = status == "completed" ? RunStatus::kCompleted
+               : status == "diverged" ? RunStatus::kDiverged
+                                      : RunStatus::kNotCompleted;
+  sum.reason = reason;
+  sum.mission = setup.mission_name;
+  sum.vehicle = setup.vehicle_name;
+  sum.world = setup.world_name;
+  sum.calibration = setup.calibration_name;
+  sum.estimator = autopilot.estimator_name();
+  sum.seed = opt.seed;
+  sum.duration_s = log.rows() > 0 ? log.Column(recorder.time_column()).back() : 0.0;
   scorer.WriteSummary(&sum);
-  sum["mission_time_s"] = landed_at_s ? nlohmann::json(mission_time_s) : nlohmann::json(nullptr);
-  sum["wall_s"] = wall_s;
-  sum["version"] = Version();
+  if (landed_at_s) sum.mission_time_s = mission_time_s;
+  sum.wall_s = wall_s;
+  sum.version = Version();
 
   log.meta["schema"] = "hexsim.flightlog_meta/1";
   log.meta["source"] = "hexsim";
@@ -282,7 +283,8 @@ RunOutput RunMission(const RunSetup& setup) {
     RunOutput out;
     out.status = sim.status();
     // Invalid setup (callers normally validate first): nothing was flown; out.status says why.
-    out.summary = {{"schema", "hexsim.summary/1"}, {"status", "not_completed"}, {"reason", sim.status().message()}};
+    out.summary.status = RunStatus::kNotCompleted;
+    out.summary.reason = sim.status().message();
     return out;
   }
   (*sim)->RunToEnd();

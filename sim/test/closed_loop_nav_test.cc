@@ -54,7 +54,7 @@ TEST(ClosedLoopNav, GivenTheSquareFlownOnTheEskfEstimate_WhenRun_ThenItCompletes
   ASSERT_TRUE(setup.ok()) << setup.status().message();
   const RunOutput out = RunMission(setup.value());
   ASSERT_TRUE(out.status.ok()) << out.status.message();
-  EXPECT_EQ(out.summary.at("status").get<std::string>(), "completed") << out.summary.dump();
+  EXPECT_EQ(out.summary.status, RunStatus::kCompleted) << ToJson(out.summary).dump();
   const NavErrors e = ErrorsFromLog(out.log);
   std::printf("closed loop square/eskf: est pos rms %.2f max %.2f m, yaw rms %.2f deg\n", e.pos_rms_m, e.pos_max_m,
               e.yaw_rms_deg);

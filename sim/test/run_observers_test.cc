@@ -51,16 +51,16 @@ TEST(RunScorer, GivenStepsOnALegAndOnTheGround_WhenScored_ThenOnlyTheLegCountsFo
   iv.powertrain = &f.pt;
   iv.p_after_N_m = Eigen::Vector3d(3.0, 4.0, 0.0);
   scorer.OnInterval(iv);
-  nlohmann::json sum;
+  RunSummary sum;
   scorer.WriteSummary(&sum);
-  EXPECT_NEAR(sum["cross_track_m"]["max"].get<double>(), 3.0, 1e-12);
-  EXPECT_NEAR(sum["cross_track_m"]["rms"].get<double>(), 3.0, 1e-12);
-  EXPECT_NEAR(sum["yaw_error_deg"]["max"].get<double>(), 2.0, 1e-9);
+  EXPECT_NEAR(sum.cross_track_m.max, 3.0, 1e-12);
+  EXPECT_NEAR(sum.cross_track_m.rms, 3.0, 1e-12);
+  EXPECT_NEAR(sum.yaw_error_deg.max, 2.0, 1e-9);
   EXPECT_EQ(scorer.yaw_error_deg().n, 10);
   EXPECT_EQ(scorer.yaw_error_all_deg().n, 11);
-  EXPECT_NEAR(sum["energy_Wh"].get<double>(), 960.0 * 0.5 / 3600.0, 1e-12);
-  EXPECT_NEAR(sum["distance_m"].get<double>(), 5.0, 1e-12);
-  EXPECT_EQ(sum["current_A"]["max"].get<double>(), 40.0);
+  EXPECT_NEAR(sum.energy_Wh, 960.0 * 0.5 / 3600.0, 1e-12);
+  EXPECT_NEAR(sum.distance_m, 5.0, 1e-12);
+  EXPECT_EQ(sum.current_max_A, 40.0);
 }
 
 TEST(LogRecorder, GivenTenRecordsAndEveryFifthLogged_WhenRecorded_ThenTwoRowsCarryTheRecordsValues) {

@@ -71,7 +71,7 @@ TEST(Simulation, GivenAPluggedInController_WhenTheMissionIsFlown_ThenItIsCalledA
   EXPECT_EQ(sim->builtin_controller(), nullptr);
   sim->RunToEnd();
   const RunOutput out = sim->Finish();
-  EXPECT_EQ(out.summary["status"], "completed");
+  EXPECT_EQ(out.summary.status, RunStatus::kCompleted);
   // Called on every fresh IMU sample while armed: at least 10 s of flight at ≥ 100 Hz.
   EXPECT_GT(calls, 1000);
 }

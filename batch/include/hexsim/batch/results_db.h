@@ -13,6 +13,7 @@
 
 #include "hexsim/batch/batch_spec.h"
 #include "hexsim/common/status.h"
+#include "hexsim/sim/run_summary.h"
 
 struct sqlite3;
 
@@ -21,7 +22,7 @@ namespace hexsim::batch {
 // A summary figure stored as a column: its column name and its JSON pointer in summary.json.
 struct MetricColumn {
   const char* column;
-  const char* pointer;
+  std::optional<double> (*value)(const sim::RunSummary&);  // none: NULL
 };
 // distance_m, cross_track_max_m, cross_track_rms_m, yaw_error_max_deg, yaw_error_rms_deg, energy_Wh,
 // current_max_A, current_mean_A, mission_time_s, flown_s (the summary's duration_s).
@@ -44,8 +45,8 @@ struct RunRow {
   std::string host, version, finished_at;
 };
 
-// A row from a run's summary.json.
-RunRow RowFromSummary(const RunPoint& point, const nlohmann::json& summary, double wall_s);
+// A row from a run's summary.
+RunRow RowFromSummary(const RunPoint& point, const sim::RunSummary& summary, double wall_s);
 // A row for a run that left no summary (status failed | crashed | timeout).
 RunRow FailedRow(const RunPoint& point, const std::string& status, const std::string& reason, double wall_s);
 

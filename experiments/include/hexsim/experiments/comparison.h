@@ -5,24 +5,31 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "hexsim/common/statistics.h"
+#include "hexsim/sim/run_summary.h"
 
 namespace hexsim::experiments {
 
 struct ComparisonRun {
   std::string calibration;
   uint64_t seed = 0;
-  nlohmann::json summary;  // hexsim.summary/1
+  sim::RunSummary summary;
   std::string dir;         // where the run's log.csv and summary.json are, relative to the output directory
 };
 
-// The summary figures compared, as "key" or "key.sub" paths into summary.json.
-const std::vector<std::string>& SummaryFigures();
+// A figure compared across runs, named by its path in summary.json ("key" or "key.sub"); none when
+// the run has no such value (mission_time_s of a run that never landed) or it is not finite.
+struct SummaryFigure {
+  const char* path;
+  std::optional<double> (*value)(const sim::RunSummary&);
+};
+const std::vector<SummaryFigure>& SummaryFigures();
 
 struct ComparisonGroup {
   std::string calibration;
@@ -30,7 +37,7 @@ struct ComparisonGroup {
   std::map<std::string, SampleStats> metrics;  // by SummaryFigures() path, over the runs that have it
 };
 // {figure: statistics} over the summaries that have the figure (finite).
-std::map<std::string, SampleStats> GroupMetrics(const std::vector<nlohmann::json>& summaries);
+std::map<std::string, SampleStats> GroupMetrics(const std::vector<sim::RunSummary>& summaries);
 
 // Table 1: max and RMS |heading error| over one level turn per control amount (hexsim.heading_error/1).
 struct HeadingErrorRow {

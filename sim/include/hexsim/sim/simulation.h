@@ -15,6 +15,7 @@
 #include "hexsim/magnetics/compensator.h"
 #include "hexsim/nav/estimator.h"
 #include "hexsim/sim/rigid_body.h"
+#include "hexsim/sim/run_summary.h"
 #include "hexsim/sim/world.h"
 #include "hexsim/vehicle/sensors.h"
 #include "hexsim/vehicle/vehicle_params.h"
@@ -55,7 +56,7 @@ struct RunSetup {
 
 struct RunOutput {
   logs::FlightLog log;
-  nlohmann::json summary;  // hexsim.summary/1
+  RunSummary summary;  // hexsim.summary/1 (ToJson writes summary.json)
   // OK, or kNumerical when the run diverged (the log and summary are still complete up to then).
   Status status;
 };

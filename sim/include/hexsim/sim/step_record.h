@@ -16,6 +16,7 @@
 #include "hexsim/logs/flight_log.h"
 #include "hexsim/nav/estimator.h"
 #include "hexsim/sim/rigid_body.h"
+#include "hexsim/sim/run_summary.h"
 #include "hexsim/vehicle/powertrain.h"
 #include "hexsim/vehicle/sensors.h"
 
@@ -91,7 +92,7 @@ class RunScorer {
   void OnInterval(const StepInterval& iv);
   // Adds distance_m, cross_track_m, yaw_error_deg, yaw_error_all_deg, energy_Wh, current_A,
   // waypoints (hexsim.summary/1).
-  void WriteSummary(nlohmann::json* summary) const;
+  void WriteSummary(RunSummary* summary) const;
 
   const RunningStats& cross_track_m() const { return cross_track_; }
   const RunningStats& yaw_error_deg() const { return yaw_err_; }
@@ -104,7 +105,7 @@ class RunScorer {
   std::vector<Eigen::Vector3d> path_;
   RunningStats cross_track_, yaw_err_, yaw_err_all_, current_;
   double energy_J_ = 0.0, distance_m_ = 0.0;
-  nlohmann::json arrivals_ = nlohmann::json::array();
+  std::vector<WaypointArrival> arrivals_;
 };
 
 // YawDeg(q) bit for bit (common/rotation), without the roll and pitch EulerFromQuat also evaluates.
