@@ -19,7 +19,8 @@ std::vector<control::RotorGeometry> MixerGeometry(const vehicle::VehicleParams& 
   return g;
 }
 
-control::VehicleModelForControl ControlModelFor(const vehicle::VehicleParams& vp) {
+control::VehicleModelForControl ControlModelFor(const vehicle::VehicleParams& vehicle) {
+  const vehicle::VehicleParams& vp = vehicle;
   const double nominal_V = vp.battery.OpenCircuitVoltage_V(vp.battery.initial_soc);
   double max_rotor_thrust_N = 0.0;
   for (size_t i = 0; i < vp.rotors.size(); ++i) {

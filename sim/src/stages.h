@@ -28,7 +28,7 @@ class SensorStage {
   SensorStage(const vehicle::VehicleParams& vp, uint64_t seed, const Eigen::Vector3d& B_earth_N_uT);
   // Samples the truth of instant t: the body state, the specific force of the last step and the
   // currents of the last powertrain operating point (avionics only before the first step).
-  const vehicle::SensorReadings& Sample(double t_s, const BodyState& s, const Eigen::Vector3d& specific_force_B,
+  const vehicle::SensorReadings& Sample(double t, const BodyState& s, const Eigen::Vector3d& f_B,
                                         const vehicle::PowertrainOutput& pt);
   const vehicle::SensorReadings& readings() const { return *rd_; }
   const magnetics::Currents& currents() const { return truth_.currents; }
@@ -54,7 +54,7 @@ class Autopilot {
     std::string failure;  // non-empty: the estimator reported itself unhealthy (the run diverged)
   };
   // Runs on each fresh IMU sample; `bus_V` and `battery_A` are what the autopilot measures.
-  Tick Step(double t_s, double physics_dt_s, const vehicle::SensorReadings& rd, const BodyState& truth, double bus_V,
+  Tick Step(double t, double physics_dt_s, const vehicle::SensorReadings& rd, const BodyState& s, double bus_V,
             double battery_A);
 
   const std::vector<double>& commands() const { return commands_; }
