@@ -7,6 +7,8 @@
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/paths.h"
 #include "hexsim/logs/dataflash_import.h"
+#include "hexsim/logs/ulog.h"
+#include "hexsim/logs/ulog_import.h"
 
 namespace hexsim::app {
 
@@ -30,6 +32,17 @@ Status ImportCommand(const ImportArgs& a) {
     return Status::Ok();
   }
   if (a.out.empty()) return Status::BadInput("import: --out is required (or --info)");
+  if (logs::IsULog(*bytes)) {
+    auto u = logs::ImportULog(*bytes, a.log);
+    if (!u.ok()) return u.status();
+    for (const auto& w : u->warnings) std::fprintf(stderr, "hexsim: warning: %s\n", w.c_str());
+    OutputDirectory udir;
+    HEXSIM_RETURN_IF_ERROR(udir.Open(DirName(a.out)));
+    HEXSIM_RETURN_IF_ERROR(logs::WriteFlightLog(u->log, a.out));
+    udir.Commit();
+    std::printf("import: PX4 ULog, %zu rows, %zu columns -> %s\n", u->log.rows(), u->log.columns().size(), a.out.c_str());
+    return Status::Ok();
+  }
   auto result = logs::ImportDataFlash(*bytes, a.log, logs::ImportOptions{});
   if (!result.ok()) return result.status();
   // Damage that did not refuse the log is still said, once, on stderr (the counts are in the meta).
@@ -50,8 +63,8 @@ Status ImportCommand(const ImportArgs& a) {
 
 void AddImportCommand(CLI::App& app, int* exit_code) {
   auto a = std::make_shared<ImportArgs>();
-  CLI::App* c = app.add_subcommand("import", "Real flight log (ArduPilot DataFlash .bin) -> FlightLog CSV + meta");
-  c->add_option("log", a->log, "DataFlash .bin file")->required();
+  CLI::App* c = app.add_subcommand("import", "Real flight log (ArduPilot DataFlash .bin or PX4 ULog .ulg) -> FlightLog CSV + meta");
+  c->add_option("log", a->log, "DataFlash .bin or ULog .ulg file (detected from content)")->required();
   c->add_flag("--info", a->info, "Print message types, counts, rates, time span and parameters of interest");
   c->add_option("--out", a->out, "log.csv to write (log.meta.json and log.<stream>.csv beside it)");
   c->callback([a, exit_code] { *exit_code = Report(ImportCommand(*a)); });

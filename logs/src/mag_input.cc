@@ -12,6 +12,8 @@
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/logs/dataflash_import.h"
 #include "hexsim/logs/flight_log.h"
+#include "hexsim/logs/ulog.h"
+#include "hexsim/logs/ulog_import.h"
 
 namespace hexsim::logs {
 namespace {
@@ -304,8 +306,14 @@ Result<MagInput> ParseMagInput(const std::string& bytes, const std::string& name
     in->format = "dataflash";
     return in;
   }
-  if (bytes.compare(0, 4, "ULog") == 0) {
-    return Status::BadInput(name + ": format: PX4 ULog is not readable by calibrate yet: convert it to x,y,z text");
+  if (IsULog(bytes)) {
+    auto imp = ImportULog(bytes, name);
+    if (!imp.ok()) return imp.status();
+    auto in = FromFlightLog(imp->log, name, compass);
+    if (!in.ok()) return in.status();
+    in->format = "ulog";
+    for (const auto& w : imp->warnings) in->notes.push_back("warning: " + w);
+    return in;
   }
   if (bytes.find('\0') != std::string::npos) {
     return Status::BadInput(name + ": format: binary, but neither ArduPilot DataFlash nor PX4 ULog");

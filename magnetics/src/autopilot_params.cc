@@ -36,8 +36,8 @@ Matrix3d SymFrom(double dx, double dy, double dz, double oxy, double oxz, double
 
 }  // namespace
 
-ParamList ArduPilotCompassParams(const Vector3d& offset_uT, const Matrix3d& A, int k) {
-  const std::string n = ApSuffix(k);
+ParamList ArduPilotCompassParams(const Vector3d& offset_uT, const Matrix3d& A, int compass_index) {
+  const std::string n = ApSuffix(compass_index);
   const Matrix3d M = UnitShape(A);
   const Vector3d ofs = -offset_uT * kMilligaussPerMicrotesla;
   return {{"COMPASS_OFS" + n + "_X", ofs(0)}, {"COMPASS_OFS" + n + "_Y", ofs(1)}, {"COMPASS_OFS" + n + "_Z", ofs(2)},
@@ -45,8 +45,8 @@ ParamList ArduPilotCompassParams(const Vector3d& offset_uT, const Matrix3d& A, i
           {"COMPASS_ODI" + n + "_X", M(0, 1)}, {"COMPASS_ODI" + n + "_Y", M(0, 2)}, {"COMPASS_ODI" + n + "_Z", M(1, 2)}};
 }
 
-ParamList Px4CompassParams(const Vector3d& offset_uT, const Matrix3d& A, int k) {
-  const std::string n = fmt::format("CAL_MAG{}_", k);
+ParamList Px4CompassParams(const Vector3d& offset_uT, const Matrix3d& A, int compass_index) {
+  const std::string n = fmt::format("CAL_MAG{}_", compass_index);
   const Matrix3d S = UnitShape(A);
   const Vector3d off = offset_uT * kGaussPerMicrotesla;
   return {{n + "XOFF", off(0)},     {n + "YOFF", off(1)},     {n + "ZOFF", off(2)},
@@ -54,8 +54,9 @@ ParamList Px4CompassParams(const Vector3d& offset_uT, const Matrix3d& A, int k) 
           {n + "XODIAG", S(0, 1)},  {n + "YODIAG", S(0, 2)},  {n + "ZODIAG", S(1, 2)}};
 }
 
-Vector3d ApplyArduPilotCompass(const ParamList& p, int k, const Vector3d& raw_mG) {
-  const std::string n = ApSuffix(k);
+Vector3d ApplyArduPilotCompass(const ParamList& params, int compass_index, const Vector3d& raw_mG) {
+  const ParamList& p = params;
+  const std::string n = ApSuffix(compass_index);
   auto g = [&](const std::string& base, const char* axis, double fb) { return Get(p, "COMPASS_" + base + n + "_" + axis, fb); };
   const Vector3d ofs(g("OFS", "X", 0.0), g("OFS", "Y", 0.0), g("OFS", "Z", 0.0));
   const Matrix3d M = SymFrom(g("DIA", "X", 1.0), g("DIA", "Y", 1.0), g("DIA", "Z", 1.0), g("ODI", "X", 0.0),
@@ -63,8 +64,9 @@ Vector3d ApplyArduPilotCompass(const ParamList& p, int k, const Vector3d& raw_mG
   return M * (raw_mG + ofs);
 }
 
-Vector3d ApplyPx4Compass(const ParamList& p, int k, const Vector3d& raw_G) {
-  const std::string n = fmt::format("CAL_MAG{}_", k);
+Vector3d ApplyPx4Compass(const ParamList& params, int compass_index, const Vector3d& raw_G) {
+  const ParamList& p = params;
+  const std::string n = fmt::format("CAL_MAG{}_", compass_index);
   auto g = [&](const char* name, double fb) { return Get(p, n + name, fb); };
   const Vector3d off(g("XOFF", 0.0), g("YOFF", 0.0), g("ZOFF", 0.0));
   const Matrix3d S = SymFrom(g("XSCALE", 1.0), g("YSCALE", 1.0), g("ZSCALE", 1.0), g("XODIAG", 0.0), g("YODIAG", 0.0),

@@ -70,6 +70,7 @@ Result<CalibrateOutcome> TurntablePath(CalibrateOutcome out, const std::vector<M
   f.coverage = ComputeCoverage(out.raw_uT, norms[norms.size() / 2]);
   f.norm_spread_before = NormSpread(out.raw_uT);
   std::vector<Vector3d> after;
+  after.reserve(s.size());
   for (const auto& x : s) after.push_back(out.compensator->Correct(x.mag_B_uT, {x.control_u, x.current_A}));
   f.norm_spread_after = NormSpread(after);
   f.accepted = learnt.value("accepted", true);

@@ -72,7 +72,7 @@ EllipsoidFit RunBase(Base base, const std::vector<Vector3d>& H, const Coverage& 
       // Fitted about the prior offset: the undetermined component stays at the prior's.
       std::vector<Vector3d> shifted;
       shifted.reserve(H.size());
-      for (const auto& h : H) shifted.push_back(h - prior);
+      for (const auto& h : H) shifted.emplace_back(h - prior);
       EllipsoidFit f = FitSpherePlanar(shifted, cov.axes.col(0), o);
       f.hard_iron_uT += prior;
       return f;

@@ -166,6 +166,7 @@ std::vector<std::string> WmmModelIds() {
   int count = 0;
   const WmmCoefficients* tables = internal::WmmTables(&count);
   std::vector<std::string> ids;
+  ids.reserve(static_cast<size_t>(count));
   for (int i = 0; i < count; ++i) ids.emplace_back(tables[i].id);
   return ids;
 }

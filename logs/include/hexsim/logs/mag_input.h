@@ -5,7 +5,7 @@
 //                       samples.csv with plane/control_u/current_A/angle_deg), one sample per new
 //                       <compass>_t_s where that column exists (rows hold the latest sample);
 //   ArduPilot .bin      through the DataFlash importer;
-//   PX4 .ulg            recognised, and refused with a reason until the ULog importer exists.
+//   PX4 .ulg            through the ULog importer (sensor_mag instance 0, 1, 2 = mag, mag2, mag3).
 // An ArduPilot log (.bin, or a FlightLog imported from one, via its meta side file) holds the field
 // with the autopilot's corrections applied, logged = M·(raw + OFS) + MOT (CONTRACTS): the raw field
 // is rebuilt as raw = M⁻¹·(logged − MOT) − OFS, with the log's COMPASS_OFS/DIA/ODI and the per-sample
@@ -23,7 +23,7 @@
 namespace hexsim::logs {
 
 struct MagInput {
-  std::string format;                  // "xyz", "flightlog", "dataflash"
+  std::string format;                  // "xyz", "flightlog", "dataflash", "ulog"
   std::string units;                   // "uT" when the format fixes it; "" = unknown (plain x,y,z)
   std::vector<Eigen::Vector3d> field;  // raw readings, corrections undone where known
   // Present (same length as field) only when the input has the column.

@@ -39,7 +39,7 @@ struct CalibrateOutcome {
 
 // `samples[i].mag_B_uT` holds the raw reading in the input's units (converted here). Errors:
 // BadInput (exit 2) or Numerical (exit 3), with the reason.
-Result<CalibrateOutcome> Calibrate(std::vector<MagSample> samples, const CalibrateRequest& request);
+Result<CalibrateOutcome> Calibrate(std::vector<MagSample> samples, const CalibrateRequest& rq);
 
 // Whether the samples carry a turntable's columns: plane labels in 3 or more planes and 2 or more
 // control amounts (auto then uses the paper's adaptive method).

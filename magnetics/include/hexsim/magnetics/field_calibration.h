@@ -44,7 +44,7 @@ struct UnitGuess {
 // units: "auto" | "uT" | "mG" | "G" | "nT" | "counts". counts needs field_norm_uT > 0.
 // BadInput when "auto" matches no unit, or counts lacks the field norm.
 Result<UnitGuess> DetectUnits(const std::vector<Eigen::Vector3d>& raw, const std::string& units,
-                              double field_norm_uT, const FieldRanges& ranges = {});
+                              double field_norm_uT, const FieldRanges& rg = {});
 
 struct Coverage {
   Eigen::Vector3d eigenvalues = Eigen::Vector3d::Zero();  // ascending, dimensionless (see top)
@@ -104,8 +104,8 @@ struct FieldCalibration {
 // Fits raw samples (µT). BadInput (exit 2): unknown method, too few samples (naming the minimum),
 // coverage that cannot support the explicit method (naming the missing rotation), too little
 // rotation for any fit. Numerical (exit 3): a fit that fails on usable input.
-Result<FieldCalibration> CalibrateField(const std::vector<Eigen::Vector3d>& raw_uT,
-                                        const FieldCalibrationOptions& options);
+Result<FieldCalibration> CalibrateField(const std::vector<Eigen::Vector3d>& H,
+                                        const FieldCalibrationOptions& o);
 
 // auto sphere ellipsoid robust robust-sphere robust-ellipsoid none
 std::vector<std::string> FieldMethodNames();

@@ -1,0 +1,60 @@
+// PX4 ULog (.ulg) reader, written from the public format description (docs.px4.io, "ULog File
+// Format"): a 16-byte header ("ULog" 0x01 0x12 0x35, version, start time in µs), then messages
+// {uint16 size, uint8 type, payload}: definitions (B flags, F formats "name:type field;...",
+// I/M info, P/Q parameters) and data (A subscribe "multi_id msg_id name", D data "msg_id bytes",
+// L/C log text, S sync, O dropout, R unsubscribe). Fields are packed in declaration order; a
+// field's type is a basic type (int8_t … uint64_t, float, double, bool, char), or another format
+// (nested), optionally an array "type[n]". Every topic record starts with uint64 timestamp (µs).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "hexsim/common/status.h"
+
+namespace hexsim::logs {
+
+// One flattened scalar field: "q[0]", "x", "accel.x" (nested), with its byte offset in a record.
+struct ULogScalar {
+  std::string name;
+  std::string type;  // basic type
+  size_t offset = 0;
+};
+
+struct ULogTopic {
+  std::string name;  // e.g. "sensor_mag"
+  int multi_id = 0;  // instance
+  size_t record_size = 0;
+  std::vector<ULogScalar> fields;
+  std::vector<std::string> records;  // raw bytes, each record_size long, in file order
+
+  // Numeric value of `field` in record `i` (NaN when missing).
+  double Get(size_t i, std::string_view field) const;
+  double TimeS(size_t i) const { return Get(i, "timestamp") * 1e-6; }
+  bool Has(std::string_view field) const;
+};
+
+struct ULog {
+  int version = 0;
+  uint64_t start_us = 0;
+  std::map<std::string, std::string> info;  // info key name → value (char arrays as text)
+  std::map<std::string, double> params;     // last value of each parameter
+  std::vector<ULogTopic> topics;            // one per subscription (name, multi_id)
+  std::vector<std::string> messages;        // logged text
+  size_t bytes_skipped = 0;                 // damaged or truncated tail
+
+  // The topic `name` with instance `multi_id`, or null.
+  const ULogTopic* Find(std::string_view name, int multi_id = 0) const;
+};
+
+// True when `bytes` start with the ULog magic.
+bool IsULog(std::string_view bytes);
+// Bad input (kBadInput, naming `name`): no ULog magic, or no definitions before the data ends.
+// Damage after a valid start is skipped and counted in bytes_skipped.
+Result<ULog> ParseULog(const std::string& bytes, const std::string& name);
+
+}  // namespace hexsim::logs
