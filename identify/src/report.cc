@@ -143,7 +143,7 @@ Status WriteIdentifyHtml(const IdentifyResult& r, const std::string& dir) {
     p.series.push_back(MakeSeries("measured", tr.t_s, tr.measured, 0));
     p.series.push_back(MakeSeries("predicted", tr.t_s, tr.predicted, 1));
     const std::string f = fmt::format("identify_{}.png", i == 0 ? "vertical" : "yaw");
-    HEXSIM_RETURN_IF_ERROR(Png(p, dir + "/" + f));
+    HEXSIM_RETURN_IF_ERROR(Png(p, fmt::format("{}/{}", dir, f)));
     html += fmt::format("<p><img src=\"{}\"></p>", f);
   }
   if (!r.hover_output.empty()) {
