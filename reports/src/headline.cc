@@ -124,8 +124,11 @@ std::vector<std::string> BatchHeadline(const std::vector<batch::GroupReport>& gr
     if (!hi || it->second.mean > hi->metrics.at(metric).mean) hi = &g;
   }
   if (!lo) return out;
-  if (lo == hi) {
-    out.push_back(fmt::format("Cross-track RMS {}.", WithInterval(lo->metrics.at(metric), " m", 2)));
+  if (lo->metrics.at(metric).mean == hi->metrics.at(metric).mean) {
+    size_t with_data = 0;
+    for (const auto& g : groups) with_data += g.metrics.count(metric) && g.metrics.at(metric).n > 0 ? 1 : 0;
+    out.push_back(fmt::format("Cross-track RMS {}{}.", WithInterval(lo->metrics.at(metric), " m", 2),
+                              with_data > 1 ? fmt::format(", the same in all {} groups", with_data) : std::string()));
   } else {
     out.push_back(fmt::format("Cross-track RMS is lowest in {} ({}) and highest in {} ({}){}.", lo->label,
                               WithInterval(lo->metrics.at(metric), " m", 2), hi->label,
