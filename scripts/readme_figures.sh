@@ -3,7 +3,7 @@
 # comments in README.md (`<!-- readme_figures:NAME -->` ... `<!-- /readme_figures:NAME -->`):
 #   table1    the paper's Table 1: turntable, five calibrations, heading-error (README's commands)
 #   compare   `hexsim compare --seeds 3` on its defaults: mean ± std per calibration
-#   selftest  `hexsim gap selftest --trials 100` (minutes), printed with the machine and date
+#   selftest  `hexsim gap selftest --profile ideal --trials 100` (minutes), with the machine and date
 #   speed     the Google Benchmark programs in bench/ (minutes), printed with the machine and date
 #
 # Usage: scripts/readme_figures.sh [--check] [NAME...]
