@@ -115,7 +115,8 @@ def selftest(path, machine, date):
     families = sorted(ool.get("per_family", {}))
     ool_label = "out of library" + (f" ({', '.join(f.replace('_', ' ') for f in families)})" if families
                                     else " (field ∝ I^1.3, thermal ramp, …)")
-    share = "median_explained_share" in one
+    # The figure the profile's target is on: explained share (real) or held-out shrink (ideal).
+    share = any(k.startswith("median_explained_share") for k in (t or {})) and "median_explained_share" in one
     one_last = (f"median explained share {pct(one.get('median_explained_share'))}" if share
                 else f"median held-out shrink {pct(one.get('median_heldout_shrink'))}")
     rows = [

@@ -164,13 +164,8 @@ TEST(NoAbortGoodInput, GivenTurntableSamplesWhenEachMethodCalibratesThenNoneDies
     (void)std::system(cmd.c_str());
     int rc = -1;
     std::ifstream(d / "rc.txt") >> rc;
-    // Then: an exit code, never a signal; 0 (accepted) or 1 (rejected by its gate) for the fits.
-    EXPECT_TRUE(rc >= 0 && rc <= 3) << method << ": exit " << rc << (rc > 128 ? " (killed by a signal)" : "");
-    // `none` still fails inside (exit 3, "unexpected error", caught at the top level) until the
-    // calibration issue's fix of the method lands; then it joins the others here.
-    if (std::string(method) != "none") {
-      EXPECT_TRUE(rc == 0 || rc == 1) << method << ": exit " << rc;
-    }
+    // Then: 0 (accepted) or 1 (rejected by its gate), never a signal
+    EXPECT_TRUE(rc == 0 || rc == 1) << method << ": exit " << rc << (rc > 128 ? " (killed by a signal)" : "");
   }
   fs::remove_all(d);
 }
