@@ -129,7 +129,17 @@ ChannelResult AnalyzeFirstWave(const ChannelData& ch, const logs::FlightLog& log
   res.gap_detected = res.p_value < o.alpha && above_floor;
 
   std::vector<Vec3> after = an.y();
-  if (!res.gap_detected || F == 0) {
+  // The reported model holds plausible fits only (realdata's table): the best family whose fit is
+  // inside its physical range leads; an out-of-range fit stays listed as a model mismatch.
+  size_t first_plausible = F;
+  for (size_t idx = 0; idx < F && first_plausible == F; ++idx) {
+    if (res.candidates[order[idx]].plausible) first_plausible = idx;
+  }
+  if (res.gap_detected && F > 0 && first_plausible == F) {
+    res.verdict = "unexplained";
+    res.explanation = fmt::format("every candidate's fit is outside its physical range (best: {}): model mismatch",
+                                  fam_names[order[0]]);
+  } else if (!res.gap_detected || F == 0) {
     res.verdict = "none";
     if (F == 0) {
       res.explanation = "no candidate effect could be formed for this channel";
@@ -141,7 +151,7 @@ ChannelResult AnalyzeFirstWave(const ChannelData& ch, const logs::FlightLog& log
       res.explanation = "residual is consistent with the configured noise: no significant gap";
     }
   } else {
-    const size_t b1 = order[0];
+    const size_t b1 = order[first_plausible];
     const Evaluated& e1 = all[fam_best[b1]];
     Candidate chosen = *e1.cand;
     Evaluated chosen_eval = an.Evaluate(chosen);
@@ -153,9 +163,9 @@ ChannelResult AnalyzeFirstWave(const ChannelData& ch, const logs::FlightLog& log
     size_t b2 = F;
     Evaluated joint_best;
     Candidate joint_cand;
-    for (size_t idx = 1; idx < F; ++idx) {
+    for (size_t idx = 0; idx < F; ++idx) {
       const size_t f = order[idx];
-      if (res.candidates[f].p_value * F > o.alpha) continue;
+      if (f == b1 || !res.candidates[f].plausible || res.candidates[f].p_value * F > o.alpha) continue;
       Candidate j = Join(*e1.cand, *all[fam_best[f]].cand);
       Evaluated ej = an.Evaluate(j);
       if (!ej.full.ok) continue;
@@ -207,7 +217,7 @@ ChannelResult AnalyzeFirstWave(const ChannelData& ch, const logs::FlightLog& log
       // Ambiguity: the bootstrap cannot separate the best from a rival.
       size_t rival = F;
       for (size_t f = 0; f < F; ++f) {
-        if (f != b1 && fam_names[f] != second &&
+        if (f != b1 && fam_names[f] != second && res.candidates[f].plausible &&
             (rival == F || res.candidates[f].probability > res.candidates[rival].probability)) {
           rival = f;
         }

@@ -144,5 +144,20 @@ TEST(GapRealLog, GivenLog171_WhenWindowed_ThenTheFlipAndAfterAreExcludedAndGroun
   }
 }
 
+// Issue 16 item 6 / issue 18: whatever a channel's verdict, the model it reports (primary and second)
+// holds no fit outside its physical range: an out-of-range fit is listed as a model mismatch only.
+TEST(GapRealLog, GivenLog171_WhenDiagnosed_ThenNoChannelSelectsAnImplausibleFit) {
+  const GapReport& rep = Log171().report;
+  ASSERT_FALSE(rep.channels.empty());
+  for (const ChannelResult& c : rep.channels) {
+    for (const CandidateResult& k : c.candidates) {
+      if (!k.selected) continue;
+      EXPECT_TRUE(k.plausible) << c.channel << ": " << k.effect << " " << k.magnitude << " " << k.magnitude_unit
+                               << " is selected although outside " << k.physical_range;
+    }
+    EXPECT_NE(c.verdict, "") << c.channel;
+  }
+}
+
 }  // namespace
 }  // namespace hexsim::gap
