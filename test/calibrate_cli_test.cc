@@ -23,7 +23,7 @@ struct CliRun {
 };
 
 fs::path Dir(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / ("hexsim_calcli_" + name + "_" + std::to_string(::getpid()));
+  fs::path p = fs::temp_directory_path() / ("hexsim_calcli_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(p);
   fs::create_directories(p);
   return p;
@@ -47,7 +47,7 @@ CliRun Hexsim(const std::string& args) {
 // A dump in mG, whitespace-separated, no header: raw = diag(1.05, 0.97, 1.0)·B + (120, -80, 300) mG,
 // B on a spiral over the whole sphere (full) or a level spin (flat), |B| = 500 mG.
 fs::path WriteDump(const fs::path& dir, const std::string& kind, int n) {
-  const fs::path p = dir / (kind + ".txt");
+  fs::path p = dir / (kind + ".txt");
   std::ofstream f(p);
   for (int i = 0; i < n; ++i) {
     const double z = kind == "flat" ? 0.8 : 1.0 - (2.0 * i + 1.0) / n;

@@ -71,6 +71,9 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
     if (!std::isfinite(t) || (!row_t.empty() && t <= row_t.back())) continue;  // damaged or repeated time
     row_t.push_back(t);
   }
+  if (row_t.empty()) {
+    return Status::BadInput(name + ": vehicle_attitude: no attitude sample has a usable timestamp");
+  }
   const size_t t_col = log.AddColumn("t_s");
   std::vector<size_t> att_cols;
   for (const char* c : {"q_w", "q_x", "q_y", "q_z", "roll_deg", "pitch_deg", "yaw_deg", "yaw_true_deg"}) {
@@ -192,6 +195,10 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
   meta["messages_text"] = u.messages;
   meta["bytes_skipped"] = u.bytes_skipped;
   meta["warnings"] = out.warnings;
+  // The log's own strings (ver_sw, logged messages, warnings quoting names) are bytes, not always
+  // UTF-8; JSON requires UTF-8, so invalid sequences become U+FFFD once, here, and every later
+  // dump() of the meta succeeds (fuzz finding: an 0x80 byte in a logged message).
+  meta = nlohmann::json::parse(meta.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
   return out;
 }
 

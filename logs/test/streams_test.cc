@@ -132,8 +132,9 @@ TEST(Streams, GivenATableWithoutStreams_WhenAStreamIsAskedAtItsOwnRate_ThenTheDi
     log.AppendRow();
     log.Set("t_s", 0.1 * r);
     if (r >= 2) {
-      log.Set("batt_t_s", 0.2 * (r / 2));
-      log.Set("voltage_V", 16.0 - 0.1 * (r / 2));
+      const int held = r / 2;  // the battery sample changes every second row
+      log.Set("batt_t_s", 0.2 * held);
+      log.Set("voltage_V", 16.0 - 0.1 * held);
     }
     log.Set("gyro_x_radps", 0.01 * r);  // no imu_t_s: every row is a sample
   }

@@ -42,7 +42,7 @@ std::vector<Vector3d> Dump(const std::string& kind, int n, double sigma_uT, uint
     } else {
       B = Eigen::AngleAxisd(0.08 * rng.Normal(), rng.Normal3(1.0).normalized()) * earth_N;
     }
-    H.push_back(K * B + b + rng.Normal3(sigma_uT));
+    H.emplace_back(K * B + b + rng.Normal3(sigma_uT));
   }
   return H;
 }
@@ -156,6 +156,7 @@ TEST(FieldCalibration, GivenGaussAndNanotesla_WhenDetected_ThenUnitsAndOffsetInM
 TEST(FieldCalibration, GivenEveryMethod_WhenReported_ThenTheSameKeys) {
   const auto H = Dump("sphere", 300, 0.05, 9);
   std::vector<MagSample> s;
+  s.reserve(H.size());
   for (const auto& h : H) s.push_back(MagSample{"", 0, 0, 0, h, {}, {}});
   std::set<std::string> first;
   for (const std::string m : {"none", "sphere", "ellipsoid", "robust", "auto"}) {
