@@ -11,7 +11,7 @@
 
 #include "channels.h"
 #include "hexsim/common/rng.h"
-#include "hexsim/realdata/plausibility.h"
+#include "hexsim/common/plausibility.h"
 #include "hexsim/realdata/windows.h"
 #include "nuisance.h"
 #include "replay_util.h"
@@ -128,7 +128,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
   const realdata::LagEstimate stale = internal::CurrentStaleness(log, fw.row_kind, options);
   // The logged current trails the throttle by its logging staleness (plus the motors' own response,
   // tens of ms, which the scan cannot separate): a staleness whose interval clears zero is aligned.
-  const double shift_s = stale.ok() && stale.ci95_s[0] > 0 && realdata::IsPlausible("current_staleness", stale.value_s)
+  const double shift_s = stale.ok() && stale.ci95_s[0] > 0 && plausibility::IsPlausible("current_staleness", stale.value_s)
                              ? stale.value_s
                              : 0.0;
   double flight_s = 0;
@@ -162,7 +162,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
     const bool align = timing.latency_ok && (timing.latency_ci95_s[0] > 0 || timing.latency_ci95_s[1] < 0);
     ro.latency_s = align ? timing.latency_s : 0.0;
     ro.current_shift_s = shift_s;
-    ro.member_shift_s = stale.ok() && realdata::IsPlausible("current_staleness", stale.value_s) ? stale.value_s : 0.0;
+    ro.member_shift_s = stale.ok() && plausibility::IsPlausible("current_staleness", stale.value_s) ? stale.value_s : 0.0;
     const ChannelData ch = internal::ReplayCompass(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro);
     if (static_cast<int>(ch.t.size()) < options.min_samples) {
       rep.not_diagnosed.emplace_back(name, fmt::format("too few flight samples: {}, needs {}", ch.t.size(), options.min_samples));

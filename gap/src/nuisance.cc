@@ -18,7 +18,7 @@
 #include <fmt/format.h>
 
 #include "detection.h"
-#include "hexsim/realdata/plausibility.h"
+#include "hexsim/common/plausibility.h"
 #include "stats.h"
 
 namespace hexsim::gap::internal {
@@ -44,8 +44,8 @@ CandidateResult Term(const std::string& effect, double value, double sd, double 
   r.magnitude_ci95[0] = norm ? std::max(0.0, value - t975 * sd) : value - t975 * sd;
   r.magnitude_ci95[1] = value + t975 * sd;
   r.magnitude_unit = unit;
-  r.plausible = realdata::IsPlausible(effect, value);
-  r.physical_range = realdata::RangeText(effect);
+  r.plausible = plausibility::IsPlausible(effect, value);
+  r.physical_range = plausibility::RangeText(effect);
   r.parameters = 3;
   r.probability = std::nan("");
   r.params["nuisance"] = true;
@@ -115,9 +115,9 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
     }
     if (p_perp >= a && p_scale < p_best) nr.out_of_range = "scale_error";
   } else {
-    const realdata::PhysicalRange* off = realdata::FindRange("hard_iron_offset");
-    const realdata::PhysicalRange* an = realdata::FindRange("local_anomaly");
-    const realdata::PhysicalRange* sc = realdata::FindRange("field_scale");
+    const plausibility::PhysicalRange* off = plausibility::FindRange("hard_iron_offset");
+    const plausibility::PhysicalRange* an = plausibility::FindRange("local_anomaly");
+    const plausibility::PhysicalRange* sc = plausibility::FindRange("field_scale");
     if (b_norm - t975 * b_sd > off->normal_hi) {
       nr.out_of_range = "hard_iron_offset";
       nr.findings.push_back(fmt::format("{}: residual offset ({:.0f}, {:.0f}, {:.0f}) mG, beyond the normal {:.0f} mG: "
@@ -177,7 +177,7 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
   if (stale.ok()) {
     st["current_A"] = {{"value", stale.value_s}, {"ci95", {stale.ci95_s[0], stale.ci95_s[1]}},
                        {"against", "control_u"}, {"resolved", !stale.at_grid_edge},
-                       {"plausible", realdata::IsPlausible("current_staleness", stale.value_s)},
+                       {"plausible", plausibility::IsPlausible("current_staleness", stale.value_s)},
                        {"applied_shift_s", shift_s}};
   }
   tm.json["regressor_staleness_s"] = st;
@@ -225,7 +225,7 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
   tm.latency_ci95_s[0] = lat.ci95_s[0];
   tm.latency_ci95_s[1] = lat.ci95_s[1];
   tm.json["latency_s"] = {{"value", lat.value_s}, {"ci95", {lat.ci95_s[0], lat.ci95_s[1]}}, {"against", "attitude (q_*)"},
-                          {"resolved", !lat.at_grid_edge}, {"plausible", realdata::IsPlausible("latency", lat.value_s)}};
+                          {"resolved", !lat.at_grid_edge}, {"plausible", plausibility::IsPlausible("latency", lat.value_s)}};
   // Held-out share of the unaligned baseline residual that the alignment removes, and whether the
   // unaligned residual has structure at all.
   CompassReplayOptions r0 = base, r1 = base;

@@ -8,7 +8,7 @@
 #include <fmt/format.h>
 
 #include "detection.h"
-#include "hexsim/realdata/plausibility.h"
+#include "hexsim/common/plausibility.h"
 
 namespace hexsim::gap::internal {
 namespace {
@@ -72,8 +72,8 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
   Attribution at = Attribute(ch, an, o, rng, noise_sse);
   const size_t F = at.fam_names.size();
   for (CandidateResult& r : at.results) {
-    r.plausible = realdata::IsPlausible(r.effect, r.magnitude);
-    r.physical_range = realdata::RangeText(r.effect);
+    r.plausible = plausibility::IsPlausible(r.effect, r.magnitude);
+    r.physical_range = plausibility::RangeText(r.effect);
   }
   const Structure st = DetectStructure(ch.t, an.y(), an.baseline().cv_sse, o.materiality);
   res.noise_rms = std::sqrt(st.noise_var);
@@ -115,8 +115,8 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
     lat.ci95["latency_s"] = {timing.latency_ci95_s[0], timing.latency_ci95_s[1]};
     lat.explained_share = timing.latency_share;
     lat.heldout_shrink = 1.0 - std::sqrt(std::max(0.0, 1.0 - timing.latency_share));
-    lat.plausible = realdata::IsPlausible("latency", timing.latency_s);
-    lat.physical_range = realdata::RangeText("latency");
+    lat.plausible = plausibility::IsPlausible("latency", timing.latency_s);
+    lat.physical_range = plausibility::RangeText("latency");
     lat.parameters = 1;
     lat.probability = std::nan("");
   }
@@ -128,7 +128,7 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
       timing.latency_ok && lat.plausible &&
       (o.nuisance_ranges == "exact"
            ? (timing.latency_ci95_s[0] > 0 || timing.latency_ci95_s[1] < 0) && timing.latency_share >= o.materiality
-           : !realdata::IsNormal("latency", timing.latency_s));
+           : !plausibility::IsNormal("latency", timing.latency_s));
 
   std::vector<Vec3> after = an.y();
   double cv_after = cv0;
@@ -140,7 +140,7 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
     res.explained_share = timing.latency_share;
     res.explanation = fmt::format("nothing beyond the aligned baseline; the compass is {:.0f} ms late against the "
                                   "attitude (normal: {}), and aligning it removes {} of the residual above the noise",
-                                  1000 * timing.latency_s, realdata::RangeText("latency"), Percent(timing.latency_share));
+                                  1000 * timing.latency_s, plausibility::RangeText("latency"), Percent(timing.latency_share));
   } else if (!res.gap_detected) {
     res.verdict = nu.out_of_range.empty() ? "none" : nu.out_of_range;
     res.gap_detected = !nu.out_of_range.empty();  // a gap, and it is that term

@@ -8,7 +8,7 @@
 
 #include "attribution.h"
 #include "detection.h"
-#include "hexsim/realdata/plausibility.h"
+#include "hexsim/common/plausibility.h"
 #include "stats.h"
 #include "verdict.h"
 
@@ -85,8 +85,8 @@ ChannelResult AnalyzeFirstWave(const ChannelData& ch, const logs::FlightLog& log
       r.params["radius_m"] = r.magnitude;
       r.ci95["radius_m"] = {r.magnitude_ci95[0], r.magnitude_ci95[1]};
     }
-    r.plausible = realdata::IsPlausible(r.effect, r.magnitude);
-    r.physical_range = realdata::RangeText(r.effect);
+    r.plausible = plausibility::IsPlausible(r.effect, r.magnitude);
+    r.physical_range = plausibility::RangeText(r.effect);
   }
   const std::vector<size_t>& order = at.order;
 

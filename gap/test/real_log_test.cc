@@ -10,7 +10,7 @@
 #include "hexsim/common/paths.h"
 #include "hexsim/gap/diagnose.h"
 #include "hexsim/logs/dataflash_import.h"
-#include "hexsim/realdata/plausibility.h"
+#include "hexsim/common/plausibility.h"
 #include "hexsim/vehicle/vehicle_params.h"
 #include "support/gap_fixtures.h"
 
@@ -88,7 +88,7 @@ TEST(GapRealLog, GivenLog171_WhenDiagnosed_ThenTheExternalMagIsNotCurrentDrivenA
   }
   for (const auto& k : mag->candidates) {
     if (k.selected) {
-      EXPECT_TRUE(realdata::IsPlausible(k.effect, k.magnitude)) << k.effect << " " << k.magnitude;
+      EXPECT_TRUE(plausibility::IsPlausible(k.effect, k.magnitude)) << k.effect << " " << k.magnitude;
     }
   }
 }

@@ -1,16 +1,17 @@
 // THE plausibility table (CONTRACTS.md "Second wave"): every quantity that the gap diagnosis, the
 // identification or the calibration estimates from a real log has one entry here, with its unit,
-// the range a physical aircraft can produce, and the one-line physical reason for that range. A fit
-// outside `lo..hi` is "implausible: model mismatch", never a finding. Nuisance terms also carry a
-// normal range (`normal_lo..normal_hi`): inside it nothing needs doing; outside it (but plausible)
-// the term is a finding the user acts on (e.g. recalibrate).
+// the range a physical aircraft can produce, and the one-line physical reason for that range. It lives
+// in common/ (needs only the standard library) so that magnetics, identify, realdata and gap all read
+// the same rows. A fit outside `lo..hi` is "implausible: model mismatch", never a finding. Nuisance
+// terms also carry a normal range (`normal_lo..normal_hi`): inside it nothing needs doing; outside it
+// (but plausible) the term is a finding the user acts on (e.g. recalibrate).
 #pragma once
 
 #include <string>
 #include <string_view>
 #include <vector>
 
-namespace hexsim::realdata {
+namespace hexsim::plausibility {
 
 struct PhysicalRange {
   std::string name;  // effect or parameter name (CONTRACTS effect names, timing and nuisance terms)
@@ -31,4 +32,4 @@ bool IsNormal(std::string_view name, double value);
 // "lo..hi unit" for reports.
 std::string RangeText(std::string_view name);
 
-}  // namespace hexsim::realdata
+}  // namespace hexsim::plausibility

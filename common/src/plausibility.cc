@@ -1,12 +1,11 @@
 // The one plausibility table (see plausibility.h). Magnitudes are the figures the consumers report:
 // vector effects by their Euclidean norm, signed scalars by their value.
-#include "hexsim/realdata/plausibility.h"
+#include "hexsim/common/plausibility.h"
 
 #include <cmath>
+#include <cstdio>
 
-#include <fmt/format.h>
-
-namespace hexsim::realdata {
+namespace hexsim::plausibility {
 namespace {
 
 PhysicalRange Effect(const char* name, const char* unit, double lo, double hi, const char* reason) {
@@ -79,7 +78,9 @@ bool IsNormal(std::string_view name, double value) {
 std::string RangeText(std::string_view name) {
   const PhysicalRange* r = FindRange(name);
   if (r == nullptr) return "no stated range";
-  return fmt::format("{:g}..{:g} {}", r->lo, r->hi, r->unit);
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%g..%g ", r->lo, r->hi);
+  return buf + r->unit;
 }
 
-}  // namespace hexsim::realdata
+}  // namespace hexsim::plausibility

@@ -1,8 +1,8 @@
-#include "hexsim/realdata/plausibility.h"
+#include "hexsim/common/plausibility.h"
 
 #include <gtest/gtest.h>
 
-namespace hexsim::realdata {
+namespace hexsim::plausibility {
 namespace {
 
 TEST(PlausibilityTable, GivenEveryEntry_WhenRead_ThenItHasAUnitAReasonAndOrderedNestedRanges) {
@@ -32,4 +32,4 @@ TEST(PlausibilityTable, GivenTheIssuesExamples_WhenChecked_ThenImpossibleMagnitu
 }
 
 }  // namespace
-}  // namespace hexsim::realdata
+}  // namespace hexsim::plausibility
