@@ -3,7 +3,8 @@
 #
 #   fuzz/fuzz.sh                # CI: each target -runs=100000 with -max_len=65536
 #   fuzz/fuzz.sh 600            # each target for 600 s on every worker (a long run: before releases)
-#   fuzz/fuzz.sh -runs=1000000  # any libFuzzer limit flag
+#   fuzz/fuzz.sh -runs=1000000  # any libFuzzer limit flags, e.g. -runs=100000 -max_total_time=120
+#                               # (CI: whichever comes first, per target)
 #
 # Build dir: build-fuzz beside the sources (HEXSIM_FUZZ_BUILD_DIR overrides). Seeds come from
 # fuzz/corpus/<target> (cut from the real log by fuzz/make_corpus.sh) and are only read; new inputs
@@ -14,8 +15,8 @@
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${HEXSIM_FUZZ_BUILD_DIR:-$root/build-fuzz}
-arg=${1:--runs=100000}
-if [[ $arg =~ ^[0-9]+$ ]]; then limit=(-max_total_time="$arg"); else limit=("$arg"); fi
+if (($#)); then limit=("$@"); else limit=(-runs=100000); fi
+if [[ ${limit[0]} =~ ^[0-9]+$ ]]; then limit=(-max_total_time="${limit[0]}"); fi
 # Tests stay ON: cmake/hexsim.cmake (hexsim_folder) fails to configure with them OFF; only the two
 # fuzz targets are built.
 launcher=()
@@ -38,10 +39,11 @@ mkdir -p "$build/artifacts"
 workers=${HEXSIM_FUZZ_WORKERS:-${HEXSIM_FUZZ_JOBS:-2}}
 seed=${HEXSIM_FUZZ_SEED:-1}
 for target in dataflash flightlog_csv ulog; do
-  wlimit=("${limit[@]}")
-  if [[ ${limit[0]} =~ ^-runs=([0-9]+)$ ]]; then
-    wlimit=(-runs=$(( (BASH_REMATCH[1] + workers - 1) / workers )))
-  fi
+  wlimit=()
+  for l in "${limit[@]}"; do
+    if [[ $l =~ ^-runs=([0-9]+)$ ]]; then l=-runs=$(( (BASH_REMATCH[1] + workers - 1) / workers )); fi
+    wlimit+=("$l")
+  done
   echo "fuzz_$target: ${limit[*]} -max_len=65536 ($workers workers, ${wlimit[*]} each)"
   t0=$SECONDS
   pids=()
