@@ -24,7 +24,7 @@ constexpr double kMinHeadingCosPitch2 = 1e-4;
 constexpr double kAccelRefTau_s = 0.3;
 constexpr double kAccelRefTimeout_s = 1.0;
 
-class Complementary final : public Estimator {
+class Complementary final : public Estimator, private internal::Filter {
  public:
   explicit Complementary(const NavParams& params) : prm_(params) { Reset(NavEstimate()); }
 
@@ -45,15 +45,7 @@ class Complementary final : public Estimator {
   }
 
   void PredictImu(const ImuSample& s) override {
-    switch (front_.AdmitImu(s, prm_.align_time_s)) {
-      case internal::Admission::kDone: return;
-      case internal::Admission::kAligned: FinishAlignment(); return;
-      case internal::Admission::kFirst:
-        w_B_ = s.gyro_B_radps - bg_;
-        front_.Record(p_, v_);
-        return;
-      case internal::Admission::kRun: break;
-    }
+    if (!front_.AdmitImu(s, prm_.align_time_s, this)) return;
     const double dt = std::min(s.t_s - front_.time(), kMaxImuDt_s);
     const Eigen::Matrix3d R = q_.toRotationMatrix();
     // Tilt error in N: φ = d_meas × d_ref with d_meas = R·f/|f| and d_ref the direction of the
@@ -90,12 +82,7 @@ class Complementary final : public Estimator {
   }
 
   void FuseMag(const MagSample& s) override {
-    switch (front_.AdmitMag(s, prm_.align_time_s)) {
-      case internal::Admission::kDone: return;
-      case internal::Admission::kAligned: FinishAlignment(); return;
-      case internal::Admission::kFirst:
-      case internal::Admission::kRun: break;
-    }
+    if (!front_.AdmitMag(s, prm_.align_time_s, this)) return;
     EstimatorStats& stats = front_.stats();
     const double dt = have_mag_t_ ? std::clamp(s.t_s - last_mag_t_, 0.0, kMaxMagDt_s) : 0.0;
     last_mag_t_ = s.t_s;
@@ -200,7 +187,12 @@ class Complementary final : public Estimator {
   EstimatorStats Stats() const override { return front_.stats(); }
 
  private:
-  void FinishAlignment() {
+  void OnFirstImu(const ImuSample& s) override {
+    w_B_ = s.gyro_B_radps - bg_;
+    front_.Record(p_, v_);
+  }
+
+  void OnAligned() override {
     q_ = front_.aligner().Attitude(prm_.earth);
     bg_ = front_.aligner().GyroBias();
     front_.FinishAlignment(p_, v_);

@@ -27,7 +27,7 @@ constexpr double kMaxHeadingCosPitch2 = 1e-4;
 // accuracy the compass is fused as a heading (as EKF2 aligns yaw before 3-axis fusion).
 constexpr double kThreeAxisMaxYawStd_rad = 5.0 * kDegToRad;
 
-class Eskf final : public Estimator {
+class Eskf final : public Estimator, private internal::Filter {
  public:
   explicit Eskf(const NavParams& params) : prm_(params) { Reset(NavEstimate()); }
 
@@ -49,15 +49,7 @@ class Eskf final : public Estimator {
   }
 
   void PredictImu(const ImuSample& s) override {
-    switch (front_.AdmitImu(s, prm_.align_time_s)) {
-      case internal::Admission::kDone: return;
-      case internal::Admission::kAligned: FinishAlignment(); return;
-      case internal::Admission::kFirst:
-        w_B_ = s.gyro_B_radps - bg_;
-        front_.Record(p_, v_);
-        return;
-      case internal::Admission::kRun: break;
-    }
+    if (!front_.AdmitImu(s, prm_.align_time_s, this)) return;
     const double dt = std::min(s.t_s - front_.time(), kMaxImuDt_s);
     const Eigen::Vector3d w = s.gyro_B_radps - bg_;
     const Eigen::Vector3d f_B = s.accel_B_mps2 - ba_;
@@ -89,12 +81,7 @@ class Eskf final : public Estimator {
   }
 
   void FuseMag(const MagSample& s) override {
-    switch (front_.AdmitMag(s, prm_.align_time_s)) {
-      case internal::Admission::kDone: return;
-      case internal::Admission::kAligned: FinishAlignment(); return;
-      case internal::Admission::kFirst:
-      case internal::Admission::kRun: break;
-    }
+    if (!front_.AdmitMag(s, prm_.align_time_s, this)) return;
     EstimatorStats& stats = front_.stats();
     const Eigen::Matrix3d R = q_.toRotationMatrix();
     if (prm_.mag_mode == MagMode::kThreeAxis && P_(kTh + 2, kTh + 2) < kThreeAxisMaxYawStd_rad * kThreeAxisMaxYawStd_rad) {
@@ -258,7 +245,12 @@ class Eskf final : public Estimator {
     P_ = d.asDiagonal();
   }
 
-  void FinishAlignment() {
+  void OnFirstImu(const ImuSample& s) override {
+    w_B_ = s.gyro_B_radps - bg_;
+    front_.Record(p_, v_);
+  }
+
+  void OnAligned() override {
     q_ = front_.aligner().Attitude(prm_.earth);
     bg_ = front_.aligner().GyroBias();
     last_gps_fused_t_ = front_.time();

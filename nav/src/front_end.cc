@@ -15,38 +15,39 @@ void FrontEnd::Reset(const NavEstimate& initial) {
   health_ = Status::Ok();
 }
 
-Admission FrontEnd::AdmitImu(const ImuSample& s, double align_time_s) {
-  if (!health_.ok()) return Admission::kDone;
+bool FrontEnd::AdmitImu(const ImuSample& s, double align_time_s, Filter* filter) {
+  if (!health_.ok()) return false;
   ++stats_.imu_samples;
   if (!AllFinite(s) || (have_time_ && s.t_s <= t_s_)) {
     ++stats_.imu_rejected_invalid;
-    return Admission::kDone;
+    return false;
   }
   if (aligning_) {
     aligner_.AddImu(s);
     t_s_ = s.t_s;
     have_time_ = true;
-    return FinishIfAligned(align_time_s);
+    return FinishIfAligned(align_time_s, filter);
   }
   if (!have_time_) {
     t_s_ = s.t_s;
     have_time_ = true;
-    return Admission::kFirst;
+    filter->OnFirstImu(s);
+    return false;
   }
-  return Admission::kRun;
+  return true;
 }
 
-Admission FrontEnd::AdmitMag(const MagSample& s, double align_time_s) {
-  if (!health_.ok()) return Admission::kDone;
+bool FrontEnd::AdmitMag(const MagSample& s, double align_time_s, Filter* filter) {
+  if (!health_.ok()) return false;
   if (!std::isfinite(s.t_s) || !s.mag_B_uT.allFinite() || s.mag_B_uT.squaredNorm() == 0.0) {
     ++stats_.mag.rejected_invalid;
-    return Admission::kDone;
+    return false;
   }
   if (aligning_) {
     aligner_.AddMag(s);
-    return FinishIfAligned(align_time_s);
+    return FinishIfAligned(align_time_s, filter);
   }
-  return Admission::kRun;
+  return true;
 }
 
 bool FrontEnd::AdmitGps(const GpsSample& s) {

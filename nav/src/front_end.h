@@ -3,13 +3,10 @@
 // first estimate, the first IMU sample after alignment, the delayed-state buffer behind delayed GPS,
 // the per-sensor statistics and the health status. A gating or admission fix is made here once.
 //
-// A filter asks before each step:
-//   switch (front_.AdmitImu(s, align_time_s)) {
-//     case Admission::kDone: return;                  // rejected, or absorbed by the alignment
-//     case Admission::kAligned: /* attitude and bias from front_.aligner() */ front_.FinishAlignment(p, v); return;
-//     case Admission::kFirst: /* rates from s */ front_.Record(p, v); return;
-//     case Admission::kRun: /* propagate over s.t_s − front_.time() */ front_.Advance(s.t_s); ... front_.Record(p, v);
-//   }
+// A filter implements Filter (what the front end calls when the alignment completes and on the first
+// IMU sample after it) and asks before each step:
+//   if (!front_.AdmitImu(s, align_time_s, this)) return;  // rejected, absorbed by the alignment, or first
+//   /* propagate over s.t_s − front_.time() */ front_.Advance(s.t_s); ... front_.Record(p, v);
 #pragma once
 
 #include <string>
@@ -22,11 +19,15 @@
 
 namespace hexsim::nav::internal {
 
-enum class Admission {
-  kDone,     // nothing more to do with the sample
-  kAligned,  // the sample completed the static alignment: initialise from aligner(), then FinishAlignment
-  kFirst,    // IMU only: the first sample after alignment; time is set, there is nothing to integrate
-  kRun,      // the filter processes the sample
+// What the front end asks of the filter it fronts.
+class Filter {
+ public:
+  virtual ~Filter() = default;
+  // The static alignment is complete: initialise attitude and biases from aligner(), then call
+  // FrontEnd::FinishAlignment(p, v).
+  virtual void OnAligned() = 0;
+  // The first IMU sample after the alignment: time is set, there is nothing to integrate yet.
+  virtual void OnFirstImu(const ImuSample& s) = 0;
 };
 
 class FrontEnd {
@@ -37,8 +38,10 @@ class FrontEnd {
   // Forgets everything; aligns first unless `initial` is healthy.
   void Reset(const NavEstimate& initial);
 
-  Admission AdmitImu(const ImuSample& s, double align_time_s);
-  Admission AdmitMag(const MagSample& s, double align_time_s);
+  // true when the filter processes the sample. Otherwise it was rejected, absorbed by the alignment
+  // (filter->OnAligned() ran when it completed it) or was the first IMU sample (filter->OnFirstImu(s) ran).
+  bool AdmitImu(const ImuSample& s, double align_time_s, Filter* filter);
+  bool AdmitMag(const MagSample& s, double align_time_s, Filter* filter);
   // true when the filter may fuse it (valid, aligned, and an IMU time to compare it with).
   bool AdmitGps(const GpsSample& s);
   bool AdmitBaro(const BaroSample& s);
@@ -85,8 +88,10 @@ class FrontEnd {
   static constexpr double kMaxSpeed_mps = 1000.0;
 
  private:
-  Admission FinishIfAligned(double align_time_s) {
-    return aligner_.Ready(t_s_, align_time_s) ? Admission::kAligned : Admission::kDone;
+  // false: the sample went into the alignment, which the filter finishes when it is complete.
+  bool FinishIfAligned(double align_time_s, Filter* filter) {
+    if (aligner_.Ready(t_s_, align_time_s)) filter->OnAligned();
+    return false;
   }
 
   std::string name_;
