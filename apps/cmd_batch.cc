@@ -3,27 +3,19 @@
 // hexsim batch-merge OUT SHARD_DIR...
 #include <unistd.h>
 
-#include <cmath>
+#include <algorithm>
 #include <filesystem>
-#include <limits>
-#include <map>
-#include <set>
 #include <string>
 #include <vector>
-
-#include <fmt/format.h>
 
 #include "cli_util.h"
 #include "commands.h"
 #include "hexsim/batch/batch_spec.h"
-#include "hexsim/batch/pool.h"
 #include "hexsim/batch/report.h"
 #include "hexsim/batch/results_db.h"
-#include "hexsim/batch/setup_cache.h"
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/paths.h"
-#include "hexsim/experiments/ground_calibration.h"
-#include "hexsim/experiments/point_runner.h"
+#include "hexsim/experiments/batch_flow.h"
 #include "hexsim/reports/batch_report.h"
 #include "hexsim/reports/headline.h"
 
@@ -32,9 +24,6 @@ namespace hexsim::app {
 namespace {
 
 namespace fs = std::filesystem;
-using nlohmann::json;
-
-constexpr const char* kResultsFile = "results.sqlite";
 
 struct BatchArgs {
   std::string batch_file;
@@ -46,37 +35,6 @@ struct BatchArgs {
   double run_timeout_s = 0.0;
   std::string out;
 };
-
-// Everything that can be checked before a run starts, so bad input fails the batch up front
-// (exit 2, nothing written) rather than run by run: each point's files and overrides load (into
-// `cache`, which the forked workers inherit), and each calibration attaches once.
-Status ValidatePoints(const std::string& batch_file, const std::vector<batch::RunPoint>& points,
-                      batch::SetupCache* cache) {
-  std::set<std::string> keys_seen, calibrations_seen;
-  for (const auto& p : points) {
-    const bool new_setup = keys_seen.insert(batch::SetupCache::Key(p)).second;
-    const bool new_calibration = calibrations_seen.insert(p.calibration).second;
-    if (!new_setup && !new_calibration) continue;
-    auto setup = cache->Get(p);
-    if (!setup.ok()) {
-      return Status::BadInput(fmt::format("{}: run {} {}: {}", batch_file, p.RunId(), p.CanonicalJson(),
-                                          setup.status().message()));
-    }
-    if (new_calibration) {
-      const Status s = experiments::AttachCalibration(p.calibration, &*setup);
-      if (!s.ok()) return Status::BadInput(fmt::format("{}: calibrations: {}", batch_file, s.message()));
-    }
-  }
-  return Status::Ok();
-}
-
-// The worker's job (in its own process): one mission, its summary; the log too with --keep-logs.
-Result<json> RunOne(const batch::RunPoint& p, batch::SetupCache* cache, const std::string& run_dir, bool keep_log) {
-  auto out = experiments::FlyPoint(p, cache);
-  if (!out.ok()) return out.status();
-  if (keep_log) HEXSIM_RETURN_IF_ERROR(experiments::WriteRunLog(*out, run_dir));
-  return sim::ToJson(out->summary);
-}
 
 Status BatchCommand(const BatchArgs& args, int* exit_code) {
   auto spec = batch::LoadBatchFile(args.batch_file);
@@ -91,57 +49,22 @@ Status BatchCommand(const BatchArgs& args, int* exit_code) {
     return Status::Ok();
   }
   if (args.out.empty()) return Status::BadInput("batch: --out DIR is required");
-  batch::SetupCache cache;
-  HEXSIM_RETURN_IF_ERROR(ValidatePoints(spec->file, mine, &cache));
-  const int jobs = args.jobs > 0 ? args.jobs : std::max(1, static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN)));
-  const std::string db_path = args.out + "/" + kResultsFile;
-  std::error_code ec;
-  if (fs::exists(db_path, ec) && !args.resume) {
-    return Status::BadInput(db_path + ": exists already; pass --resume to finish that batch, or choose another --out");
-  }
-  OutputDirectory out;
-  HEXSIM_RETURN_IF_ERROR(out.Open(args.out));
-  auto db = batch::ResultsDb::Open(db_path, /*create=*/true);
-  if (!db.ok()) return db.status();
-  out.Commit();  // from here on, every finished run is a result worth keeping
-  auto done = db->RunIds();
-  if (!done.ok()) return done.status();
-  std::vector<batch::RunPoint> todo;
-  for (const auto& p : mine) {
-    if (!done->count(p.RunId())) todo.push_back(p);
-  }
-  batch::PoolOptions opt;
-  opt.jobs = jobs;
-  opt.out_dir = args.out;
-  opt.run_timeout_s = args.run_timeout_s;
-  opt.progress_tty = isatty(STDERR_FILENO) == 1;
-  opt.already_done = mine.size() - todo.size();
-  std::fprintf(stderr, "hexsim batch: %s: %zu runs (shard %d/%d of %zu), %zu finished before, %zu to run on %d jobs\n",
-               spec->name.c_str(), mine.size(), shard->index, shard->count, all.size(), opt.already_done,
-               todo.size(), jobs);
-  const bool keep = args.keep_logs;
-  auto stats = batch::RunPool(
-      todo,
-      [&args, &cache, keep](const batch::RunPoint& p) {
-        return RunOne(p, &cache, args.out + "/runs/" + p.RunId(), keep);
-      },
-      opt,
-      &*db);
-  if (!stats.ok()) return stats.status();
-  // Exit 1 when any run of this shard failed, including those recorded by an earlier attempt.
-  auto rows = db->ReadAll();
-  if (!rows.ok()) return rows.status();
-  std::set<std::string> mine_ids;
-  for (const auto& p : mine) mine_ids.insert(p.RunId());
-  size_t failed = 0, present = 0;
-  for (const auto& r : *rows) {
-    if (!mine_ids.count(r.run_id)) continue;
-    ++present;
-    if (batch::IsFailure(r.status)) ++failed;
-  }
-  std::printf("%s: %zu/%zu runs recorded (%zu this time, %.1f s), %zu failed -> %s\n", spec->name.c_str(), present,
-              mine.size(), stats->finished, stats->wall_s, failed, db_path.c_str());
-  *exit_code = failed > 0 ? 1 : 0;
+  experiments::BatchFlowOptions o;
+  o.jobs = args.jobs > 0 ? args.jobs : std::max(1, static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN)));
+  o.out = args.out;
+  o.resume = args.resume;
+  o.keep_logs = args.keep_logs;
+  o.run_timeout_s = args.run_timeout_s;
+  o.progress_tty = isatty(STDERR_FILENO) == 1;
+  auto r = experiments::RunBatch(spec->file, mine, o, [&](const experiments::BatchPlan& plan) {
+    std::fprintf(stderr, "hexsim batch: %s: %zu runs (shard %d/%d of %zu), %zu finished before, %zu to run on %d jobs\n",
+                 spec->name.c_str(), mine.size(), shard->index, shard->count, all.size(), plan.already_done,
+                 plan.to_run, o.jobs);
+  });
+  if (!r.ok()) return r.status();
+  std::printf("%s: %zu/%zu runs recorded (%zu this time, %.1f s), %zu failed -> %s\n", spec->name.c_str(), r->recorded,
+              mine.size(), r->finished, r->wall_s, r->failed, r->db_path.c_str());
+  *exit_code = r->failed > 0 ? 1 : 0;
   return Status::Ok();
 }
 
@@ -154,7 +77,7 @@ struct ReportArgs {
 };
 
 Status ReportCommand(const ReportArgs& args, int* exit_code) {
-  const std::string db_path = fs::is_regular_file(args.dir) ? args.dir : args.dir + "/" + kResultsFile;
+  const std::string db_path = fs::is_regular_file(args.dir) ? args.dir : args.dir + "/" + experiments::kResultsFile;
   std::error_code ec;
   if (!fs::is_regular_file(db_path, ec)) return Status::BadInput(db_path + ": no such results file");
   auto db = batch::ResultsDb::Open(db_path, /*create=*/false);
@@ -189,45 +112,12 @@ struct MergeArgs {
 };
 
 Status MergeCommand(const MergeArgs& args, int* exit_code) {
-  std::vector<std::string> files;
-  for (const auto& s : args.shards) {
-    const std::string f = fs::is_directory(s) ? s + "/" + kResultsFile : s;
-    std::error_code ec;
-    if (!fs::is_regular_file(f, ec)) return Status::BadInput(f + ": no such results file");
-    auto check = batch::ResultsDb::Open(f, /*create=*/false);
-    if (!check.ok()) return check.status();
-    files.push_back(f);
-  }
-  OutputDirectory out;
-  HEXSIM_RETURN_IF_ERROR(out.Open(args.out));
-  // Built under a temporary name and renamed, so a killed merge never looks finished.
-  const std::string final_path = out.File(kResultsFile);
-  const std::string tmp = final_path + ".tmp." + std::to_string(getpid());
-  int64_t total_in = 0;
-  {
-    auto db = batch::ResultsDb::Open(tmp, /*create=*/true);
-    if (!db.ok()) return db.status();
-    std::error_code ec;
-    if (fs::is_regular_file(final_path, ec)) {  // merging into an existing result: keep its rows
-      int64_t added = 0;
-      HEXSIM_RETURN_IF_ERROR(db->MergeFrom(final_path, &added));
-    }
-    for (const auto& f : files) {
-      int64_t added = 0;
-      HEXSIM_RETURN_IF_ERROR(db->MergeFrom(f, &added));
-      auto n = batch::ResultsDb::Open(f, false)->Count();
-      total_in += n.ok() ? *n : 0;
-      std::fprintf(stderr, "hexsim batch-merge: %s: %lld new runs\n", f.c_str(), static_cast<long long>(added));
-    }
-    auto count = db->Count();
-    if (!count.ok()) return count.status();
-    std::printf("merged %zu shards: %lld rows in, %lld distinct runs -> %s\n", files.size(),
-                static_cast<long long>(total_in), static_cast<long long>(*count), final_path.c_str());
-  }  // closed: the WAL is checkpointed into the file
-  std::error_code ec;
-  fs::rename(tmp, final_path, ec);
-  if (ec) return Status::BadInput(final_path + ": cannot rename: " + ec.message());
-  out.Commit();
+  auto r = experiments::MergeShards(args.out, args.shards, [](const std::string& file, long long added) {
+    std::fprintf(stderr, "hexsim batch-merge: %s: %lld new runs\n", file.c_str(), added);
+  });
+  if (!r.ok()) return r.status();
+  std::printf("merged %zu shards: %lld rows in, %lld distinct runs -> %s\n", r->shards, r->rows_in, r->distinct_runs,
+              r->path.c_str());
   *exit_code = 0;
   return Status::Ok();
 }
