@@ -55,6 +55,7 @@ Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
   rq.field_norm_uT = a.field_norm_uT;
   rq.compass_index = logs::CompassIndex(a.compass);
   rq.prior_offset = input->prior_offset;
+  rq.px4_index = input->px4_index;
   std::vector<magnetics::MagSample> samples(input->field.size());
   for (size_t i = 0; i < samples.size(); ++i) {
     samples[i].mag_B_uT = input->field[i];
@@ -91,7 +92,7 @@ Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
 void AddCalibrateCommand(CLI::App& app, int* exit_code) {
   auto a = std::make_shared<CalibrateArgs>();
   CLI::App* c = app.add_subcommand("calibrate", "Fit a compass calibration -> calib.yaml, .report.json, .parm, .params, .png");
-  c->add_option("samples", a->samples, "x,y,z text, FlightLog CSV, samples.csv or ArduPilot .bin (detected from content)")
+  c->add_option("samples", a->samples, "x,y,z text, FlightLog CSV, samples.csv, ArduPilot .bin or PX4 .ulg (detected from content)")
       ->required();
   c->add_option("--method", a->method,
                 "auto|sphere|ellipsoid|robust|robust-sphere|robust-ellipsoid|none|traditional|adaptive|adaptive-current|"

@@ -164,6 +164,40 @@ void UndoArduPilot(const nlohmann::json& meta, const std::string& compass, const
   }
 }
 
+// Undoes PX4's correction of compass `compass` when the meta describes it (ulog_import.h):
+// calibrated = R·S·(raw − off), so raw = S⁻¹·Rᵀ·calibrated + off (gauss); a raw topic is kept as
+// it is. Either way the autopilot's slot and offset become the parameters' index and the prior.
+void UndoPx4(const nlohmann::json& meta, const std::string& compass, MagInput* in) {
+  if (!meta.is_object() || meta.value("format", "") != "px4-ulog" || !meta.contains("compasses")) return;
+  for (const auto& c : meta["compasses"]) {
+    if (c.value("column", "") != compass || !c.contains("px4_calibration")) continue;
+    const auto& p = c["px4_calibration"];
+    auto vec = [&](const char* key) { return Vector3d(p[key][0].get<double>(), p[key][1].get<double>(), p[key][2].get<double>()); };
+    const Vector3d off_uT = 100.0 * vec("offsets_G"), dia = vec("scales"), odi = vec("offdiagonals");
+    Matrix3d S;
+    S << dia(0), odi(0), odi(1), odi(0), dia(1), odi(2), odi(1), odi(2), dia(2);
+    Matrix3d R;
+    for (int k = 0; k < 9; ++k) R(k / 3, k % 3) = p["rotation_matrix"][static_cast<size_t>(k)].get<double>();
+    const int slot = p["index"].get<int>();
+    in->px4_index = slot;
+    in->prior_offset = off_uT;
+    if (!c.value("calibrated", false)) {
+      in->notes.push_back(fmt::format("PX4 log: raw sensor_mag, calibration slot CAL_MAG{} (matched by {})", slot,
+                                      p["matched_by"].get<std::string>()));
+      continue;
+    }
+    if (!p["rotation_known"].get<bool>() || std::abs(S.determinant()) < 1e-6) continue;  // warned at import
+    const Matrix3d undo = S.inverse() * R.transpose();
+    for (auto& b : in->field) b = undo * b + off_uT;
+    in->notes.push_back(fmt::format(
+        "PX4 log: raw field rebuilt from the calibrated one with CAL_MAG{}_* (matched by {}; offsets {:.4f},{:.4f},{:.4f} G, "
+        "rotation {}): the calibration is absolute{}",
+        slot, p["matched_by"].get<std::string>(), off_uT(0) / 100, off_uT(1) / 100, off_uT(2) / 100,
+        p["rotation"].get<double>(),
+        vec("power_compensation").isZero() ? "" : "; CAL_MAG_COMP (throttle/current compensation) is not undone"));
+  }
+}
+
 // A header table: the compass's FlightLog columns, or plain axis names.
 Result<MagInput> FromHeaderTable(const Table& t, const std::string& name, const std::string& compass,
                                  const nlohmann::json& meta) {
@@ -244,6 +278,7 @@ Result<MagInput> FromHeaderTable(const Table& t, const std::string& name, const 
                                  flightlog ? "FlightLog CSV" : "plain columns with a header",
                                  it >= 0 ? ", one per new " + compass + "_t_s" : ""));
   UndoArduPilot(meta, compass, mot, &in);
+  UndoPx4(meta, compass, &in);
   return in;
 }
 

@@ -1,5 +1,6 @@
 #include "hexsim/logs/ulog.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -181,6 +182,9 @@ Result<ULog> ParseULog(const std::string& bytes, const std::string& name) {
         topic.name.assign(p + 3, size - 3);
         topic.multi_id = multi;
         if (!Flatten(formats, topic.name, "", 0, 0, &topic.fields, &topic.record_size) || topic.record_size < 8) break;
+        // PX4's logger drops a format's trailing padding from every record: a record may end
+        // where its last real field ends.
+        for (const auto& f : topic.fields) topic.logged_size = std::max(topic.logged_size, f.offset + BasicSize(f.type));
         by_msg_id[msg_id] = log.topics.size();
         log.topics.push_back(std::move(topic));
         break;
@@ -190,8 +194,9 @@ Result<ULog> ParseULog(const std::string& bytes, const std::string& name) {
         const auto it = by_msg_id.find(Read<uint16_t>(p));
         if (it == by_msg_id.end()) break;
         ULogTopic& t = log.topics[it->second];
-        if (size - 2 < t.record_size) break;  // short record: damage, skipped
-        t.records.emplace_back(p + 2, t.record_size);
+        if (size - 2 < t.logged_size) break;  // short record: damage, skipped
+        t.records.emplace_back(p + 2, std::min<size_t>(size - 2, t.record_size));
+        t.records.back().resize(t.record_size, '\0');  // the dropped padding
         break;
       }
       case 'L':

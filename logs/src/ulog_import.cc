@@ -8,48 +8,165 @@
 #include <fmt/format.h>
 
 #include "hexsim/logs/ulog.h"
+#include "ulog_mag_cal.h"
 
 namespace hexsim::logs {
 namespace {
 
+using internal::MagFrame;
+
 constexpr double kRadToDeg = 57.29577951308232;
 constexpr double kMicroteslaPerGauss = 100.0;
+constexpr double kGps3dFix = 3;  // vehicle_gps_position fix_type: 3 = 3-D fix
 
-// One sample-and-hold channel: a topic, its time column, and (column, value of record i) pairs.
-struct Channel {
-  const ULogTopic* topic = nullptr;
-  std::string t_column;
-  std::vector<std::pair<std::string, std::function<double(size_t)>>> columns;
+struct Column {
+  std::string name;
+  std::function<double(size_t)> value;  // of record i
+  bool in_table = true;                 // false: the native-rate stream only
 };
 
-void Hold(const Channel& ch, FlightLog* log, const std::vector<double>& row_t) {
-  if (ch.topic == nullptr || ch.topic->records.empty()) return;
-  const size_t tc = log->AddColumn(ch.t_column);
-  std::vector<size_t> cols;
-  for (const auto& c : ch.columns) cols.push_back(log->AddColumn(c.first));
+// One topic as a sample-and-hold channel of the table (`<stream>_t_s` + columns) and as the
+// native-rate stream `stream`.
+struct Channel {
+  const ULogTopic* topic = nullptr;
+  std::string stream;
+  std::vector<Column> columns;
+  std::function<bool(size_t)> keep;  // records to use (null: all)
+};
+
+// The records to use, in file order: a finite time not earlier than the last kept one, and kept
+// by the channel. Others are counted in `dropped` (damaged or out-of-order time only).
+std::vector<size_t> Usable(const Channel& ch, size_t* dropped) {
+  std::vector<size_t> out;
+  double last = -INFINITY;
+  for (size_t i = 0; i < ch.topic->records.size(); ++i) {
+    const double t = ch.topic->TimeS(i);
+    if (!std::isfinite(t) || t < last) {
+      ++*dropped;
+      continue;
+    }
+    if (ch.keep && !ch.keep(i)) continue;
+    last = t;
+    out.push_back(i);
+  }
+  return out;
+}
+
+// The table's columns: each row holds the latest record at or before its time, never interpolated.
+void Hold(const Channel& ch, const std::vector<size_t>& recs, FlightLog* log, const std::vector<double>& row_t) {
+  const size_t tc = log->AddColumn(ch.stream + "_t_s");
+  std::vector<std::pair<size_t, const Column*>> cols;
+  for (const auto& c : ch.columns) {
+    if (c.in_table) cols.emplace_back(log->AddColumn(c.name), &c);
+  }
   size_t next = 0;
   long held = -1;
   for (size_t r = 0; r < row_t.size(); ++r) {
-    while (next < ch.topic->records.size() && ch.topic->TimeS(next) <= row_t[r]) held = static_cast<long>(next++);
+    while (next < recs.size() && ch.topic->TimeS(recs[next]) <= row_t[r]) held = static_cast<long>(next++);
     if (held < 0) continue;
-    const size_t i = static_cast<size_t>(held);
+    const size_t i = recs[static_cast<size_t>(held)];
     log->MutableColumn(tc)[r] = ch.topic->TimeS(i);
-    for (size_t k = 0; k < cols.size(); ++k) log->MutableColumn(cols[k])[r] = ch.columns[k].second(i);
+    for (const auto& [col, c] : cols) log->MutableColumn(col)[r] = c->value(i);
   }
+}
+
+// The native-rate stream: one row per usable record, t_s first.
+FlightLog StreamOf(const Channel& ch, const std::vector<size_t>& recs) {
+  FlightLog s;
+  const size_t tc = s.AddColumn("t_s");
+  std::vector<size_t> cols;
+  for (const auto& c : ch.columns) cols.push_back(s.AddColumn(c.name));
+  s.Reserve(recs.size());
+  for (size_t i : recs) {
+    s.AppendRow();
+    s.Set(tc, ch.topic->TimeS(i));
+    for (size_t k = 0; k < cols.size(); ++k) {
+      const double v = ch.columns[k].value(i);
+      s.Set(cols[k], std::isfinite(v) ? v : kMissing);
+    }
+  }
+  return s;
 }
 
 // Three columns `prefix_{x,y,z}suffix` from fields `f0..f2` scaled by `scale`.
 void Vec3(Channel* ch, const std::string& prefix, const std::string& suffix, const std::array<std::string, 3>& f,
           double scale) {
   const char* ax[3] = {"x", "y", "z"};
+  const ULogTopic* t = ch->topic;
+  for (size_t k = 0; k < 3; ++k) {
+    const std::string& field = f[k];
+    ch->columns.push_back({prefix + "_" + ax[k] + suffix, [t, field, scale](size_t i) { return t->Get(i, field) * scale; }});
+  }
+}
+
+// Euler angle `which` (0 roll, 1 pitch, 2 yaw; degrees) of the Hamilton quaternion q[0..3] (FRD → NED).
+double EulerDeg(const ULogTopic* t, size_t i, int which) {
+  const double w = t->Get(i, "q[0]"), x = t->Get(i, "q[1]"), y = t->Get(i, "q[2]"), z = t->Get(i, "q[3]");
+  if (which == 0) return kRadToDeg * std::atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y));
+  if (which == 1) return kRadToDeg * std::asin(std::clamp(2 * (w * y - z * x), -1.0, 1.0));
+  return kRadToDeg * std::atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z));
+}
+
+Channel Attitude(const ULogTopic* att) {
+  Channel c{att, "att", {}, nullptr};
+  for (int k = 0; k < 4; ++k) {
+    const std::string f = fmt::format("q[{}]", k);
+    c.columns.push_back({std::string("q_") + "wxyz"[k], [att, f](size_t i) { return att->Get(i, f); }});
+  }
+  const char* names[4] = {"roll_deg", "pitch_deg", "yaw_deg", "yaw_true_deg"};
+  for (int k = 0; k < 4; ++k) {
+    const int which = std::min(k, 2);
+    c.columns.push_back({names[k], [att, which](size_t i) { return EulerDeg(att, i, which); }});
+  }
+  return c;
+}
+
+// The magnetometers: sensor_mag instances (raw from PX4 1.11 on, driver-calibrated before), else
+// vehicle_magnetometer instances, else old sensor_combined magnetometer_ga (both calibrated).
+void Magnetometers(const ULog& u, const std::string& name, std::vector<Channel>* channels, nlohmann::json* compasses,
+                   std::vector<std::string>* warnings) {
+  const char* prefixes[3] = {"mag", "mag2", "mag3"};
+  auto add = [&](const ULogTopic* m, int k, const std::array<std::string, 3>& fields, MagFrame frame) {
+    Channel c{m, prefixes[k], {}, nullptr};
+    Vec3(&c, prefixes[k], "_uT", fields, kMicroteslaPerGauss);
+    channels->push_back(std::move(c));
+    const double device_id = m->Has("device_id") ? m->Get(0, "device_id") : 0.0;
+    nlohmann::json j = {{"column", prefixes[k]},
+                        {"instance", k},
+                        {"source", m->name},
+                        {"calibrated", frame != MagFrame::kRaw},
+                        {"frame", frame == MagFrame::kRaw               ? "raw"
+                                  : frame == MagFrame::kDriverCalibrated ? "driver-calibrated"
+                                                                          : "calibrated"}};
+    if (device_id > 0) j["device_id"] = device_id;
+    const nlohmann::json cal = internal::Px4MagCalibration(u, device_id, k, frame);
+    if (!cal.is_null()) j["px4_calibration"] = cal;
+    if (frame != MagFrame::kRaw) {
+      const bool rebuilt = !cal.is_null() && cal["rotation_known"].get<bool>();
+      warnings->push_back(fmt::format(
+          "{}: {}: {} holds the field PX4 has already calibrated{}", name, prefixes[k], m->name,
+          rebuilt ? fmt::format(": calibrate rebuilds the raw field from CAL_MAG{}_* (matched by {})",
+                                cal["index"].get<int>(), cal["matched_by"].get<std::string>())
+                  : " and the log lacks what undoes it: a calibration from it is relative to the one in force"));
+    }
+    compasses->push_back(std::move(j));
+  };
+  bool any = false;
   for (int k = 0; k < 3; ++k) {
-    const ULogTopic* t = ch->topic;
-    const std::string& field = f[static_cast<size_t>(k)];
-    std::string column = prefix;
-    column += "_";
-    column += ax[k];
-    column += suffix;
-    ch->columns.emplace_back(column, [t, field, scale](size_t i) { return t->Get(i, field) * scale; });
+    const ULogTopic* m = u.Find("sensor_mag", k);
+    if (m == nullptr || !m->Has("x") || m->records.empty()) continue;
+    any = true;
+    add(m, k, {"x", "y", "z"}, m->Has("x_raw") || m->Has("scaling") ? MagFrame::kDriverCalibrated : MagFrame::kRaw);
+  }
+  for (int k = 0; k < 3 && !any; ++k) {
+    const ULogTopic* vm = u.Find("vehicle_magnetometer", k);
+    if (vm == nullptr || !vm->Has("magnetometer_ga[0]") || vm->records.empty()) continue;
+    add(vm, k, {"magnetometer_ga[0]", "magnetometer_ga[1]", "magnetometer_ga[2]"}, MagFrame::kCalibrated);
+  }
+  if (!compasses->empty()) return;
+  const ULogTopic* old = u.Find("sensor_combined");
+  if (old != nullptr && old->Has("magnetometer_ga[0]") && !old->records.empty()) {
+    add(old, 0, {"magnetometer_ga[0]", "magnetometer_ga[1]", "magnetometer_ga[2]"}, MagFrame::kCalibrated);
   }
 }
 
@@ -65,76 +182,41 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
   }
   ULogImport out;
   FlightLog& log = out.log;
+  size_t dropped = 0;
+  const Channel att_ch = Attitude(att);
+  std::vector<size_t> att_recs;
   std::vector<double> row_t;
-  for (size_t i = 0; i < att->records.size(); ++i) {
-    const double t = att->TimeS(i);
-    if (!std::isfinite(t) || (!row_t.empty() && t <= row_t.back())) continue;  // damaged or repeated time
-    row_t.push_back(t);
+  for (size_t i : Usable(att_ch, &dropped)) {
+    if (!row_t.empty() && att->TimeS(i) == row_t.back()) continue;  // one row per time
+    att_recs.push_back(i);
+    row_t.push_back(att->TimeS(i));
   }
   if (row_t.empty()) {
     return Status::BadInput(name + ": vehicle_attitude: no attitude sample has a usable timestamp");
   }
   const size_t t_col = log.AddColumn("t_s");
   std::vector<size_t> att_cols;
-  for (const char* c : {"q_w", "q_x", "q_y", "q_z", "roll_deg", "pitch_deg", "yaw_deg", "yaw_true_deg"}) {
-    att_cols.push_back(log.AddColumn(c));
-  }
+  for (const auto& c : att_ch.columns) att_cols.push_back(log.AddColumn(c.name));
   log.Reserve(row_t.size());
-  size_t rec = 0;
-  for (double t : row_t) {
-    while (att->TimeS(rec) != t) ++rec;
-    const double w = att->Get(rec, "q[0]"), x = att->Get(rec, "q[1]"), y = att->Get(rec, "q[2]"), z = att->Get(rec, "q[3]");
-    const double roll = std::atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y));
-    const double pitch = std::asin(std::clamp(2 * (w * y - z * x), -1.0, 1.0));
-    const double yaw = std::atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z));
+  for (size_t r = 0; r < row_t.size(); ++r) {
     log.AppendRow();
-    log.Set(t_col, t);
-    const double v[8] = {w, x, y, z, roll * kRadToDeg, pitch * kRadToDeg, yaw * kRadToDeg, yaw * kRadToDeg};
-    for (size_t k = 0; k < 8; ++k) log.Set(att_cols[k], v[k]);
+    log.Set(t_col, row_t[r]);
+    for (size_t k = 0; k < att_cols.size(); ++k) log.Set(att_cols[k], att_ch.columns[k].value(att_recs[r]));
   }
+  log.SetStream("att", StreamOf(att_ch, att_recs));
 
   nlohmann::json compasses = nlohmann::json::array();
   std::vector<Channel> channels;
-  const ULogTopic* imu = u.Find("sensor_combined");
-  if (imu != nullptr) {
-    Channel c{imu, "imu_t_s", {}};
+  if (const ULogTopic* imu = u.Find("sensor_combined"); imu != nullptr && imu->Has("gyro_rad[0]")) {
+    Channel c{imu, "imu", {}, nullptr};
     Vec3(&c, "gyro", "_radps", {"gyro_rad[0]", "gyro_rad[1]", "gyro_rad[2]"}, 1.0);
     Vec3(&c, "accel", "_mps2", {"accelerometer_m_s2[0]", "accelerometer_m_s2[1]", "accelerometer_m_s2[2]"}, 1.0);
     channels.push_back(std::move(c));
   }
-  const char* prefixes[3] = {"mag", "mag2", "mag3"};
-  bool any_sensor_mag = false;
-  for (int k = 0; k < 3; ++k) {
-    const ULogTopic* m = u.Find("sensor_mag", k);
-    if (m == nullptr || !m->Has("x")) continue;
-    any_sensor_mag = true;
-    Channel c{m, std::string(prefixes[k]) + "_t_s", {}};
-    Vec3(&c, prefixes[k], "_uT", {"x", "y", "z"}, kMicroteslaPerGauss);
-    channels.push_back(std::move(c));
-    compasses.push_back({{"column", prefixes[k]}, {"instance", k}, {"source", "sensor_mag"}, {"calibrated", false},
-                         {"device_id", m->Get(0, "device_id")}});
-  }
-  if (!any_sensor_mag) {
-    const ULogTopic* vm = u.Find("vehicle_magnetometer");
-    const ULogTopic* old = imu != nullptr && imu->Has("magnetometer_ga[0]") ? imu : nullptr;
-    const ULogTopic* m = vm != nullptr && vm->Has("magnetometer_ga[0]") ? vm : old;
-    if (m != nullptr) {
-      Channel c{m, "mag_t_s", {}};
-      Vec3(&c, "mag", "_uT", {"magnetometer_ga[0]", "magnetometer_ga[1]", "magnetometer_ga[2]"}, kMicroteslaPerGauss);
-      channels.push_back(std::move(c));
-      const bool calibrated = m == vm;
-      compasses.push_back({{"column", "mag"}, {"instance", 0}, {"source", m->name}, {"calibrated", calibrated}});
-      if (calibrated) {
-        out.warnings.push_back(name + ": mag: from vehicle_magnetometer, which PX4 has already calibrated (no raw "
-                               "sensor_mag in this log): a calibration from it is relative to the one in force");
-      }
-    }
-  }
+  Magnetometers(u, name, &channels, &compasses, &out.warnings);
   if (const ULogTopic* b = u.Find("battery_status"); b != nullptr) {
-    Channel c{b, "batt_t_s", {}};
-    c.columns.emplace_back("current_A", [b](size_t i) { return b->Get(i, "current_a"); });
-    c.columns.emplace_back("voltage_V", [b](size_t i) { return b->Get(i, "voltage_v"); });
-    channels.push_back(std::move(c));
+    channels.push_back({b, "batt", {{"current_A", [b](size_t i) { return b->Get(i, "current_a"); }},
+                                    {"voltage_V", [b](size_t i) { return b->Get(i, "voltage_v"); }}}, nullptr});
   }
   const auto rotors_it = u.params.find("CA_ROTOR_COUNT");
   const int motors = rotors_it != u.params.end() && rotors_it->second >= 1 && rotors_it->second <= 12
@@ -145,36 +227,61 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
     const auto pmin = u.params.find("PWM_MAIN_MIN"), pmax = u.params.find("PWM_MAIN_MAX");
     const double lo = pmin != u.params.end() ? pmin->second : 1000.0, hi = pmax != u.params.end() ? pmax->second : 2000.0;
     const ULogTopic* t = am != nullptr ? am : ao;
-    Channel c{t, "rcou_t_s", {}};
+    Channel c{t, "rcou", {}, nullptr};
+    const bool pwm = am == nullptr;
     for (int k = 0; k < motors; ++k) {
-      const std::string f = fmt::format(am != nullptr ? "control[{}]" : "output[{}]", k);
-      const bool pwm = am == nullptr;
-      c.columns.emplace_back(fmt::format("motor_{}_u", k + 1), [t, f, pwm, lo, hi](size_t i) {
-        const double v = t->Get(i, f);
-        return std::clamp(pwm ? (v - lo) / (hi - lo) : v, 0.0, 1.0);
-      });
+      const std::string f = fmt::format(pwm ? "output[{}]" : "control[{}]", k);
+      c.columns.push_back({fmt::format("motor_{}_u", k + 1), [t, f, pwm, lo, hi](size_t i) {
+                             const double v = t->Get(i, f);
+                             return std::clamp(pwm ? (v - lo) / (hi - lo) : v, 0.0, 1.0);
+                           }});
+    }
+    for (int k = 0; k < motors && pwm; ++k) {
+      const std::string f = fmt::format("output[{}]", k);
+      c.columns.push_back({fmt::format("pwm_{}_us", k + 1), [t, f](size_t i) { return t->Get(i, f); }, false});
     }
     channels.push_back(std::move(c));
   }
   if (const ULogTopic* th = u.Find("vehicle_thrust_setpoint"); th != nullptr && th->Has("xyz[2]")) {
-    channels.push_back({th, "ctun_t_s", {{"control_u", [th](size_t i) { return -1000.0 * th->Get(i, "xyz[2]"); }}}});
+    channels.push_back({th, "ctun", {{"control_u", [th](size_t i) { return -1000.0 * th->Get(i, "xyz[2]"); }}}, nullptr});
   } else if (const ULogTopic* ac = u.Find("actuator_controls_0"); ac != nullptr && ac->Has("control[3]")) {
-    channels.push_back({ac, "ctun_t_s", {{"control_u", [ac](size_t i) { return 1000.0 * ac->Get(i, "control[3]"); }}}});
+    channels.push_back({ac, "ctun", {{"control_u", [ac](size_t i) { return 1000.0 * ac->Get(i, "control[3]"); }}}, nullptr});
   }
   if (const ULogTopic* lp = u.Find("vehicle_local_position"); lp != nullptr) {
-    Channel c{lp, "ekf_t_s", {}};
+    Channel c{lp, "ekf", {}, nullptr};
     const std::pair<const char*, const char*> m[6] = {{"N_m", "x"},   {"E_m", "y"},   {"D_m", "z"},
                                                       {"N_mps", "vx"}, {"E_mps", "vy"}, {"D_mps", "vz"}};
     for (const auto& [suffix, field] : m) {
       const std::string f = field, kind = std::string(suffix).find("mps") != std::string::npos ? "vel_" : "pos_";
-      c.columns.emplace_back(kind + suffix, [lp, f](size_t i) { return lp->Get(i, f); });
-      c.columns.emplace_back("est_" + kind + suffix, [lp, f](size_t i) { return lp->Get(i, f); });
+      c.columns.push_back({kind + suffix, [lp, f](size_t i) { return lp->Get(i, f); }});
+      c.columns.push_back({"est_" + kind + suffix, [lp, f](size_t i) { return lp->Get(i, f); }});
     }
     channels.push_back(std::move(c));
   }
-  for (auto& ch : channels) {
+  const ULogTopic* air = u.Find("vehicle_air_data");
+  if (air == nullptr || !air->Has("baro_alt_meter")) air = u.Find("sensor_combined");
+  if (air != nullptr && air->Has("baro_alt_meter")) {
+    channels.push_back({air, "baro", {{"baro_alt_m", [air](size_t i) { return air->Get(i, "baro_alt_meter"); }}}, nullptr});
+  }
+  if (const ULogTopic* g = u.Find("vehicle_gps_position"); g != nullptr && g->Has("vel_n_m_s")) {
+    // PX4 1.14 on: latitude_deg/longitude_deg/altitude_msl_m; before: lat/lon in 1e-7 deg, alt in mm.
+    const bool deg = g->Has("latitude_deg");
+    Channel c{g, "gps", {}, [g](size_t i) { return g->Get(i, "fix_type") >= kGps3dFix; }};
+    c.columns.push_back({"lat_deg", [g, deg](size_t i) { return deg ? g->Get(i, "latitude_deg") : 1e-7 * g->Get(i, "lat"); }, false});
+    c.columns.push_back({"lon_deg", [g, deg](size_t i) { return deg ? g->Get(i, "longitude_deg") : 1e-7 * g->Get(i, "lon"); }, false});
+    c.columns.push_back({"alt_m", [g, deg](size_t i) { return deg ? g->Get(i, "altitude_msl_m") : 1e-3 * g->Get(i, "alt"); }, false});
+    for (const char* axis : {"N", "E", "D"}) {
+      const std::string f = fmt::format("vel_{}_m_s", static_cast<char>(std::tolower(axis[0])));
+      c.columns.push_back({fmt::format("gps_vel_{}_mps", axis), [g, f](size_t i) { return g->Get(i, f); }});
+    }
+    channels.push_back(std::move(c));
+  }
+  for (const auto& ch : channels) {
     // Columns added now are filled with NaN for every row so far (AddColumn), then held.
-    Hold(ch, &log, row_t);
+    const std::vector<size_t> recs = Usable(ch, &dropped);
+    if (recs.empty()) continue;
+    Hold(ch, recs, &log, row_t);
+    log.SetStream(ch.stream, StreamOf(ch, recs));
   }
   nlohmann::json& meta = log.meta;
   meta["schema"] = "hexsim.log_meta/1";
@@ -194,6 +301,7 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
   meta["compass_units"] = "uT (PX4 logs gauss: x100)";
   meta["messages_text"] = u.messages;
   meta["bytes_skipped"] = u.bytes_skipped;
+  meta["stream_samples_dropped"] = dropped;
   meta["warnings"] = out.warnings;
   // The log's own strings (ver_sw, logged messages, warnings quoting names) are bytes, not always
   // UTF-8; JSON requires UTF-8, so invalid sequences become U+FFFD once, here, and every later

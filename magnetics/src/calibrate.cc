@@ -133,7 +133,7 @@ Result<CalibrateOutcome> Calibrate(std::vector<MagSample> samples, const Calibra
   CalibrateOutcome& o = *done;
   const FieldCalibration& f = o.field;
   o.ardupilot = ArduPilotCompassParams(f.offset_uT, f.A, rq.compass_index);
-  o.px4 = Px4CompassParams(f.offset_uT, f.A, rq.compass_index);
+  o.px4 = Px4CompassParams(f.offset_uT, f.A, rq.px4_index >= 0 ? rq.px4_index : rq.compass_index);
   nlohmann::json& r = o.report;
   r["schema"] = "hexsim.calib/1";
   r["method"] = rq.method;

@@ -223,6 +223,12 @@ Result<FieldCalibration> CalibrateField(const std::vector<Vector3d>& H, const Fi
     c.fitness_uT = c.norm_spread_before * c.radius_uT;
     c.norm_spread_after = c.norm_spread_before;
     if (consistent) c.warnings.push_back(spread_note);
+    // No fit: the offset in force stays (an autopilot log's own; zero for a plain dump), so the
+    // parameters written reproduce it instead of resetting it.
+    c.offset_uT = o.prior_offset_uT;
+    if (!o.prior_offset_uT.isZero()) {
+      c.warnings.push_back("no fit: the autopilot's offset in force is kept in the parameters written (its soft iron is not)");
+    }
     return c;
   }
   if (n < o.min_sphere_samples) {

@@ -21,6 +21,11 @@ void ULogWriter::Param(const std::string& name, float value) {
   Message('P', std::string(1, static_cast<char>(key.size())) + key + Pack<float>(value));
 }
 
+void ULogWriter::ParamInt(const std::string& name, int32_t value) {
+  const std::string key = "int32_t " + name;
+  Message('P', std::string(1, static_cast<char>(key.size())) + key + Pack<int32_t>(value));
+}
+
 void ULogWriter::Info(const std::string& key_type_name, const std::string& value) {
   Message('I', std::string(1, static_cast<char>(key_type_name.size())) + key_type_name + value);
 }

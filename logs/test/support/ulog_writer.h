@@ -15,6 +15,7 @@ class ULogWriter {
   // "name:type field;type field;..." (F message).
   void Format(const std::string& definition);
   void Param(const std::string& name, float value);
+  void ParamInt(const std::string& name, int32_t value);  // PX4's integer parameters (CAL_MAGn_ID, ROT)
   void Info(const std::string& key_type_name, const std::string& value);
   // Subscribes (A message) and returns the msg_id.
   uint16_t Subscribe(const std::string& topic, uint8_t multi_id);

@@ -9,7 +9,9 @@
 // An ArduPilot log (.bin, or a FlightLog imported from one, via its meta side file) holds the field
 // with the autopilot's corrections applied, logged = M·(raw + OFS) + MOT (CONTRACTS): the raw field
 // is rebuilt as raw = M⁻¹·(logged − MOT) − OFS, with the log's COMPASS_OFS/DIA/ODI and the per-sample
-// motor offsets, so that the result is an absolute calibration.
+// motor offsets, so that the result is an absolute calibration. A PX4 log's calibrated topics
+// (vehicle_magnetometer, old sensor_mag and sensor_combined) are undone with its CAL_MAGn_*:
+// raw = S⁻¹·Rᵀ·calibrated + off (ulog_mag_cal.h); raw sensor_mag is taken as it is.
 #pragma once
 
 #include <string>
@@ -33,6 +35,9 @@ struct MagInput {
   // The offset b (raw = … + b) the autopilot's own calibration implies (ArduPilot: b = −OFS), in the
   // field's units; a fit holds a component its samples cannot determine at this value. Else zero.
   Eigen::Vector3d prior_offset = Eigen::Vector3d::Zero();
+  // PX4's calibration slot n (CAL_MAGn_*) of this compass, matched by device id; -1 = unknown
+  // (the parameters then take the compass's own index).
+  int px4_index = -1;
 };
 
 // compass: "mag", "mag2", "mag3" (the FlightLog prefix). Bad input names FILE[:LINE] and the field.

@@ -28,7 +28,8 @@ struct ULogScalar {
 struct ULogTopic {
   std::string name;  // e.g. "sensor_mag"
   int multi_id = 0;  // instance
-  size_t record_size = 0;
+  size_t record_size = 0;  // as the format declares it
+  size_t logged_size = 0;  // without trailing padding, which PX4's logger does not write
   std::vector<ULogScalar> fields;
   std::vector<std::string> records;  // raw bytes, each record_size long, in file order
 

@@ -22,6 +22,7 @@ struct CalibrateRequest {
   std::string units = "auto";   // see DetectUnits
   double field_norm_uT = 0.0;   // local field; needed with units "counts"
   int compass_index = 0;        // 0 = mag, 1 = mag2, 2 = mag3 (autopilot parameter names)
+  int px4_index = -1;           // PX4's CAL_MAGn slot when known (a ULog's device id); -1 = compass_index
   Eigen::Vector3d prior_offset = Eigen::Vector3d::Zero();  // input units (see FieldCalibrationOptions)
   FieldCalibrationOptions field;
   LearnOptions learn;
