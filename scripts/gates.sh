@@ -4,6 +4,7 @@
 #
 #   1+2  sanitize   gcc, -Werror (HEXSIM_WERROR) + ASan/UBSan (HEXSIM_SANITIZE) in ONE build, then every
 #                   ctest test under the sanitizers (any report aborts the test)     build-gates-asan/
+#                   (Python module off: an ASan-instrumented module cannot load into python3)
 #   3    tidy       clang-tidy 14 with the checked-in .clang-tidy over every project .cc: zero findings
 #                   (configure only: it needs compile_commands.json, not objects)     build-gates-tidy/
 #   4    fuzz       fuzz/fuzz.sh: each libFuzzer target -runs=100000 -max_len=65536, at most 120 s
@@ -60,7 +61,7 @@ stage_sanitize() {
   mkdir -p "$asan_dir"
   cmake -S . -B "$asan_dir" -G Ninja -DCMAKE_BUILD_TYPE=Debug \
     -DCMAKE_CXX_FLAGS_DEBUG="-O1 -g1" -DCMAKE_C_FLAGS_DEBUG="-O1 -g1" \
-    -DHEXSIM_SANITIZE=ON -DHEXSIM_WERROR=ON -DHEXSIM_BUILD_BENCH=OFF "${launcher[@]}" \
+    -DHEXSIM_SANITIZE=ON -DHEXSIM_WERROR=ON -DHEXSIM_BUILD_BENCH=OFF -DHEXSIM_PYTHON=OFF "${launcher[@]}" \
     > "$asan_dir/configure.log" 2>&1 || { cat "$asan_dir/configure.log"; fail sanitize; }
   cmake --build "$asan_dir" -j"$jobs" || fail "sanitize (build: a warning under -Werror or a compile error)"
   echo "build: $((SECONDS - stage_start)) s"

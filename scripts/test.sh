@@ -1,7 +1,11 @@
 #!/usr/bin/env bash
 # Sets up, builds and runs every test (the README's second command).
 # chromium: the browser test opens the HTML reports headless (test/browser_test.cc; skipped without it).
+# pytest runs as the CTest test python_pytest (python/CMakeLists.txt).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-HEXSIM_EXTRA_PACKAGES="slurm-wlm munge python3 chromium ${HEXSIM_EXTRA_PACKAGES:-}" scripts/setup.sh build
+# python3-dev pybind11-dev python3-numpy: the Python module (python/); python3-pytest runs its tests
+# under CTest; matplotlib, venv, wheel, setuptools: the examples and `pip install .` (README "Python").
+PYTHON_PACKAGES="python3 python3-dev pybind11-dev python3-numpy python3-pytest python3-matplotlib python3-venv python3-wheel python3-setuptools"
+HEXSIM_EXTRA_PACKAGES="slurm-wlm munge chromium $PYTHON_PACKAGES ${HEXSIM_EXTRA_PACKAGES:-}" scripts/setup.sh build
 ctest --test-dir build -j"$(nproc)" --output-on-failure --timeout 600

@@ -67,6 +67,7 @@ Autopilot::Autopilot(const RunSetup& setup, Plugins plugins, const magnetics::Ea
   }
   setpoint_hook_ = std::move(plugins.setpoint_hook);
   output_hook_ = std::move(plugins.output_hook);
+  command_hook_ = std::move(plugins.command_hook);
   commands_.assign(vp_.rotors.size(), 0.0);
 }
 
@@ -144,6 +145,10 @@ Autopilot::Tick Autopilot::Step(double t, double physics_dt_s, const vehicle::Se
       const double wanted = vehicle::CommandForThrust(vp_, i, mix_.thrust_N[static_cast<Eigen::Index>(i)], bus_V);
       commands_[i] = std::min(wanted, commands_[i] + max_up);
     }
+  }
+  if (command_hook_) {
+    command_hook_(t, ns_, &commands_);
+    for (double& c : commands_) c = std::clamp(c, 0.0, 1.0);
   }
   control_u_ = control::ControlAmount(Eigen::Map<const Eigen::VectorXd>(commands_.data(), commands_.size()));
   return tick;

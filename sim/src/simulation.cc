@@ -272,6 +272,8 @@ const control::Setpoint& Simulation::setpoint() const { return impl_->autopilot.
 const control::ControlOutput& Simulation::control_output() const { return impl_->autopilot.control_output(); }
 const magnetics::Currents& Simulation::currents() const { return impl_->sensors.currents(); }
 const std::vector<double>& Simulation::motor_commands() const { return impl_->autopilot.commands(); }
+const vehicle::PowertrainOutput& Simulation::powertrain() const { return impl_->physics.powertrain(); }
+const logs::FlightLog& Simulation::log() const { return impl_->out.log; }
 double Simulation::payload_kg() const { return impl_->physics.payload_kg(); }
 const control::VehicleModelForControl& Simulation::control_model() const { return impl_->autopilot.model(); }
 const RunSetup& Simulation::setup() const { return impl_->setup; }

@@ -85,6 +85,7 @@ class Autopilot {
   std::shared_ptr<const magnetics::Compensator> compensator_;
   SetpointHook setpoint_hook_;
   OutputHook output_hook_;
+  CommandHook command_hook_;
 
   // Compass, GPS and baro samples arrive on their own clocks, usually between IMU ticks: each fresh
   // one is noted here and fused at the next tick, after the IMU prediction.

@@ -17,6 +17,7 @@
 #include "hexsim/sim/rigid_body.h"
 #include "hexsim/sim/run_summary.h"
 #include "hexsim/sim/world.h"
+#include "hexsim/vehicle/powertrain.h"
 #include "hexsim/vehicle/sensors.h"
 #include "hexsim/vehicle/vehicle_params.h"
 
@@ -77,6 +78,10 @@ RunOutput RunMission(const RunSetup& setup);
 using SetpointHook = std::function<void(double t_s, const control::NavState& nav, control::Setpoint* setpoint)>;
 // Called after the controller, before the mixer: may rewrite its output (actuator-point injection).
 using OutputHook = std::function<void(double t_s, const control::NavState& nav, control::ControlOutput* output)>;
+// Called last on every autopilot tick, after the mixer and the spool-up slew (also while the setpoint
+// is idle): may rewrite the per-motor commands, which are then clamped to [0, 1] (a caller flying the
+// motors directly, e.g. the Python bindings).
+using CommandHook = std::function<void(double t_s, const control::NavState& nav, std::vector<double>* commands)>;
 
 // What a caller plugs into the autopilot, given to Simulation::Create (the compass compensation is
 // RunSetup::compensator). Every member is optional.
@@ -88,6 +93,7 @@ struct Plugins {
   std::unique_ptr<nav::Estimator> estimator;
   SetpointHook setpoint_hook;
   OutputHook output_hook;
+  CommandHook command_hook;
 };
 
 // The vehicle model the built-in controller is given (mass, inertia, the largest collective thrust
@@ -148,6 +154,11 @@ class Simulation {
   const control::ControlOutput& control_output() const;
   const magnetics::Currents& currents() const;
   const std::vector<double>& motor_commands() const;
+  // The powertrain's operating point over the last physics step (motor speeds, currents, bus
+  // voltage); its motors are empty before the first step.
+  const vehicle::PowertrainOutput& powertrain() const;
+  // The FlightLog recorded so far (empty after Finish(), which hands it over).
+  const logs::FlightLog& log() const;
   double payload_kg() const;
   const control::VehicleModelForControl& control_model() const;
   const RunSetup& setup() const;
