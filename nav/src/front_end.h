@@ -67,7 +67,9 @@ class FrontEnd {
   // (when given) the step; the filter then does nothing more.
   template <class V>
   bool CheckFinite(const V& v, const char* quantity, double t_s, const char* where = nullptr) {
-    if (v.allFinite()) return true;
+    // x·0 is ±0 for a finite x and NaN for ±inf or NaN, so the sum is 0 exactly when every
+    // coefficient is finite (the same answer as allFinite(), in one vectorised pass).
+    if ((v.array() * 0.0).sum() == 0.0) return true;
     Fail("non-finite " + std::string(quantity) + " at t=" + Num(t_s) + " s" + Where(where));
     return false;
   }

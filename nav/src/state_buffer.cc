@@ -5,13 +5,22 @@
 namespace hexsim::nav::internal {
 
 void StateBuffer::Push(double t_s, const Eigen::Vector3d& p_N_m, const Eigen::Vector3d& v_N_mps) {
-  if (size_ > 0 && t_s - At(size_ - 1).t_s < kInterval_s) return;
+  if (size_ > 0 && t_s - Slot(size_ - 1).t_s < kInterval_s) return;
   Entry& e = data_[head_];
   e.t_s = t_s;
   e.p_N_m = p_N_m;
   e.v_N_mps = v_N_mps;
+  e.applied = shift_count_;  // earlier corrections were made before this state existed
   head_ = (head_ + 1) % kCapacity;
   if (size_ < kCapacity) ++size_;
+}
+
+void StateBuffer::Settle(Entry* e) const {
+  for (; e->applied < shift_count_; ++e->applied) {
+    const Correction& c = log_[e->applied % kShiftCapacity];
+    e->p_N_m += c.dp_N_m;
+    e->v_N_mps += c.dv_N_mps;
+  }
 }
 
 bool StateBuffer::Lookup(double t_s, double t_now_s, const Eigen::Vector3d& p_now,
@@ -23,18 +32,20 @@ bool StateBuffer::Lookup(double t_s, double t_now_s, const Eigen::Vector3d& p_no
     *v_N_mps = v_now;
     return true;
   }
-  if (t_s < At(0).t_s) return false;
+  if (t_s < Slot(0).t_s) return false;
   // Binary search for the last entry with t <= t_s.
-  std::size_t lo = 0, hi = size_;  // invariant: At(lo).t <= t_s, answer in [lo, hi)
+  std::size_t lo = 0, hi = size_;  // invariant: Slot(lo).t <= t_s, answer in [lo, hi)
   while (hi - lo > 1) {
     const std::size_t mid = (lo + hi) / 2;
-    if (At(mid).t_s <= t_s) lo = mid; else hi = mid;
+    if (Slot(mid).t_s <= t_s) lo = mid; else hi = mid;
   }
-  const Entry& a = At(lo);
+  Entry& a = Slot(lo);
+  Settle(&a);
   const bool has_next = lo + 1 < size_;
-  const double t_b = has_next ? At(lo + 1).t_s : t_now_s;
-  const Eigen::Vector3d& p_b = has_next ? At(lo + 1).p_N_m : p_now;
-  const Eigen::Vector3d& v_b = has_next ? At(lo + 1).v_N_mps : v_now;
+  if (has_next) Settle(&Slot(lo + 1));
+  const double t_b = has_next ? Slot(lo + 1).t_s : t_now_s;
+  const Eigen::Vector3d& p_b = has_next ? Slot(lo + 1).p_N_m : p_now;
+  const Eigen::Vector3d& v_b = has_next ? Slot(lo + 1).v_N_mps : v_now;
   const double span = t_b - a.t_s;
   const double w = span > 0 ? (t_s - a.t_s) / span : 0.0;
   *p_N_m = (1.0 - w) * a.p_N_m + w * p_b;
@@ -43,11 +54,14 @@ bool StateBuffer::Lookup(double t_s, double t_now_s, const Eigen::Vector3d& p_no
 }
 
 void StateBuffer::Shift(const Eigen::Vector3d& dp_N_m, const Eigen::Vector3d& dv_N_mps) {
-  for (std::size_t i = 0; i < size_; ++i) {
-    Entry& e = data_[(head_ + kCapacity - size_ + i) % kCapacity];
-    e.p_N_m += dp_N_m;
-    e.v_N_mps += dv_N_mps;
+  if (shift_count_ - settled_ == kShiftCapacity) {  // the log is full: settle every live entry
+    for (std::size_t i = 0; i < size_; ++i) Settle(&Slot(i));
+    settled_ = shift_count_;
   }
+  Correction& c = log_[shift_count_ % kShiftCapacity];
+  c.dp_N_m = dp_N_m;
+  c.dv_N_mps = dv_N_mps;
+  ++shift_count_;
 }
 
 void StaticAligner::AddImu(const ImuSample& s) {
