@@ -19,6 +19,13 @@ std::vector<control::RotorGeometry> MixerGeometry(const vehicle::VehicleParams& 
   return g;
 }
 
+namespace {
+// ThrustForCommand depends on the rotor through k_T and k_Q only.
+bool SamePropeller(const vehicle::RotorParams& a, const vehicle::RotorParams& b) {
+  return a.k_T_Nprps2 == b.k_T_Nprps2 && a.k_Q_Nmprps2 == b.k_Q_Nmprps2;
+}
+}  // namespace
+
 control::VehicleModelForControl ControlModelFor(const vehicle::VehicleParams& vehicle) {
   const vehicle::VehicleParams& vp = vehicle;
   const double nominal_V = vp.battery.OpenCircuitVoltage_V(vp.battery.initial_soc);
@@ -135,9 +142,13 @@ Autopilot::Tick Autopilot::Step(double t, double physics_dt_s, const vehicle::Se
   } else {
     u_ = controller_->Update(ns_, seq_out_.setpoint, ap_dt);
     if (output_hook_) output_hook_(t, ns_, &u_);
-    double max_thrust = 0.0;
+    // Rotors with the same propeller and motor reach the same full-command thrust: computed once.
+    double max_thrust = 0.0, rotor_max_N = 0.0;
     for (size_t i = 0; i < n_rotors; ++i) {
-      max_thrust = std::max(max_thrust, vehicle::ThrustForCommand(vp_, i, 1.0, bus_V));
+      if (i == 0 || !SamePropeller(vp_.rotors[i], vp_.rotors[i - 1])) {
+        rotor_max_N = vehicle::ThrustForCommand(vp_, i, 1.0, bus_V);
+      }
+      max_thrust = std::max(max_thrust, rotor_max_N);
     }
     mixer_->Mix(u_.thrust_N, u_.torque_B_Nm, max_thrust, &mix_);
     const double max_up = opt_.motor_slew_up_per_s * ap_dt;

@@ -141,12 +141,9 @@ PowertrainOutput EvaluatePowertrain(const VehicleParams& params, const Powertrai
   return out;
 }
 
-void EvaluatePowertrain(const VehicleParams& params, const PowertrainState& state, const std::vector<double>& commands,
-                        PowertrainOutput* out) {
-  HEXSIM_CHECK(out != nullptr);
-  HEXSIM_CHECK(commands.size() == params.rotors.size());
-  HEXSIM_CHECK(state.omega_radps.size() == params.rotors.size());
-  const MotorConstants c = Constants(params);
+namespace {
+void Evaluate(const VehicleParams& params, const MotorConstants& c, const PowertrainState& state,
+              const std::vector<double>& commands, PowertrainOutput* out) {
   // Duty and back-EMF first (the bus-voltage solve needs them), kept in the output's motor records.
   out->motors.resize(commands.size());
   for (size_t i = 0; i < commands.size(); ++i) {
@@ -156,6 +153,15 @@ void EvaluatePowertrain(const VehicleParams& params, const PowertrainState& stat
   const double V_oc = params.battery.OpenCircuitVoltage_V(state.soc);
   const double V_bus = SolveBusVoltage(params, c, out->motors, V_oc);
   Assemble(params, c, commands, state.omega_radps, state.soc, V_oc, V_bus, out);
+}
+}  // namespace
+
+void EvaluatePowertrain(const VehicleParams& params, const PowertrainState& state, const std::vector<double>& commands,
+                        PowertrainOutput* out) {
+  HEXSIM_CHECK(out != nullptr);
+  HEXSIM_CHECK(commands.size() == params.rotors.size());
+  HEXSIM_CHECK(state.omega_radps.size() == params.rotors.size());
+  Evaluate(params, Constants(params), state, commands, out);
 }
 
 PowertrainOutput StepPowertrain(const VehicleParams& params, const std::vector<double>& commands, double dt_s,
@@ -170,9 +176,11 @@ void StepPowertrain(const VehicleParams& params, const std::vector<double>& comm
   HEXSIM_CHECK(state != nullptr);
   HEXSIM_CHECK(out_ptr != nullptr);
   HEXSIM_CHECK(dt_s >= 0.0);
+  HEXSIM_CHECK(commands.size() == params.rotors.size());
+  HEXSIM_CHECK(state->omega_radps.size() == params.rotors.size());
   PowertrainOutput& out = *out_ptr;
-  EvaluatePowertrain(params, *state, commands, &out);
   const MotorConstants c = Constants(params);
+  Evaluate(params, c, *state, commands, &out);
   for (size_t i = 0; i < commands.size(); ++i) {
     const MotorOperatingPoint& m = out.motors[i];
     const double J = params.RotorInertia_kgm2(i);

@@ -15,12 +15,6 @@ namespace hexsim::vehicle {
 double MotorParams::Kv_radps_per_V() const { return kv_rpm_per_V * 2.0 * kPi / 60.0; }
 double MotorParams::Kt_Nm_per_A() const { return 1.0 / Kv_radps_per_V(); }
 
-double EscParams::Duty(double command) const {
-  if (!(command > 0.0)) return 0.0;  // stopped (also for NaN)
-  const double c = std::min(command, 1.0);
-  return duty_min + (duty_max - duty_min) * c;
-}
-
 double BatteryParams::OpenCircuitVoltage_V(double soc) const {
   HEXSIM_CHECK(ocv_soc.size() >= 2 && ocv_soc.size() == ocv_cell_V.size());
   double cell_V;

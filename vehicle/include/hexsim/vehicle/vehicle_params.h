@@ -49,7 +49,11 @@ struct EscParams {
   double efficiency = 0.95;  // eta: power to the windings = eta * V_bus * I_dc
   double duty_min = 0.10;
   double duty_max = 1.0;
-  double Duty(double command) const;
+  double Duty(double command) const {  // inline: the powertrain calls it per motor per step
+    if (!(command > 0.0)) return 0.0;  // stopped (also for NaN)
+    const double c = command < 1.0 ? command : 1.0;
+    return duty_min + (duty_max - duty_min) * c;
+  }
 };
 
 struct BatteryParams {
