@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Sets up, builds and runs every test (the README's second command).
 # chromium: the browser test opens the HTML reports headless (test/browser_test.cc; skipped without it).
-# pytest runs as the CTest test python_pytest (python/CMakeLists.txt).
+# pytest runs python/tests as the CTest tests python_* (python/CMakeLists.txt).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # python3-dev pybind11-dev python3-numpy: the Python module (python/); python3-pytest runs its tests

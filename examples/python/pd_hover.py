@@ -15,6 +15,7 @@ import math
 G_MPS2 = 9.80665
 MAX_TILT_RAD = math.radians(30.0)
 TAN_MAX_TILT = math.tan(MAX_TILT_RAD)
+MIN_THRUST_OF_WEIGHT = 0.3
 
 
 def quat_from_rotation(r):
@@ -36,8 +37,9 @@ def quat_from_rotation(r):
 class PDController:
     """Position PD → [q_w, q_x, q_y, q_z, thrust_N] for Simulation.act("attitude", ...).
 
-    kp [1/s²] (m/s² per m), kd [1/s] (m/s² per m/s); the horizontal acceleration is limited so the
-    tilt stays under MAX_TILT_RAD.
+    kp [1/s²] (m/s² per m), kd [1/s] (m/s² per m/s); the thrust never drops below
+    MIN_THRUST_OF_WEIGHT·m·g (a downward command beyond that would turn the vehicle over) and the
+    horizontal acceleration is limited so the tilt stays under MAX_TILT_RAD.
     """
 
     def __init__(self, mass_kg, kp=(1.2, 1.2, 3.0), kd=(1.8, 1.8, 3.0)):
@@ -51,8 +53,9 @@ class PDController:
         a_n = kp[0] * (target_N_m[0] - x[1]) + kd[0] * (v_sp_N_mps[0] - x[4])
         a_e = kp[1] * (target_N_m[1] - x[2]) + kd[1] * (v_sp_N_mps[1] - x[5])
         a_d = kp[2] * (target_N_m[2] - x[3]) + kd[2] * (v_sp_N_mps[2] - x[6])
+        a_d = min(a_d, (1.0 - MIN_THRUST_OF_WEIGHT) * G_MPS2)  # never less thrust than that: stays upright
         a_h = math.hypot(a_n, a_e)
-        a_h_max = (G_MPS2 - a_d) * TAN_MAX_TILT if a_d < G_MPS2 else 0.0
+        a_h_max = (G_MPS2 - a_d) * TAN_MAX_TILT
         if a_h > a_h_max:
             a_n *= a_h_max / a_h
             a_e *= a_h_max / a_h
@@ -72,9 +75,9 @@ class PDController:
 SQUARE_N_m = [(0.0, 0.0, -10.0), (40.0, 0.0, -10.0), (40.0, 40.0, -10.0), (0.0, 40.0, -10.0), (0.0, 0.0, -10.0)]
 
 
-def fly_square(hexsim, seed=1, speed_mps=5.0, acceptance_m=1.0, hold_s=3.0):
-    """Take off to 10 m, fly the 40 m square of worlds/missions/square.yaml at speed_mps, hover hold_s
-    at the end. Returns the Simulation (finished) with its log."""
+def fly_square(hexsim, seed=1, speed_mps=5.0, climb_mps=2.5, acceptance_m=1.0, hold_s=3.0):
+    """Take off to 10 m at climb_mps, fly the 40 m square of worlds/missions/square.yaml at speed_mps,
+    hover hold_s at the end. Returns the Simulation (finished) with its log."""
     sim = hexsim.Simulation(mission="square", seed=seed, estimator="truth", duration=120.0)
     pd = PDController(sim.hover_thrust_N / G_MPS2)
     x = sim.state_vector().tolist()
@@ -83,11 +86,12 @@ def fly_square(hexsim, seed=1, speed_mps=5.0, acceptance_m=1.0, hold_s=3.0):
         leg = [wp[k] - start[k] for k in range(3)]
         length = math.sqrt(sum(c * c for c in leg))
         t0 = x[0]
+        speed = climb_mps if abs(leg[2]) > 0.5 * length else speed_mps
         yaw = math.atan2(leg[1], leg[0]) if i > 0 and length > 1.0 else 0.0
         while True:
             # A carrot moving along the leg at speed_mps, with the leg's velocity as feed-forward.
-            s = min(1.0, (x[0] - t0) * speed_mps / length) if length > 0 else 1.0
-            v = [leg[k] / length * speed_mps if s < 1.0 else 0.0 for k in range(3)] if length > 0 else [0.0] * 3
+            s = min(1.0, (x[0] - t0) * speed / length) if length > 0 else 1.0
+            v = [leg[k] / length * speed if s < 1.0 else 0.0 for k in range(3)] if length > 0 else [0.0] * 3
             carrot = [start[k] + s * leg[k] for k in range(3)]
             sim.act("attitude", pd(x, carrot, yaw, v))
             if not sim.step():

@@ -6,9 +6,9 @@ reset(seed=None, options=None) -> (obs, info); step(action) -> (obs, reward, ter
 Each episode starts in the air: the built-in cascade takes off and settles at the start point
 (settle_s, not part of the episode), then the agent acts every control_period_s.
 
-Observation (float64): position error target − p (m, NED, 3), velocity (m/s, NED, 3), attitude
-quaternion q_NB (w, x, y, z), body rates (rad/s, FRD, 3), and the raw compass 1 reading (µT, body,
-3), which carries the field the motor and battery currents make; WaypointEnv appends the waypoint
+Observation (float64): from the true state, position error target − p (m, NED, 3), velocity (m/s,
+NED, 3), attitude quaternion q_NB (w, x, y, z), body rates (rad/s, FRD, 3); and the raw compass 1
+reading (µT, body, 3, with its noise), which carries the field the motor and battery currents make; WaypointEnv appends the waypoint
 after the current one, relative to the current one (m, NED, 3; zeros for the last).
 Action: act="motors": one normalised command per motor in [0, 1]; act="rates": [p, q, r] in
 [-1, 1] × max_rate_radps and collective thrust in [0, 1] × the vehicle's largest thrust.
