@@ -3,7 +3,8 @@
 #include <cmath>
 
 #include <Eigen/LU>
-#include <fmt/format.h>
+
+#include "hexsim/common/format.h"
 
 namespace hexsim::magnetics {
 namespace {
@@ -46,7 +47,7 @@ ParamList ArduPilotCompassParams(const Vector3d& offset_uT, const Matrix3d& A, i
 }
 
 ParamList Px4CompassParams(const Vector3d& offset_uT, const Matrix3d& A, int compass_index) {
-  const std::string n = fmt::format("CAL_MAG{}_", compass_index);
+  const std::string n = "CAL_MAG" + std::to_string(compass_index) + "_";
   const Matrix3d S = UnitShape(A);
   const Vector3d off = offset_uT * kGaussPerMicrotesla;
   return {{n + "XOFF", off(0)},     {n + "YOFF", off(1)},     {n + "ZOFF", off(2)},
@@ -66,7 +67,7 @@ Vector3d ApplyArduPilotCompass(const ParamList& params, int compass_index, const
 
 Vector3d ApplyPx4Compass(const ParamList& params, int compass_index, const Vector3d& raw_G) {
   const ParamList& p = params;
-  const std::string n = fmt::format("CAL_MAG{}_", compass_index);
+  const std::string n = "CAL_MAG" + std::to_string(compass_index) + "_";
   auto g = [&](const char* name, double fb) { return Get(p, n + name, fb); };
   const Vector3d off(g("XOFF", 0.0), g("YOFF", 0.0), g("ZOFF", 0.0));
   const Matrix3d S = SymFrom(g("XSCALE", 1.0), g("YSCALE", 1.0), g("ZSCALE", 1.0), g("XODIAG", 0.0), g("YODIAG", 0.0),
@@ -76,7 +77,7 @@ Vector3d ApplyPx4Compass(const ParamList& params, int compass_index, const Vecto
 
 std::string ArduPilotParmText(const ParamList& params) {
   std::string out = "# hexsim calibrate: ArduPilot compass parameters (NAME VALUE; offsets in mG, absolute)\n";
-  for (const auto& [name, value] : params) out += fmt::format("{} {:.7g}\n", name, value);
+  for (const auto& [name, value] : params) out += Format("%s %.7g\n", name.c_str(), value);
   return out;
 }
 
@@ -84,7 +85,7 @@ std::string Px4ParamsText(const ParamList& params) {
   std::string out =
       "# hexsim calibrate: PX4 compass parameters (QGroundControl: sysid compid name value type; offsets in gauss)\n"
       "# Vehicle-Id\tComponent-Id\tName\tValue\tType\n";
-  for (const auto& [name, value] : params) out += fmt::format("1\t1\t{}\t{:.9g}\t9\n", name, value);
+  for (const auto& [name, value] : params) out += Format("1\t1\t%s\t%.9g\t9\n", name.c_str(), value);
   return out;
 }
 

@@ -5,9 +5,8 @@
 #include <set>
 
 #include <Eigen/LU>
-#include <fmt/format.h>
-#include <fmt/ranges.h>
 
+#include "hexsim/common/format.h"
 #include "hexsim/magnetics/calib_io.h"
 #include "hexsim/magnetics/compensator.h"
 #include "hexsim/magnetics/compensators.h"
@@ -32,7 +31,7 @@ Status ValidateSamples(const std::vector<MagSample>& s) {
   for (size_t i = 0; i < s.size(); ++i) {
     if (!s[i].mag_B_uT.allFinite() || !std::isfinite(s[i].control_u) || !std::isfinite(s[i].current_A) ||
         !std::isfinite(s[i].angle_deg)) {
-      return Status::BadInput(fmt::format("sample {}: non-finite field, control, current or angle", i));
+      return Status::BadInput(Format("sample %zu: non-finite field, control, current or angle", i));
     }
   }
   return Status::Ok();
@@ -48,9 +47,9 @@ std::map<double, Indices> GroupByControl(const std::vector<MagSample>& s) {
 Result<GroupFit> FitGroup(const std::vector<MagSample>& s, const Indices& idx, const LearnOptions& o) {
   GroupFit g;
   g.control_u = s[idx.front()].control_u;
-  const std::string where = fmt::format("control_u {}", g.control_u);
+  const std::string where = "control_u " + ShortestDouble(g.control_u);
   if (static_cast<int>(idx.size()) < o.min_samples_per_fit) {
-    return Status::BadInput(fmt::format("{}: too few samples: {} (need at least {})", where, idx.size(), o.min_samples_per_fit));
+    return Status::BadInput(Format("%s: too few samples: %zu (need at least %d)", where.c_str(), idx.size(), o.min_samples_per_fit));
   }
   std::set<std::string> planes;
   bool labelled = false;
@@ -67,8 +66,8 @@ Result<GroupFit> FitGroup(const std::vector<MagSample>& s, const Indices& idx, c
   g.mean_current_A = sum_I / static_cast<double>(idx.size());
   g.planes = static_cast<int>(planes.size());
   if (labelled && g.planes < o.min_planes) {
-    return Status::BadInput(fmt::format("{}: samples from {} plane(s) only ({}): rotate the vehicle in at least {} of xy, yz, xz",
-                                        where, g.planes, fmt::join(planes, ","), o.min_planes));
+    return Status::BadInput(Format("%s: samples from %d plane(s) only (%s): rotate the vehicle in at least %d of xy, yz, xz", where.c_str(),
+                                   g.planes, Join({planes.begin(), planes.end()}, ",").c_str(), o.min_planes));
   }
   EllipsoidFitOptions eo = o.ellipsoid;
   eo.planes_present = g.planes;
@@ -83,7 +82,7 @@ Result<GroupFit> FitGround(const std::vector<MagSample>& s, const LearnOptions& 
     if (s[i].control_u <= o.control_zero_max_u) zero.push_back(i);
   }
   if (zero.empty()) {
-    return Status::BadInput(fmt::format("no ground samples at control 0 (control_u <= {})", o.control_zero_max_u));
+    return Status::BadInput("no ground samples at control 0 (control_u <= " + ShortestDouble(o.control_zero_max_u) + ")");
   }
   return FitGroup(s, zero, o);
 }
@@ -98,8 +97,8 @@ nlohmann::json GroupJson(const GroupFit& g) {
 
 Status NeedControlAmounts(const std::string& method, size_t n, const LearnOptions& o) {
   if (static_cast<int>(n) < o.min_control_amounts) {
-    return Status::BadInput(fmt::format("{} needs samples at {} or more control amounts, got {}", method,
-                                        o.min_control_amounts, n));
+    return Status::BadInput(Format("%s needs samples at %d or more control amounts, got %zu", method.c_str(),
+                                   o.min_control_amounts, n));
   }
   return Status::Ok();
 }
@@ -163,8 +162,8 @@ Result<Learnt> LearnLine(const std::string& method, const std::vector<MagSample>
   if (by_current) {
     const auto [lo, hi] = std::minmax_element(x.begin(), x.end());
     if (*hi - *lo < o.min_current_span_A) {
-      return Status::BadInput(fmt::format("adaptive-current: the mean current varies by {:.3g} A across control amounts (need >= {} A)",
-                                          *hi - *lo, o.min_current_span_A));
+      return Status::BadInput(Format("adaptive-current: the mean current varies by %.3g A across control amounts (need >= %s A)",
+                                     *hi - *lo, ShortestDouble(o.min_current_span_A).c_str()));
     }
   }
   // Position along the line: linear in current; monotone (PCHIP) or linear in control amount.
@@ -212,9 +211,9 @@ Result<Learnt> LearnCurrentSlope(const std::string& method, const std::vector<Ma
       }
     }
     if (pairs == 0 || max_dI < o.min_current_span_A) {
-      return Status::BadInput(fmt::format(
-          "compassmot: needs samples at the same plane and angle (within {} deg) at control 0 and at a current at least {} A higher; found {} pairs, largest current change {:.3g} A",
-          o.angle_match_deg, o.min_current_span_A, pairs, max_dI));
+      return Status::BadInput(Format(
+          "compassmot: needs samples at the same plane and angle (within %s deg) at control 0 and at a current at least %s A higher; found %d pairs, largest current change %.3g A",
+          ShortestDouble(o.angle_match_deg).c_str(), ShortestDouble(o.min_current_span_A).c_str(), pairs, max_dI));
     }
     c = sum / sum_dI2;
     double ss = 0.0;
@@ -252,9 +251,9 @@ Result<Learnt> LearnCurrentSlope(const std::string& method, const std::vector<Ma
       }
     }
     if (pairs == 0 || 2.0 * max_dI < o.min_current_span_A) {
-      return Status::BadInput(fmt::format(
-          "px4-ls: needs repeated poses (same plane and angle within {} deg) at currents spanning at least {} A",
-          o.angle_match_deg, o.min_current_span_A));
+      return Status::BadInput(Format(
+          "px4-ls: needs repeated poses (same plane and angle within %s deg) at currents spanning at least %s A",
+          ShortestDouble(o.angle_match_deg).c_str(), ShortestDouble(o.min_current_span_A).c_str()));
     }
     c = sum / sum_dI2;
     double ss = 0.0;
@@ -285,7 +284,7 @@ Result<std::unique_ptr<Compensator>> LearnCompensator(const std::string& method,
                                                       const LearnOptions& options, nlohmann::json* report) {
   const auto names = CompensatorNames();
   if (std::find(names.begin(), names.end(), method) == names.end()) {
-    return Status::BadInput(fmt::format("unknown calibration method '{}' (one of: {})", method, fmt::join(names, ", ")));
+    return Status::BadInput(Format("unknown calibration method '%s' (one of: %s)", method.c_str(), Join(names, ", ").c_str()));
   }
   HEXSIM_RETURN_IF_ERROR(options.IsValid());
   HEXSIM_RETURN_IF_ERROR(ValidateSamples(samples));
@@ -325,7 +324,7 @@ Result<std::unique_ptr<Compensator>> LearnCompensator(const std::string& method,
       std::string failures;
       for (const auto& g : l.fits) {
         if (g.fit.gate.accepted) continue;
-        failures += fmt::format("{}control_u {}: {}", failures.empty() ? "" : " | ", g.control_u, g.fit.gate.Failures());
+        failures += (failures.empty() ? "" : " | ") + std::string("control_u ") + ShortestDouble(g.control_u) + ": " + g.fit.gate.Failures();
       }
       gate["accepted"] = accepted;
       gate["failures"] = failures;

@@ -7,7 +7,8 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <Eigen/SVD>
-#include <fmt/format.h>
+
+#include "hexsim/common/format.h"
 
 namespace hexsim::magnetics {
 namespace {
@@ -20,13 +21,13 @@ constexpr double kGoldenAngle_rad = 2.39996322972865332;  // π(3 − √5)
 Status CheckSamples(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o) {
   HEXSIM_RETURN_IF_ERROR(o.IsValid());
   if (static_cast<int>(H.size()) < o.min_samples) {
-    return Status::BadInput(fmt::format("too few samples: {} (need at least {})", H.size(), o.min_samples));
+    return Status::BadInput(Format("too few samples: %zu (need at least %d)", H.size(), o.min_samples));
   }
   for (size_t i = 0; i < H.size(); ++i) {
-    if (!H[i].allFinite()) return Status::BadInput(fmt::format("sample {} is not finite", i));
+    if (!H[i].allFinite()) return Status::BadInput(Format("sample %zu is not finite", i));
   }
   if (!o.weights.empty() && o.weights.size() != H.size()) {
-    return Status::BadInput(fmt::format("weights: {} given for {} samples", o.weights.size(), H.size()));
+    return Status::BadInput(Format("weights: %zu given for %zu samples", o.weights.size(), H.size()));
   }
   for (double w : o.weights) {
     if (!(w >= 0.0 && std::isfinite(w))) return Status::BadInput("weights: must be finite and >= 0");
@@ -287,7 +288,7 @@ LmResult RefineLm(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, 
   if (!p.allFinite()) {
     r.status = Status::Numerical("ellipsoid refinement produced non-finite parameters");
   } else if (!r.converged) {
-    r.status = Status::Numerical(fmt::format("ellipsoid refinement did not converge in {} iterations", o.max_iterations));
+    r.status = Status::Numerical(Format("ellipsoid refinement did not converge in %d iterations", o.max_iterations));
   }
   return r;
 }
@@ -329,7 +330,7 @@ void EvaluateGate(const EllipsoidFitOptions& o, EllipsoidFit* f) {
   if (!cov.pass && o.planes_present >= o.min_planes_for_coverage) {
     cov.pass = true;
     cov.failed_bound.clear();
-    cov.note = fmt::format("passes by rig planes: {}", o.planes_present);
+    cov.note = Format("passes by rig planes: %d", o.planes_present);
   }
   g.criteria.push_back(cov);
   g.accepted = std::all_of(g.criteria.begin(), g.criteria.end(), [](const GateCriterion& c) { return c.pass; });
@@ -388,11 +389,11 @@ std::string FitGate::Failures() const {
     if (c.pass) continue;
     if (!out.empty()) out += "; ";
     if (c.failed_bound == "min") {
-      out += fmt::format("{} = {:.6g} below min {:.6g}", c.name, c.value, c.min);
+      out += Format("%s = %.6g below min %.6g", c.name.c_str(), c.value, c.min);
     } else if (c.failed_bound == "max") {
-      out += fmt::format("{} = {:.6g} above max {:.6g}", c.name, c.value, c.max);
+      out += Format("%s = %.6g above max %.6g", c.name.c_str(), c.value, c.max);
     } else {
-      out += fmt::format("{} = {} is not finite", c.name, c.value);
+      out += c.name + " = " + ShortestDouble(c.value) + " is not finite";
     }
   }
   return out;
@@ -480,8 +481,8 @@ EllipsoidFit FitEllipsoid(const std::vector<Vector3d>& H, const EllipsoidFitOpti
   if (!PrepareFit(H, o, &f, &mean, &scale)) return f;
   const double spread = SpreadRatio(H, mean);
   if (spread < o.planarity_tolerance) {
-    f.status = Status::BadInput(fmt::format(
-        "samples lie in one plane (spread ratio {:.3g}): rotate the vehicle about more than one axis", spread));
+    f.status = Status::BadInput(Format(
+        "samples lie in one plane (spread ratio %.3g): rotate the vehicle about more than one axis", spread));
     return f;
   }
   std::vector<Vector3d> xn;

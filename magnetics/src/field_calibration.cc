@@ -5,8 +5,8 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
-#include <fmt/format.h>
-#include <fmt/ranges.h>
+
+#include "hexsim/common/format.h"
 
 namespace hexsim::magnetics {
 namespace {
@@ -112,7 +112,7 @@ EllipsoidFit RobustFit(Base base, const std::vector<Vector3d>& H, const Coverage
   return f;
 }
 
-std::string Eigs(const Vector3d& l) { return fmt::format("{:.3f}, {:.3f}, {:.3f}", l(0), l(1), l(2)); }
+std::string Eigs(const Vector3d& l) { return Format("%.3f, %.3f, %.3f", l(0), l(1), l(2)); }
 
 }  // namespace
 
@@ -147,7 +147,7 @@ Result<UnitGuess> DetectUnits(const std::vector<Vector3d>& raw, const std::strin
     if (!(g.median_norm > 0.0)) return Status::BadInput("all samples are zero");
     g.unit = "counts";
     g.to_uT = field_norm_uT / g.median_norm;
-    g.assumption = fmt::format("raw counts (median norm {:.4g}), scaled to the local field {:.4g} uT", g.median_norm, field_norm_uT);
+    g.assumption = Format("raw counts (median norm %.4g), scaled to the local field %.4g uT", g.median_norm, field_norm_uT);
     return g;
   }
   for (const auto& u : kUnits) {
@@ -155,20 +155,20 @@ Result<UnitGuess> DetectUnits(const std::vector<Vector3d>& raw, const std::strin
     if (units == u.name || (units == "auto" && m_uT >= lo_uT && m_uT <= hi_uT)) {
       g.unit = u.name;
       g.to_uT = u.to_uT;
-      g.assumption = fmt::format("{} {} (median norm {:.4g} = {:.4g} uT)", units == "auto" ? "assuming" : "given",
-                                 u.name, g.median_norm, m_uT);
+      g.assumption = Format("%s %s (median norm %.4g = %.4g uT)", units == "auto" ? "assuming" : "given",
+                            std::string(u.name).c_str(), g.median_norm, m_uT);
       if (g.unit == "mG" && units == "auto") {
         g.assumption += "; raw counts can look like milligauss: if these are counts, give --units counts --field-norm F";
       }
       if (m_uT < lo_uT || m_uT > hi_uT) {
-        g.assumption += fmt::format("; WARNING: {:.4g} uT is far from Earth's {:g}-{:g} uT", m_uT, rg.earth_min_uT, rg.earth_max_uT);
+        g.assumption += Format("; WARNING: %.4g uT is far from Earth's %g-%g uT", m_uT, rg.earth_min_uT, rg.earth_max_uT);
       }
       return g;
     }
   }
-  if (units != "auto") return Status::BadInput(fmt::format("--units: unknown unit '{}' (uT, mG, G, nT, counts)", units));
-  return Status::BadInput(fmt::format(
-      "median field norm {:.4g} matches no unit (Earth's {:g}-{:g} uT is {:g}-{:g} in uT, x10 in mG, /100 in G, x1000 in nT): "
+  if (units != "auto") return Status::BadInput(Format("--units: unknown unit '%s' (uT, mG, G, nT, counts)", units.c_str()));
+  return Status::BadInput(Format(
+      "median field norm %.4g matches no unit (Earth's %g-%g uT is %g-%g in uT, x10 in mG, /100 in G, x1000 in nT): "
       "give --units, or --units counts --field-norm F",
       g.median_norm, rg.earth_min_uT, rg.earth_max_uT, lo_uT, hi_uT));
 }
@@ -193,18 +193,18 @@ Coverage ComputeCoverage(const std::vector<Vector3d>& B, double median_norm) {
       "roll onto each side and yaw round (the y axis never pointed along the field)",
       "pitch and roll: nose up and down, onto each side, upside down (the z axis never pointed along the field)"};
   c.weak_axis = kAxis[k];
-  c.missing_rotation = fmt::format("little spread along body {}: {}", c.weak_axis, kHow[k]);
+  c.missing_rotation = Format("little spread along body %s: %s", c.weak_axis.c_str(), kHow[k]);
   return c;
 }
 
 Result<FieldCalibration> CalibrateField(const std::vector<Vector3d>& H, const FieldCalibrationOptions& o) {
   const auto names = FieldMethodNames();
   if (std::find(names.begin(), names.end(), o.method) == names.end()) {
-    return Status::BadInput(fmt::format("--method: unknown method '{}' (one of: {})", o.method, fmt::join(names, ", ")));
+    return Status::BadInput(Format("--method: unknown method '%s' (one of: %s)", o.method.c_str(), Join(names, ", ").c_str()));
   }
   const int n = static_cast<int>(H.size());
   for (size_t i = 0; i < H.size(); ++i) {
-    if (!H[i].allFinite()) return Status::BadInput(fmt::format("sample {}: non-finite field", i + 1));
+    if (!H[i].allFinite()) return Status::BadInput(Format("sample %zu: non-finite field", i + 1));
   }
   FieldCalibration c;
   c.norm_spread_before = NormSpread(H);
@@ -212,11 +212,11 @@ Result<FieldCalibration> CalibrateField(const std::vector<Vector3d>& H, const Fi
   const Vector3d& l = c.coverage.eigenvalues;
   const bool consistent = c.norm_spread_before < o.consistent_spread;
   const std::string spread_note =
-      fmt::format("the field norm is already consistent (spread {:.2f} %): the data may already be calibrated",
-                  100.0 * c.norm_spread_before);
+      Format("the field norm is already consistent (spread %.2f %%): the data may already be calibrated",
+             100.0 * c.norm_spread_before);
   if (o.method == "none" || (o.method == "auto" && n >= 1 && consistent && l(1) < o.sphere_eigen)) {
     c.method_used = "none";
-    c.why = o.method == "none" ? "requested" : fmt::format("little rotation (coverage eigenvalues {}) and {}", Eigs(l), spread_note);
+    c.why = o.method == "none" ? "requested" : Format("little rotation (coverage eigenvalues %s) and %s", Eigs(l).c_str(), spread_note.c_str());
     double mean = 0.0;
     for (const auto& h : H) mean += h.norm();
     c.radius_uT = n > 0 ? mean / n : 0.0;
@@ -232,27 +232,27 @@ Result<FieldCalibration> CalibrateField(const std::vector<Vector3d>& H, const Fi
     return c;
   }
   if (n < o.min_sphere_samples) {
-    return Status::BadInput(fmt::format("too few samples: {} (a sphere fit needs at least {}, an ellipsoid {})", n,
-                                        o.min_sphere_samples, o.min_ellipsoid_samples));
+    return Status::BadInput(Format("too few samples: %d (a sphere fit needs at least %d, an ellipsoid %d)", n,
+                                   o.min_sphere_samples, o.min_ellipsoid_samples));
   }
   if (l(1) < o.sphere_eigen) {
-    return Status::BadInput(fmt::format("too little rotation for any fit (coverage eigenvalues {}, need the middle one >= {:g}): "
-                                        "turn the vehicle through all attitudes{}",
-                                        Eigs(l), o.sphere_eigen, consistent ? "; " + spread_note : ""));
+    return Status::BadInput(Format("too little rotation for any fit (coverage eigenvalues %s, need the middle one >= %g): "
+                                   "turn the vehicle through all attitudes%s",
+                                   Eigs(l).c_str(), o.sphere_eigen, consistent ? ("; " + spread_note).c_str() : ""));
   }
   if (consistent) c.warnings.push_back(spread_note);
   const bool want_ellipsoid = o.method == "ellipsoid" || o.method == "robust-ellipsoid";
   const bool want_sphere = o.method == "sphere" || o.method == "robust-sphere";
   bool robust = o.method.rfind("robust", 0) == 0;
-  const std::string poor = fmt::format("poor coverage (coverage eigenvalues {}): {}", Eigs(l), c.coverage.missing_rotation);
+  const std::string poor = Format("poor coverage (coverage eigenvalues %s): %s", Eigs(l).c_str(), c.coverage.missing_rotation.c_str());
   Base base = Base::kEllipsoid;
   if (want_ellipsoid) {
     if (n < o.min_ellipsoid_samples) {
-      return Status::BadInput(fmt::format("too few samples for an ellipsoid: {} (need at least {})", n, o.min_ellipsoid_samples));
+      return Status::BadInput(Format("too few samples for an ellipsoid: %d (need at least %d)", n, o.min_ellipsoid_samples));
     }
     if (l(0) < o.ellipsoid_eigen) {
-      return Status::BadInput(fmt::format("{}; an ellipsoid needs the smallest >= {:g}: add that rotation, or use --method sphere",
-                                          poor, o.ellipsoid_eigen));
+      return Status::BadInput(Format("%s; an ellipsoid needs the smallest >= %g: add that rotation, or use --method sphere",
+                                     poor.c_str(), o.ellipsoid_eigen));
     }
     c.why = "requested";
   } else if (want_sphere) {
@@ -260,20 +260,20 @@ Result<FieldCalibration> CalibrateField(const std::vector<Vector3d>& H, const Fi
     c.why = "requested";
   } else if (l(0) < o.ellipsoid_eigen) {
     base = Base::kSphere;
-    c.why = fmt::format("coverage too poor for an ellipsoid (smallest eigenvalue {:.3f} < {:g}): offset only", l(0), o.ellipsoid_eigen);
+    c.why = Format("coverage too poor for an ellipsoid (smallest eigenvalue %.3f < %g): offset only", l(0), o.ellipsoid_eigen);
     c.warnings.push_back(poor + "; fitted a sphere (offset only)");
   } else if (n < o.auto_ellipsoid_samples) {
     base = Base::kSphere;
-    c.why = fmt::format("{} samples (an ellipsoid wants {} or more): offset only", n, o.auto_ellipsoid_samples);
+    c.why = Format("%d samples (an ellipsoid wants %d or more): offset only", n, o.auto_ellipsoid_samples);
     c.warnings.push_back(c.why);
   } else {
-    c.why = fmt::format("full coverage (coverage eigenvalues {}) and {} samples: hard and soft iron", Eigs(l), n);
+    c.why = Format("full coverage (coverage eigenvalues %s) and %d samples: hard and soft iron", Eigs(l).c_str(), n);
   }
   if (base == Base::kSphere && l(0) < o.sphere_eigen) {
     base = Base::kSpherePlanar;
-    c.warnings.push_back(fmt::format("flat rotation: the offset along body {} is not determined by these samples and is held at {:.3g} uT{}",
-                                     c.coverage.weak_axis, c.coverage.axes.col(0).dot(o.prior_offset_uT),
-                                     o.prior_offset_uT.isZero() ? "" : " (the autopilot's current offset)"));
+    c.warnings.push_back(Format("flat rotation: the offset along body %s is not determined by these samples and is held at %.3g uT%s",
+                                c.coverage.weak_axis.c_str(), c.coverage.axes.col(0).dot(o.prior_offset_uT),
+                                o.prior_offset_uT.isZero() ? "" : " (the autopilot's current offset)"));
   }
   EllipsoidFit f = RunBase(base, H, c.coverage, o.fit, {}, o.prior_offset_uT);
   if (!f.status.ok() && f.status.code() == StatusCode::kNumerical && o.method == "auto" && base == Base::kEllipsoid) {
@@ -288,7 +288,7 @@ Result<FieldCalibration> CalibrateField(const std::vector<Vector3d>& H, const Fi
     const auto far = std::count_if(e.begin(), e.end(), [&](double x) { return std::abs(x - med) > o.outlier_sigmas * sigma; });
     if (far > 0) {
       robust = true;
-      c.why += fmt::format("; {} sample(s) beyond {:g} sigma: reweighted (robust)", far, o.outlier_sigmas);
+      c.why += Format("; %ld sample(s) beyond %g sigma: reweighted (robust)", static_cast<long>(far), o.outlier_sigmas);
     }
   }
   std::vector<double> w;
@@ -299,7 +299,7 @@ Result<FieldCalibration> CalibrateField(const std::vector<Vector3d>& H, const Fi
       if (w[i] < kOutlierWeight) c.downweighted.push_back(i);
     }
     if (!c.downweighted.empty()) {
-      c.warnings.push_back(fmt::format("{} sample(s) down-weighted as outliers (weight < {:g})", c.downweighted.size(), kOutlierWeight));
+      c.warnings.push_back(Format("%zu sample(s) down-weighted as outliers (weight < %g)", c.downweighted.size(), kOutlierWeight));
     }
   }
   c.method_used = (robust ? std::string("robust-") : std::string()) + BaseName(base);

@@ -4,8 +4,7 @@
 #include <cmath>
 #include <map>
 
-#include <fmt/format.h>
-
+#include "hexsim/common/format.h"
 #include "hexsim/common/rotation.h"
 #include "hexsim/magnetics/heading.h"
 
@@ -34,19 +33,19 @@ Result<std::vector<HeadingErrorRow>> EvaluateHeadingError(const Compensator& com
     const MagSample& s = samples[i];
     if (s.plane != o.plane) continue;
     if (!s.mag_B_uT.allFinite() || !std::isfinite(s.control_u) || !std::isfinite(s.current_A)) {
-      return Status::BadInput(fmt::format("heading error: sample {} is not finite", i));
+      return Status::BadInput(Format("heading error: sample %zu is not finite", i));
     }
     if (!s.earth_B_uT.allFinite() || !(s.earth_B_uT.head<2>().norm() > 0.0)) {
-      return Status::BadInput(fmt::format("heading error: sample {} has no true Earth field (earth_x/y/z_uT columns)", i));
+      return Status::BadInput(Format("heading error: sample %zu has no true Earth field (earth_x/y/z_uT columns)", i));
     }
     groups[s.control_u].push_back(&s);
   }
-  if (groups.empty()) return Status::BadInput(fmt::format("heading error: no samples in the {} plane", o.plane));
+  if (groups.empty()) return Status::BadInput("heading error: no samples in the " + o.plane + " plane");
   std::vector<HeadingErrorRow> rows;
   for (const auto& [u, g] : groups) {
     if (static_cast<int>(g.size()) < o.min_samples_per_turn) {
-      return Status::BadInput(fmt::format("heading error: control_u {}: {} samples in the turn (need at least {})", u,
-                                          g.size(), o.min_samples_per_turn));
+      return Status::BadInput(Format("heading error: control_u %s: %zu samples in the turn (need at least %d)",
+                                     ShortestDouble(u).c_str(), g.size(), o.min_samples_per_turn));
     }
     // Full turn: the largest gap between consecutive table angles (cyclic) is small.
     std::vector<double> ang;
@@ -58,8 +57,8 @@ Result<std::vector<HeadingErrorRow>> EvaluateHeadingError(const Compensator& com
     double gap = 360.0 - ang.back() + ang.front();
     for (size_t i = 1; i < ang.size(); ++i) gap = std::max(gap, ang[i] - ang[i - 1]);
     if (gap > o.max_angle_gap_deg) {
-      return Status::BadInput(fmt::format("heading error: control_u {}: not a full turn (gap of {:.1f} deg between table angles, max {})",
-                                          u, gap, o.max_angle_gap_deg));
+      return Status::BadInput(Format("heading error: control_u %s: not a full turn (gap of %.1f deg between table angles, max %s)",
+                                     ShortestDouble(u).c_str(), gap, ShortestDouble(o.max_angle_gap_deg).c_str()));
     }
     HeadingErrorRow row;
     row.control_u = u;

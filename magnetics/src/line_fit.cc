@@ -8,7 +8,8 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <Eigen/SVD>
-#include <fmt/format.h>
+
+#include "hexsim/common/format.h"
 
 namespace hexsim::magnetics {
 namespace {
@@ -16,9 +17,9 @@ namespace {
 using Eigen::Vector3d;
 
 Status CheckPoints(const std::vector<Vector3d>& p) {
-  if (p.size() < 2) return Status::BadInput(fmt::format("line fit: need at least 2 points, got {}", p.size()));
+  if (p.size() < 2) return Status::BadInput(Format("line fit: need at least 2 points, got %zu", p.size()));
   for (size_t i = 0; i < p.size(); ++i) {
-    if (!p[i].allFinite()) return Status::BadInput(fmt::format("line fit: point {} is not finite", i));
+    if (!p[i].allFinite()) return Status::BadInput(Format("line fit: point %zu is not finite", i));
   }
   return Status::Ok();
 }
@@ -38,7 +39,7 @@ double RmsDistance(const SpaceLine& line, const std::vector<Vector3d>& p) {
 Status CheckScalars(const std::vector<double>& x, const std::vector<double>& s) {
   if (x.size() != s.size()) return Status::BadInput("along-line fit: x and s differ in length");
   for (size_t i = 0; i < x.size(); ++i) {
-    if (!std::isfinite(x[i]) || !std::isfinite(s[i])) return Status::BadInput(fmt::format("along-line fit: value {} is not finite", i));
+    if (!std::isfinite(x[i]) || !std::isfinite(s[i])) return Status::BadInput(Format("along-line fit: value %zu is not finite", i));
   }
   return Status::Ok();
 }
@@ -198,7 +199,7 @@ PaperLineFit FitLinePaperTls(const std::vector<Vector3d>& points_uT, const LineF
   }
   if (!f.converged) {
     f.iterations = options.max_iterations;
-    f.status = Status::Numerical(fmt::format("paper line TLS did not converge in {} iterations", options.max_iterations));
+    f.status = Status::Numerical(Format("paper line TLS did not converge in %d iterations", options.max_iterations));
     return f;
   }
   // Restore intercepts: x − μx = a (z − μz).

@@ -5,8 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 
-#include <fmt/format.h>
-
+#include "hexsim/common/format.h"
 #include "hexsim/common/rotation.h"
 #include "wmm_coefficients.h"
 
@@ -25,7 +24,7 @@ constexpr double kWmmRefRadius_km = 6371.2;
 constexpr double kNtPerUt = 1000.0;
 
 // Shortest round-trip form: 2030.4 prints as 2030.4 (a %.4g format printed "2030").
-std::string FormatYear(double y) { return fmt::format("{}", y); }
+std::string FormatYear(double y) { return ShortestDouble(y); }
 
 // The default model of an epoch: the last table with it (WMM2015v2 over WMM2015).
 const WmmCoefficients* FindEpoch(int epoch) {
@@ -181,12 +180,12 @@ Result<EarthField> EvaluateWmmModel(const std::string& id, const GeodeticPoint& 
     if (id == tables[i].id) c = &tables[i];
     all += std::string(all.empty() ? "" : ", ") + tables[i].id;
   }
-  if (c == nullptr) return Status::BadInput(fmt::format("model: unknown WMM model '{}' (one of: {})", id, all));
+  if (c == nullptr) return Status::BadInput(Format("model: unknown WMM model '%s' (one of: %s)", id.c_str(), all.c_str()));
   if (!std::isfinite(decimal_year)) return Status::BadInput("decimal_year: not a finite number");
   const double last = c->epoch_year + kWmmModelSpan_yr;
   if (!allow_extrapolation && (decimal_year < c->epoch_year || decimal_year > last)) {
-    return Status::BadInput(fmt::format("decimal_year: {} outside {} validity {:.1f}–{:.1f}", FormatYear(decimal_year), id,
-                                        c->epoch_year, last));
+    return Status::BadInput(Format("decimal_year: %s outside %s validity %.1f–%.1f", FormatYear(decimal_year).c_str(),
+                                   id.c_str(), c->epoch_year, last));
   }
   HEXSIM_RETURN_IF_ERROR(CheckPoint(where));
   return Evaluate(*c, where, decimal_year);
@@ -200,12 +199,12 @@ Result<double> DecimalYearFromDate(const std::string& text) {
   char tail = 0;
   if (text.size() != 10 || std::sscanf(text.c_str(), "%4d-%2d-%2d%c", &y, &m, &d, &tail) != 3 || text[4] != '-' ||
       text[7] != '-') {
-    return Status::BadInput(fmt::format("date: '{}': expected a decimal year (2016.5) or YYYY-MM-DD", text));
+    return Status::BadInput("date: '" + text + "': expected a decimal year (2016.5) or YYYY-MM-DD");
   }
   const bool leap = (y % 4 == 0 && y % 100 != 0) || y % 400 == 0;
   static const int kDays[12] = {31, 28, 31, 30, 31, 30, 31, 31, 30, 31, 30, 31};
   if (m < 1 || m > 12 || d < 1 || d > kDays[m - 1] + (m == 2 && leap ? 1 : 0)) {
-    return Status::BadInput(fmt::format("date: '{}': no such day", text));
+    return Status::BadInput("date: '" + text + "': no such day");
   }
   int day_of_year = d - 1;
   for (int k = 0; k < m - 1; ++k) day_of_year += kDays[k] + (k == 1 && leap ? 1 : 0);
