@@ -52,7 +52,11 @@ Result<sim::DisturbanceSpec> ParseDisturbance(const std::string& gust, sim::Dist
       spec.gust_N_mps[i] = std::stod(item, &used);
       if (used != item.size() || !std::isfinite(spec.gust_N_mps[i])) throw std::invalid_argument(item);
     } catch (const std::exception&) {
-      return Status::BadInput(what + ": '" + item + "' is not a number");
+      std::string msg = what;
+      msg += ": '";
+      msg += item;
+      msg += "' is not a number";
+      return Status::BadInput(msg);
     }
     ++i;
   }
