@@ -98,7 +98,7 @@ std::vector<int> Range(int a, int b) {
 
 Analyzer::Analyzer(const ChannelData& ch, const DiagnoseOptions& o) : ch_(ch) {
   n_ = ch.t.size();
-  G_ = std::max(4, std::min(o.blocks, static_cast<int>(n_ / 50)));
+  G_ = std::max(4, std::min(o.blocks, static_cast<int>(n_ / 30)));
   block_ = BlockIndex(n_, G_);
   y_raw_ = ch.y;
   if (ch.baseline.p() > 0 && ch.baseline.X.size() == n_) baseline_ = &ch.baseline;

@@ -1,6 +1,7 @@
 // Replay of a FlightLog into per-channel residuals and the candidate effects' regressors (private).
 #pragma once
 
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -44,6 +45,8 @@ inline Candidate MakeCandidate(std::string effect, std::vector<std::string> name
   return c;
 }
 
+inline constexpr int kFlexFieldParams = 9;
+
 // The replayed channel.
 struct ChannelData {
   std::string name, unit;
@@ -66,6 +69,9 @@ struct ChannelData {
   // coefficients are findings, never effects), the WMM prior, the currents and throttle per sample.
   bool compass = false;
   Candidate baseline;
+  // Library-free regressors over the baseline (detection.cc): smooth functions of the predicted
+  // field, current, throttle and time, never a verdict.
+  Candidate flexible;  // its first kFlexFieldParams columns: the field matrix; then current, throttle
   Vec3 field_N_uT = Vec3::Zero();
   bool undone_compensation = false;
   std::vector<double> current_A, throttle;
@@ -74,6 +80,10 @@ struct ChannelData {
 // The log columns the replay reads (pointers into the log).
 struct LogInputs {
   std::vector<const std::vector<double>*> q;
+  // The battery current at the row times, rebuilt from its own samples (a sample-and-hold channel:
+  // realdata::FirstAppearances), owned here.
+  std::shared_ptr<const std::vector<double>> current_rows;
+  std::vector<double> current_samples_t, current_samples_v;  // its samples, each where it first appears
   const std::vector<double>* current = nullptr;
   std::vector<const std::vector<double>*> motor_A;
   std::vector<const std::vector<double>*> motor_u;

@@ -1,8 +1,18 @@
 // Detection independent of the candidate library (private to gap/). A gap exists when the held-out
-// residual above the nuisance baseline carries structure beyond the noise floor: the held-out mean
-// square over the first-difference noise variance (white noise: 1) exceeds 1 + materiality by a
-// one-sided test against its spread under white noise (p < 0.01). Whiteness (Ljung–Box) and the
-// spectrum describe the structure; they do not decide.
+// residual above the nuisance baseline carries structure beyond the noise floor. A real log's floor
+// is not white (a 5 Hz current held and interpolated, an attitude logged at 10 Hz: errors that stay
+// correlated over a few samples), so its level is not compared with a first-difference variance.
+// Structure is what is predictable or what no noise makes:
+//   (1) a library-free regressor set (linear functions of the predicted field: any scale,
+//       cross-coupling or misalignment; of the current and the throttle) is significant by a
+//       cluster-robust Wald test over the time blocks (Hotelling's T², honest when the residual is
+//       coloured: blocks are long against its correlation time) and removes more than the
+//       materiality share of the noise floor;
+//   (2) a spectral line stands above the residual's own smoothed spectrum (a periodic disturbance,
+//       a drift: both far above the coloured background around them) and holds more than the
+//       materiality share of the noise floor's power.
+// Each test at alpha/2. Intermittent spikes are not detected (see README). The power ratio and
+// Ljung–Box whiteness are reported; they do not decide.
 #pragma once
 
 #include <string>
@@ -25,13 +35,22 @@ nlohmann::json Where(const ChannelData& ch, const std::vector<Vec3>& y, const lo
 
 struct Structure {
   bool present = false;
-  double power_ratio = 0.0;  // held-out mean square / noise floor
+  double power_ratio = 0.0;  // held-out mean square / first-difference noise floor (reported)
   double noise_var = 0.0;
-  double p_value = 1.0;      // of "ratio ≤ 1 + materiality"
-  double whiteness_p = 1.0;  // Ljung–Box, 20 lags, Bonferroni over axes
+  double p_value = 1.0;      // the smaller of the two tests' p-values (Bonferroni over them)
+  double whiteness_p = 1.0;  // Ljung–Box, 20 lags, Bonferroni over axes (reported)
+  // (1) Library-free regressors: the mean square they remove over the baseline and their
+  // cluster-robust Wald p-value.
+  double flex_gain_ms = 0.0, flex_p = 1.0;
+  // (2) A spectral line above the residual's own (coloured) spectrum: frequency and p-value.
+  double line_freq_Hz = 0.0, line_p = 1.0, line_share = 0.0;
+  std::string found;  // which test(s) found it
 };
-// r: residual after the baseline; heldout_sse: the baseline's held-out SSE over all CV folds.
-Structure DetectStructure(const std::vector<double>& t, const std::vector<Vec3>& r, double heldout_sse, double materiality);
+// r: residual after the baseline; heldout_sse: the baseline's held-out SSE over all CV folds;
+// flex_p: cluster-robust Wald p of the library-free set over the baseline (its groups Bonferroni
+// corrected); flex_gain_ms: the mean square it removes.
+Structure DetectStructure(const std::vector<double>& t, const std::vector<Vec3>& r, double heldout_sse, double materiality,
+                          double flex_p, double flex_gain_ms, double alpha);
 // What is left after the reported model: {share, dominant_freq_Hz, trend, concentrated}.
 nlohmann::json ResidualLeft(const std::vector<double>& t, const std::vector<Vec3>& after, double share_left,
                             const nlohmann::json& where_after);

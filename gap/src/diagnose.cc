@@ -162,7 +162,8 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
     const bool align = timing.latency_ok && (timing.latency_ci95_s[0] > 0 || timing.latency_ci95_s[1] < 0);
     ro.latency_s = align ? timing.latency_s : 0.0;
     ro.current_shift_s = shift_s;
-    ro.member_shift_s = stale.ok() && plausibility::IsPlausible("current_staleness", stale.value_s) ? stale.value_s : 0.0;
+    ro.member_shift_s =
+        stale.ok() && plausibility::IsPlausible("current_staleness", stale.value_s) ? stale.value_s : 0.0;
     const ChannelData ch = internal::ReplayCompass(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro);
     if (static_cast<int>(ch.t.size()) < options.min_samples) {
       rep.not_diagnosed.emplace_back(name, fmt::format("too few flight samples: {}, needs {}", ch.t.size(), options.min_samples));

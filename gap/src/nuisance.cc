@@ -159,9 +159,21 @@ realdata::LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::ve
       v->push_back(c[i]);
     }
   };
-  std::vector<double> tu, u, ti, I;
+  std::vector<double> tu, u;
   samples("control_u", "ctun_t_s", &tu, &u);
-  samples("current_A", "batt_t_s", &ti, &I);
+  // The current is a sample-and-hold channel: each sample where it first appears.
+  std::vector<double> tr, ts, Ir;
+  const auto& c = log.Column("current_A");
+  const std::vector<double>* tc = log.Has("batt_t_s") ? &log.Column("batt_t_s") : nullptr;
+  for (size_t i = 0; i < log.rows(); ++i) {
+    if (kinds[i] != realdata::RowKind::kFlight) continue;
+    tr.push_back(t[i]);
+    ts.push_back(tc ? (*tc)[i] : std::nan(""));
+    Ir.push_back(c[i]);
+  }
+  const realdata::HeldSamples held = realdata::FirstAppearances(tr, ts, Ir);
+  const std::vector<double>& ti = held.t;
+  const std::vector<double>& I = held.v;
   realdata::StalenessOptions so;
   so.seed = o.seed;
   so.resamples = o.bootstrap_samples;

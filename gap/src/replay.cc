@@ -13,6 +13,7 @@
 #include "hexsim/common/rotation.h"
 #include "hexsim/magnetics/compass_model.h"
 #include "hexsim/magnetics/wmm.h"
+#include "hexsim/realdata/timing.h"
 
 namespace hexsim::gap::internal {
 
@@ -185,7 +186,18 @@ ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     return out;
   }
   for (const char* c : qn) in.q.push_back(&log.Column(c));
-  if (ColumnHasData(log, "current_A")) in.current = &log.Column("current_A");
+  if (ColumnHasData(log, "current_A")) {
+    static const std::vector<double> kNoStamps;
+    const realdata::HeldSamples held = realdata::FirstAppearances(
+        log.Column("t_s"), log.Has("batt_t_s") ? log.Column("batt_t_s") : kNoStamps, log.Column("current_A"));
+    std::vector<double> rows = realdata::InterpolateSamples(held, log.Column("t_s"));
+    const auto& raw = log.Column("current_A");
+    for (size_t i = 0; i < rows.size(); ++i) rows[i] = std::isfinite(raw[i]) ? rows[i] : raw[i];
+    in.current_rows = std::make_shared<const std::vector<double>>(std::move(rows));
+    in.current_samples_t = held.t;
+    in.current_samples_v = held.v;
+    in.current = in.current_rows.get();
+  }
   if (ColumnHasData(log, "control_u")) in.control_u = &log.Column("control_u");
   if (ColumnHasData(log, "imu_temp_C")) in.temp = &log.Column("imu_temp_C");
   bool all_motor_A = !v.rotors.empty();

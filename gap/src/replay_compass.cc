@@ -192,6 +192,29 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
     }
     return ch;
   }
+  // Library-free set (detection): r = A·h + d_I·I + d_u·u, A any 3×3 matrix (scale, cross-coupling,
+  // misalignment of any form), linear in the current and the throttle (squares extrapolate wildly
+  // into a held-out block; a drift is left to the spectral test).
+  {
+    ch.flexible = MakeCandidate("library_free", {}, {}, "");
+    for (size_t k = 0; k < n; ++k) {
+      std::vector<double> f;
+      if (has_current) f.push_back(I_log[k]);
+      if (std::isfinite(u[k])) f.push_back(u[k]);
+      Mat3X x3 = Mat3X::Zero(3, 9 + 3 * static_cast<Eigen::Index>(f.size()));
+      for (int r = 0; r < 3; ++r) x3.block(r, 3 * r, 1, 3) = h[k].transpose();
+      for (size_t j = 0; j < f.size(); ++j) x3.block(0, 9 + 3 * static_cast<Eigen::Index>(j), 3, 3) = Eigen::Matrix3d::Identity() * f[j];
+      ch.flexible.X.push_back(x3);
+    }
+    // Every sample must carry the same columns.
+    bool same = true;
+    for (const auto& x : ch.flexible.X) same = same && x.cols() == ch.flexible.X.front().cols();
+    if (!same || ch.flexible.X.empty()) ch.flexible.X.clear();
+    for (Eigen::Index j = 0; !ch.flexible.X.empty() && j < ch.flexible.X.front().cols(); ++j) {
+      ch.flexible.names.push_back(fmt::format("z{}", j));
+      ch.flexible.scale.push_back(1.0);
+    }
+  }
   // Misalignment only (scale and latency are the baseline's and the timing scan's).
   {
     Candidate mis = MakeCandidate("misalignment", {"phi_x_deg", "phi_y_deg", "phi_z_deg"}, {kRadToDeg, kRadToDeg, kRadToDeg},

@@ -75,7 +75,21 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
     r.plausible = plausibility::IsPlausible(r.effect, r.magnitude);
     r.physical_range = plausibility::RangeText(r.effect);
   }
-  const Structure st = DetectStructure(ch.t, an.y(), an.baseline().cv_sse, o.materiality);
+  // The library-free set: cluster-robust Wald tests of its two groups (field matrix; current and
+  // throttle), Bonferroni over the groups; the in-sample mean square it removes.
+  double flex_p = 1.0, flex_gain_ms = 0.0;
+  if (ch.flexible.p() > 0 && ch.flexible.X.size() == ch.t.size()) {
+    const Evaluated ef = an.Evaluate(ch.flexible);
+    if (ef.full.ok && ef.cov.size() > 0) {
+      const int off = ef.off, q = ch.flexible.p();
+      const int split = std::min(q, kFlexFieldParams);
+      const double p1 = WaldP(ef.full.beta, ef.cov, Range(off, off + split), an.G());
+      const double p2 = q > split ? WaldP(ef.full.beta, ef.cov, Range(off + split, off + q), an.G()) : 1.0;
+      flex_p = std::min(1.0, 2.0 * std::min(p1, p2));
+      flex_gain_ms = std::max(0.0, an.baseline().full.sse - ef.full.sse) / an.total_n();
+    }
+  }
+  const Structure st = DetectStructure(ch.t, an.y(), an.baseline().cv_sse, o.materiality, flex_p, flex_gain_ms, o.alpha);
   res.noise_rms = std::sqrt(st.noise_var);
   res.noise_floor_ratio = st.power_ratio;
   res.ljung_box_p = st.whiteness_p;
@@ -83,11 +97,30 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
   res.gap_detected = st.present;
   const double cv0 = an.baseline().cv_sse;
 
+  // A current-driven soft iron must depend on the current: over a constant field matrix (any
+  // residual scale, cross-coupling or misalignment, the library-free set's first group) its partial
+  // Wald test must still be significant; with a nearly constant current a constant matrix looks the same.
+  Candidate field_matrix;
+  if (ch.flexible.p() >= kFlexFieldParams && ch.flexible.X.size() == ch.t.size()) {
+    field_matrix = MakeCandidate("field_matrix", {}, {}, "");
+    for (int j = 0; j < kFlexFieldParams; ++j) {
+      field_matrix.names.push_back(ch.flexible.names[j]);
+      field_matrix.scale.push_back(1.0);
+    }
+    for (const auto& x : ch.flexible.X) field_matrix.X.emplace_back(x.leftCols(kFlexFieldParams));
+  }
   // The one-standard-error rule among plausible, significant effects.
   size_t best = F;
   for (size_t f = 0; f < F; ++f) {
     const Evaluated& e = at.all[at.fam_best[f]];
-    const double pf = std::min(1.0, e.wald_p * static_cast<double>(at.family[at.fam_names[f]].size()) * static_cast<double>(F));
+    double pf = std::min(1.0, e.wald_p * static_cast<double>(at.family[at.fam_names[f]].size()) * static_cast<double>(F));
+    if (at.fam_names[f] == "current_soft_iron" && field_matrix.p() > 0) {
+      const Evaluated ej = an.Evaluate(Join(field_matrix, *e.cand));
+      if (ej.full.ok && ej.cov.size() > 0) {
+        const double partial = WaldP(ej.full.beta, ej.cov, Range(ej.off + field_matrix.p(), ej.p()), an.G());
+        pf = std::max(pf, std::min(1.0, partial * static_cast<double>(F)));
+      }
+    }
     at.results[f].p_value = pf;
     if (!at.results[f].plausible || pf > o.alpha) continue;
     if (best == F || e.cv_sse < at.all[at.fam_best[best]].cv_sse) best = f;
@@ -122,13 +155,14 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
   }
   const double effect_share = chosen < F ? at.results[chosen].explained_share : 0.0;
   // The timing term is judged like a nuisance term (its alignment is part of the baseline): named
-  // when nothing beyond the aligned baseline is found and it is outside its normal range (exact
+  // when nothing beyond the aligned baseline is found and its interval lies beyond its normal range
+  // (as the offset's; exact
   // ranges: when its interval clears zero and the alignment removes a material share).
   const bool latency_out =
       timing.latency_ok && lat.plausible &&
       (o.nuisance_ranges == "exact"
            ? (timing.latency_ci95_s[0] > 0 || timing.latency_ci95_s[1] < 0) && timing.latency_share >= o.materiality
-           : !plausibility::IsNormal("latency", timing.latency_s));
+           : timing.latency_ci95_s[0] > plausibility::FindRange("latency")->normal_hi);
 
   std::vector<Vec3> after = an.y();
   double cv_after = cv0;

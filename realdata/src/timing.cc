@@ -139,4 +139,63 @@ LagEstimate StalenessScan(const std::vector<double>& tx, const std::vector<doubl
   return ProfileLag(grid, sse, o.resamples, o.seed);
 }
 
+HeldSamples FirstAppearances(const std::vector<double>& t, const std::vector<double>& ts, const std::vector<double>& v) {
+  // Runs of equal values: [first row, last row] each.
+  struct Run {
+    double t_first, t_last, v;
+  };
+  std::vector<Run> runs;
+  double last_t = -std::numeric_limits<double>::infinity();
+  for (size_t i = 0; i < v.size() && i < t.size(); ++i) {
+    if (!std::isfinite(v[i])) continue;
+    const double ti = i < ts.size() && std::isfinite(ts[i]) ? ts[i] : t[i];
+    if (!std::isfinite(ti) || ti < last_t) continue;
+    last_t = ti;
+    if (!runs.empty() && runs.back().v == v[i]) {
+      runs.back().t_last = ti;
+    } else {
+      runs.push_back({ti, ti, v[i]});
+    }
+  }
+  HeldSamples s;
+  if (runs.empty()) return s;
+  std::vector<double> gaps;
+  for (size_t k = 1; k < runs.size(); ++k) gaps.push_back(runs[k].t_first - runs[k - 1].t_first);
+  double dt = 0;
+  if (!gaps.empty()) {
+    std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(gaps.size() / 2), gaps.end());
+    dt = gaps[gaps.size() / 2];
+  }
+  for (const Run& r : runs) {
+    if (!s.t.empty() && r.t_first <= s.t.back()) continue;
+    s.t.push_back(r.t_first);
+    s.v.push_back(r.v);
+    if (dt > 0 && r.t_last - r.t_first > 2 * dt) {
+      s.t.push_back(r.t_last);
+      s.v.push_back(r.v);
+    }
+  }
+  return s;
+}
+
+std::vector<double> InterpolateSamples(const HeldSamples& s, const std::vector<double>& tq) {
+  std::vector<double> out(tq.size(), std::numeric_limits<double>::quiet_NaN());
+  if (s.t.empty()) return out;
+  size_t j = 0;
+  for (size_t i = 0; i < tq.size(); ++i) {
+    const double q = tq[i];
+    if (!std::isfinite(q)) continue;
+    while (j + 1 < s.t.size() && s.t[j + 1] <= q) ++j;
+    if (q <= s.t.front()) {
+      out[i] = s.v.front();
+    } else if (j + 1 >= s.t.size()) {
+      out[i] = s.v.back();
+    } else {
+      const double w = (q - s.t[j]) / (s.t[j + 1] - s.t[j]);
+      out[i] = (1 - w) * s.v[j] + w * s.v[j + 1];
+    }
+  }
+  return out;
+}
+
 }  // namespace hexsim::realdata

@@ -48,4 +48,16 @@ struct StalenessOptions {
 LagEstimate StalenessScan(const std::vector<double>& tx, const std::vector<double>& x, const std::vector<double>& ty,
                           const std::vector<double>& y, const StalenessOptions& options = {});
 
+// A sample-and-hold channel (a current sensor read at 5 Hz and logged at 10 Hz): a value repeated
+// on later rows is the same sample, held, and was measured no later than where it first appears.
+// The samples are the value changes, each stamped where it first appears (ts, its own stamp column,
+// where finite, else t). A value repeated for longer than twice the median sample interval is
+// constant, not held: it is stamped again where it last appears.
+struct HeldSamples {
+  std::vector<double> t, v;
+};
+HeldSamples FirstAppearances(const std::vector<double>& t, const std::vector<double>& ts, const std::vector<double>& v);
+// The samples linearly interpolated at tq (ascending), the ends held; NaN without samples.
+std::vector<double> InterpolateSamples(const HeldSamples& s, const std::vector<double>& tq);
+
 }  // namespace hexsim::realdata
