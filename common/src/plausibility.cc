@@ -54,6 +54,35 @@ const std::vector<PhysicalRange>& PlausibilityTable() {
       Effect("motor_time_constant", "s", 0.0, 0.5, "small-motor speed time constants are 20-150 ms"),
       Effect("thrust_scale", "1", 0.5, 2.0, "thrust coefficient or mass within a factor of two of the configured one"),
       Effect("wind", "m/s", 0.0, 25.0, "a multirotor does not fly in mean winds above ~25 m/s"),
+      // Identified vehicle parameters (identify/, `hexsim identify`; names as in identify.json).
+      // thrust_scale above is shared: the same k_T factor over the base vehicle.
+      Effect("thrust_to_weight", "1", 1.2, 8.0,
+             "all motors at full output over the weight: below 1.2 a multirotor cannot climb or control, racers reach ~8"),
+      Effect("hover_output", "1", 0.05, 0.95,
+             "motor output (0..1 of the PWM range) that holds the weight: above idle, with headroom left for control"),
+      Effect("motor_time_constant_s", "s", 0.005, 0.3,
+             "first-order motor-to-thrust lag: ~10 ms for racing motors, ~200 ms for large props; beyond 0.3 s no "
+             "controller holds attitude"),
+      Effect("vertical_drag_per_mass_1ps", "1/s", 0.0, 2.0,
+             "axial (climb) drag per unit mass: induced and profile drag, ~0.1-0.5 /s; drag never pushes forward"),
+      Effect("linear_drag_per_mass_1ps", "1/s", 0.0, 2.0,
+             "horizontal linear drag (rotor drag included) per unit mass: ~0.1-0.5 /s on small multirotors; never negative"),
+      Effect("quadratic_drag_per_mass_1pm", "1/m", 0.0, 1.0,
+             "0.5*rho*Cd*A/m: ~0.01-0.1 /m for a 1-10 kg airframe; never negative"),
+      Effect("yaw_torque_coefficient_m", "m", 0.002, 0.1,
+             "rotor k_Q/k_T: ~0.01-0.03 m for 5-15 inch props (torque over thrust grows with the radius)"),
+      Effect("yaw_damping_1ps", "1/s", 0.0, 10.0,
+             "yaw-rate damping per unit inertia from rotor drag torque: a fraction of a 1/s to a few 1/s; never negative"),
+      Effect("battery_ocv_cell_V", "V", 3.0, 4.35,
+             "lithium cell open-circuit voltage: 3.0 V empty to 4.35 V (LiHV) full; cells = round(V / 3.8)"),
+      Effect("battery_resistance_ohm", "ohm", 0.0, 1.0,
+             "pack plus wiring internal resistance: tens of milliohms, a worn small pack a few hundred; never negative"),
+      Effect("battery_charge_slope_V_per_Ah", "V/Ah", 0.0, 10.0,
+             "open-circuit voltage falls as charge is drawn: ~0.5-5 V per Ah for 1-10 Ah packs; it never rises"),
+      Effect("gyro_noise_radps", "rad/s", 0.0, 1.0,
+             "logged gyro noise with vibration: MEMS white noise ~0.01 rad/s at the log rate; 1 rad/s is a broken mount"),
+      Effect("accel_noise_mps2", "m/s^2", 0.0, 20.0,
+             "logged accelerometer noise with vibration: ~0.1-3 m/s^2; ArduPilot calls 30 m/s^2 vibration clipping"),
   };
   return kTable;
 }

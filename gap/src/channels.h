@@ -115,15 +115,20 @@ struct ReplayResult {
   LogInputs inputs;
 };
 
-ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, const DiagnoseOptions& options);
+// `row_kind` (realdata's flight windows, one per log row): the gyro, accel and dynamics channels keep
+// flight rows only (take-off, ground contact and the excluded tail are not in their models).
+ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, const DiagnoseOptions& options,
+                    const std::vector<realdata::RowKind>& row_kind);
 // Generic sensor-axis candidates (misalignment, scale_error, latency) of a vector channel whose
 // prediction is h (sensor frame).
 void AddAxisCandidates(const std::vector<double>& t, const std::vector<Vec3>& h, const std::string& unit,
                        ChannelData* ch);
 // Gyro and accel channels on the native-rate `imu` stream (accel: thrust model driven by the `rcou`
 // stream); false when the log has no imu stream (the row-based channels run instead).
-bool ReplayGyroStream(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, ReplayResult* out);
-bool ReplayAccelStream(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, ReplayResult* out);
+bool ReplayGyroStream(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle,
+                      const std::vector<realdata::RowKind>& row_kind, ReplayResult* out);
+bool ReplayAccelStream(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle,
+                       const std::vector<realdata::RowKind>& row_kind, ReplayResult* out);
 // One compass (index c of the vehicle's compasses) on the given timing and rows.
 ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
                           const Vec3& B_N_uT, const CompassReplayOptions& options);
@@ -131,6 +136,6 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
 // from motor commands, bus voltage, attitude and velocity); appends it or a not_diagnosed line.
 double HoverRotorTimeConstant_s(const vehicle::VehicleParams& vehicle);
 void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, const DiagnoseOptions& options,
-                    ReplayResult* out);
+                    const std::vector<realdata::RowKind>& row_kind, ReplayResult* out);
 
 }  // namespace hexsim::gap::internal

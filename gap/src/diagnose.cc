@@ -118,7 +118,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
     rep.phases.push_back({t[i], t[j - 1], phases[i]});
     i = j;
   }
-  internal::ReplayResult rr = internal::Replay(log, vehicle, options);
+  internal::ReplayResult rr = internal::Replay(log, vehicle, options, fw.row_kind);
   rep.attitude_source = rr.attitude_source;
   rep.field_model = rr.field_model;
   rep.earth_field_N_uT = rr.earth_field_N_uT;

@@ -119,7 +119,7 @@ double HoverRotorTimeConstant_s(const vehicle::VehicleParams& v) { return intern
 namespace hexsim::gap::internal {
 
 void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v, const DiagnoseOptions& options,
-                    ReplayResult* out) {
+                    const std::vector<realdata::RowKind>& row_kind, ReplayResult* out) {
   const char* kName = "dynamics";
   auto skip = [&](const std::string& why) { out->not_diagnosed.emplace_back(kName, why); };
   const size_t n_rot = v.rotors.size();
@@ -260,7 +260,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
   std::vector<Eigen::Matrix3d> Rt;
   size_t dropped_ground = 0;
   for (size_t i = 0; i < N; ++i) {
-    if (!row_ok[i]) continue;
+    if (!row_ok[i] || row_kind[i] != realdata::RowKind::kFlight) continue;
     const Vec3 meas(ax[i], ay[i], az[i]);
     const Vec3 vel(vn[i], ve[i], vd[i]);
     Eigen::Quaterniond q((*qc[0])[i], (*qc[1])[i], (*qc[2])[i], (*qc[3])[i]);

@@ -4,7 +4,7 @@
 //   gyro:  between consecutive attitude samples k, k+1 the IMU rates are integrated, each sample j
 //          acting over its own interval (t_{j−1}, t_j] clipped to (t_k, t_{k+1}]:
 //            q_gyro = Π_j exp(w_j·Δt_j),   measured = Log(q_gyro)/Δt,   predicted = Log(q_k⁻¹ ⊗ q_{k+1})/Δt
-//          so both sides are the mean body rate over the same interval.
+//          so both sides are the mean body rate over the same interval; pairs inside flight windows only.
 //   accel: every IMU sample in flight against the thrust model driven by RCOU at its own rate:
 //            f_B = (Σ_i k_T·ω_i²·a_i + F_drag(R_NBᵀ·v_N)) / m,
 //          ω_i from the configured powertrain stepped through the RCOU samples (each command held
@@ -70,7 +70,8 @@ void FinishChannel(const std::vector<Vec3>& h, ChannelData* ch) {
 
 }  // namespace
 
-bool ReplayGyroStream(const logs::FlightLog& log, const vehicle::VehicleParams& v, ReplayResult* out) {
+bool ReplayGyroStream(const logs::FlightLog& log, const vehicle::VehicleParams& v,
+                      const std::vector<realdata::RowKind>& row_kind, ReplayResult* out) {
   const logs::FlightLog* imu = log.Stream("imu");
   if (imu == nullptr || !HasFinite(*imu, "gyro_x_radps")) return false;
   const auto& ti = imu->Column("t_s");
@@ -85,7 +86,8 @@ bool ReplayGyroStream(const logs::FlightLog& log, const vehicle::VehicleParams& 
   size_t j = 0;  // first IMU sample with t_j > t_k
   for (size_t k = 0; k + 1 < log.rows(); ++k) {
     const double t0 = t[k], t1 = t[k + 1], dt = t1 - t0;
-    if (!(dt > 0) || dt > kMaxAttitudeGap_s) continue;
+    const bool flight = row_kind[k] == realdata::RowKind::kFlight && row_kind[k + 1] == realdata::RowKind::kFlight;
+    if (!(dt > 0) || dt > kMaxAttitudeGap_s || !flight) continue;
     const Eigen::Quaterniond qa = RowQuat(log, k), qb = RowQuat(log, k + 1);
     if (!qa.coeffs().allFinite() || !qb.coeffs().allFinite()) continue;
     while (j < ti.size() && ti[j] <= t0) ++j;
@@ -118,7 +120,8 @@ bool ReplayGyroStream(const logs::FlightLog& log, const vehicle::VehicleParams& 
   return true;
 }
 
-bool ReplayAccelStream(const logs::FlightLog& log, const vehicle::VehicleParams& v, ReplayResult* out) {
+bool ReplayAccelStream(const logs::FlightLog& log, const vehicle::VehicleParams& v,
+                       const std::vector<realdata::RowKind>& row_kind, ReplayResult* out) {
   const logs::FlightLog* imu = log.Stream("imu");
   const logs::FlightLog* rcou = log.Stream("rcou");
   const logs::FlightLog* batt = log.Stream("batt");
@@ -154,9 +157,6 @@ bool ReplayAccelStream(const logs::FlightLog& log, const vehicle::VehicleParams&
     }
   }
 
-  // Flight windows (realdata: armed, throttle above idle, before any flip or crash): ground contact
-  // is not in the thrust model.
-  const realdata::FlightWindows windows = realdata::FindFlightWindows(log);
   vehicle::VehicleParams stiff = v;  // the ESCs run at the logged bus voltage
   stiff.battery.internal_resistance_ohm = 0.0;
   stiff.battery.cells_series = 1;
@@ -201,7 +201,7 @@ bool ReplayAccelStream(const logs::FlightLog& log, const vehicle::VehicleParams&
       }
     }
     // Ground contact is not in the model: airborne samples only.
-    if (!flying || !(pd0 - pd[row] > kMinHeight_m) || windows.row_kind[row] != realdata::RowKind::kFlight) continue;
+    if (!flying || !(pd0 - pd[row] > kMinHeight_m) || row_kind[row] != realdata::RowKind::kFlight) continue;
     const Vec3 meas(ax[k], ay[k], az[k]);
     const Vec3 vel(vn[row], ve[row], vd[row]);
     const Eigen::Quaterniond q = RowQuat(log, row);

@@ -53,7 +53,7 @@ namespace {
 
 // Gyro and accelerometer from the attitude and velocity derivatives (rows).
 void ReplayInertial(const logs::FlightLog& log, const vehicle::VehicleParams& v, const LogInputs& in,
-                    ReplayResult* out) {
+                    const std::vector<realdata::RowKind>& row_kind, ReplayResult* out) {
   const auto& t = log.Column("t_s");
   const size_t n = log.rows();
   const bool has_gyro = ColumnHasData(log, "gyro_x_radps") && ColumnHasData(log, "gyro_y_radps") &&
@@ -64,8 +64,8 @@ void ReplayInertial(const logs::FlightLog& log, const vehicle::VehicleParams& v,
                        ColumnHasData(log, "vel_D_mps");
   constexpr double kMaxRowGap_s = 0.1;  // derivatives need rows at least this dense
   // Native-rate streams where the log has them (inertial_streams.cc); rows otherwise.
-  const bool gyro_native = ReplayGyroStream(log, v, out);
-  const bool accel_native = ReplayAccelStream(log, v, out);
+  const bool gyro_native = ReplayGyroStream(log, v, row_kind, out);
+  const bool accel_native = ReplayAccelStream(log, v, row_kind, out);
   if (gyro_native && accel_native) return;
   if (!has_gyro) out->not_diagnosed.emplace_back("gyro", "no gyro_*_radps columns");
   if (!has_accel) out->not_diagnosed.emplace_back("accel", "no accel_*_mps2 columns");
@@ -86,7 +86,7 @@ void ReplayInertial(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     std::vector<Vec3> h;
     for (size_t k = 1; k + 1 < n; ++k) {
       const double dt = t[k + 1] - t[k - 1];
-      if (!(dt > 0) || dt > 2 * kMaxRowGap_s) continue;
+      if (!(dt > 0) || dt > 2 * kMaxRowGap_s || row_kind[k] != realdata::RowKind::kFlight) continue;
       const Vec3 m(sx[k], sy[k], sz[k]);
       if (!m.allFinite()) continue;
       const Eigen::Quaterniond qa = QuatRow(in.q, k - 1).normalized(), qb = QuatRow(in.q, k + 1).normalized();
@@ -148,7 +148,8 @@ void ReplayInertial(const logs::FlightLog& log, const vehicle::VehicleParams& v,
 
 }  // namespace
 
-ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& v, const DiagnoseOptions& options) {
+ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& v, const DiagnoseOptions& options,
+                    const std::vector<realdata::RowKind>& row_kind) {
   ReplayResult out;
   LogInputs in;
   const char* qn[4] = {"q_w", "q_x", "q_y", "q_z"};
@@ -244,8 +245,8 @@ ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& v,
       }
     }
   }
-  ReplayInertial(log, v, in, &out);
-  ReplayDynamics(log, v, options, &out);
+  ReplayInertial(log, v, in, row_kind, &out);
+  ReplayDynamics(log, v, options, row_kind, &out);
   out.inputs = in;
   return out;
 }

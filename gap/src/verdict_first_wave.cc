@@ -85,6 +85,14 @@ ChannelResult AnalyzeFirstWave(const ChannelData& ch, const logs::FlightLog& log
       r.params["radius_m"] = r.magnitude;
       r.ci95["radius_m"] = {r.magnitude_ci95[0], r.magnitude_ci95[1]};
     }
+    if (r.effect == "thrust_scale") {
+      // The linear parameter is s − 1; the table's range (0.5..2) is for the scale s itself.
+      r.magnitude += 1.0;
+      r.magnitude_ci95[0] += 1.0;
+      r.magnitude_ci95[1] += 1.0;
+      r.params["thrust_scale"] = r.magnitude;
+      r.ci95["thrust_scale"] = {r.magnitude_ci95[0], r.magnitude_ci95[1]};
+    }
     r.plausible = plausibility::IsPlausible(r.effect, r.magnitude);
     r.physical_range = plausibility::RangeText(r.effect);
   }

@@ -6,6 +6,7 @@
 #include <Eigen/Cholesky>
 #include <fmt/format.h>
 
+#include "hexsim/common/plausibility.h"
 #include "hexsim/common/rotation.h"
 #include "hexsim/vehicle/powertrain.h"
 #include "samples.h"
@@ -182,28 +183,30 @@ namespace {
 using internal::Coeffs;
 using internal::FlightSamples;
 
-// Physical ranges (stated beside the definitions in identify.h's comment and the report).
+// The identified parameters with their definitions; each one's physical range and its reason are in
+// the shared plausibility table (hexsim/common/plausibility.h) under `range` (the name itself unless
+// the range is stated per cell or per weight).
 struct ParamSpec {
   const char* name;
   const char* unit;
-  double lo, hi;
+  const char* range;
   const char* note;
 };
 const ParamSpec kSpecs[] = {
-    {"thrust_full_output_mps2", "m/s^2", 0.0, 0.0, "specific thrust of one motor at full output and V_ref: per-motor curve a0 + a1·x + a2·x² at x = 1 (range: thrust-to-weight 1.2–8)"},
-    {"hover_output", "1", 0.05, 0.95, "motor output (0..1 of the PWM range) that holds the weight at V_ref"},
-    {"thrust_scale", "1", 0.5, 2.0, "k_T of the base vehicle times this hovers it at hover_output on V_ref"},
-    {"motor_time_constant_s", "s", 0.005, 0.3, "first-order lag from motor output to thrust, profiled over 0–300 ms"},
-    {"vertical_drag_per_mass_1ps", "1/s", 0.0, 2.0, "−f_z gains d_z·v_z,B"},
-    {"linear_drag_per_mass_1ps", "1/s", 0.0, 2.0, "f_x,y = −δ1·v − δ2·|v|·v (body axes; rotor drag included)"},
-    {"quadratic_drag_per_mass_1pm", "1/m", 0.0, 1.0, "δ2 above"},
-    {"yaw_torque_coefficient_m", "m", 0.002, 0.1, "k_Q/k_T = κ·J_z/m from ṙ = κ·Σ s_i·T_i/m − ζ·r (J_z, m from the base)"},
-    {"yaw_damping_1ps", "1/s", 0.0, 10.0, "ζ above"},
-    {"battery_ocv_V", "V", 0.0, 0.0, "open-circuit voltage at the start: V = V_oc − R·I − k_q·Q (range 3.0–4.35 V per cell)"},
-    {"battery_resistance_ohm", "ohm", 0.0, 1.0, "pack internal resistance R above"},
-    {"battery_charge_slope_V_per_Ah", "V/Ah", 0.0, 10.0, "k_q above (open-circuit voltage falling with charge drawn)"},
-    {"gyro_noise_radps", "rad/s", 0.0, 1.0, "white noise per logged IMU sample, RMS over axes, from second differences (vibration included; reported, not applied: a log's IMU samples are the autopilot's filtered ones)"},
-    {"accel_noise_mps2", "m/s^2", 0.0, 20.0, "the same for the accelerometer"},
+    {"thrust_full_output_mps2", "m/s^2", "thrust_to_weight", "specific thrust of one motor at full output and V_ref: per-motor curve a0 + a1·x + a2·x² at x = 1 (range: thrust_to_weight × g / motors)"},
+    {"hover_output", "1", "hover_output", "motor output (0..1 of the PWM range) that holds the weight at V_ref"},
+    {"thrust_scale", "1", "thrust_scale", "k_T of the base vehicle times this hovers it at hover_output on V_ref"},
+    {"motor_time_constant_s", "s", "motor_time_constant_s", "first-order lag from motor output to thrust, profiled over 0–300 ms"},
+    {"vertical_drag_per_mass_1ps", "1/s", "vertical_drag_per_mass_1ps", "−f_z gains d_z·v_z,B"},
+    {"linear_drag_per_mass_1ps", "1/s", "linear_drag_per_mass_1ps", "f_x,y = −δ1·v − δ2·|v|·v (body axes; rotor drag included)"},
+    {"quadratic_drag_per_mass_1pm", "1/m", "quadratic_drag_per_mass_1pm", "δ2 above"},
+    {"yaw_torque_coefficient_m", "m", "yaw_torque_coefficient_m", "k_Q/k_T = κ·J_z/m from ṙ = κ·Σ s_i·T_i/m − ζ·r (J_z, m from the base)"},
+    {"yaw_damping_1ps", "1/s", "yaw_damping_1ps", "ζ above"},
+    {"battery_ocv_V", "V", "battery_ocv_cell_V", "open-circuit voltage at the start: V = V_oc − R·I − k_q·Q (range per cell × cells, cells = round(V_oc / 3.8))"},
+    {"battery_resistance_ohm", "ohm", "battery_resistance_ohm", "pack internal resistance R above"},
+    {"battery_charge_slope_V_per_Ah", "V/Ah", "battery_charge_slope_V_per_Ah", "k_q above (open-circuit voltage falling with charge drawn)"},
+    {"gyro_noise_radps", "rad/s", "gyro_noise_radps", "white noise per logged IMU sample, RMS over axes, from second differences (vibration included; reported, not applied: a log's IMU samples are the autopilot's filtered ones)"},
+    {"accel_noise_mps2", "m/s^2", "accel_noise_mps2", "the same for the accelerometer"},
 };
 
 double ExpoOf(const logs::FlightLog& log, std::string* source) {
@@ -500,17 +503,17 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
       p.ci95[1] = std::min(p.ci95[1], *(g1 - 1));
     }
     p.unit = sp.unit;
-    p.range[0] = sp.lo;
-    p.range[1] = sp.hi;
     p.note = sp.note;
+    const plausibility::PhysicalRange* pr = plausibility::FindRange(sp.range);
+    double per = 1.0;  // the table states some ranges per weight or per cell
     if (std::string(sp.name) == "thrust_full_output_mps2") {
-      p.range[0] = 1.2 * kGravity_mps2 / static_cast<double>(s.motors);
-      p.range[1] = 8.0 * kGravity_mps2 / static_cast<double>(s.motors);
+      per = kGravity_mps2 / static_cast<double>(s.motors);
     } else if (std::string(sp.name) == "battery_ocv_V") {
-      const double cells = std::max(1.0, std::round(p.value / 3.8));
-      p.range[0] = 3.0 * cells;
-      p.range[1] = 4.35 * cells;
+      per = std::isfinite(p.value) ? std::max(1.0, std::round(p.value / 3.8)) : 1.0;
     }
+    p.range[0] = pr ? pr->lo * per : -INFINITY;
+    p.range[1] = pr ? pr->hi * per : INFINITY;
+    p.range_reason = pr ? pr->reason : "no stated range";
     if (!std::isfinite(p.value) || !p.plausible()) p.source = "model mismatch";
     p.applied = p.source == "fitted" && p.ci95[0] >= p.range[0] && p.ci95[1] <= p.range[1];
     res.params[sp.name] = p;

@@ -59,6 +59,7 @@ nlohmann::json ToJson(const IdentifyResult& r) {
                  {"unit", p.unit},
                  {"source", p.source},
                  {"physical_range", {Num(p.range[0]), Num(p.range[1])}},
+                 {"physical_range_reason", p.range_reason},
                  {"plausible", p.plausible()},
                  {"applied", p.applied},
                  {"note", p.note}};
@@ -122,10 +123,10 @@ Status WriteIdentifyHtml(const IdentifyResult& r, const std::string& dir) {
           "range</th><th>definition</th></tr>";
   for (const auto& k : r.param_order) {
     const Param& p = r.params.at(k);
-    html += fmt::format("<tr><td>{}</td><td>{:.5g}</td><td>[{:.5g}, {:.5g}]</td><td>{}</td><td>{}</td><td>[{:.4g}, "
-                        "{:.4g}]</td><td>{}</td></tr>",
-                        k, p.value, p.ci95[0], p.ci95[1], HtmlEscape(p.unit), HtmlEscape(p.source), p.range[0],
-                        p.range[1], HtmlEscape(p.note));
+    html += fmt::format("<tr><td>{}</td><td>{:.5g}</td><td>[{:.5g}, {:.5g}]</td><td>{}</td><td>{}</td><td title=\"{}\">"
+                        "[{:.4g}, {:.4g}]</td><td>{}</td></tr>",
+                        k, p.value, p.ci95[0], p.ci95[1], HtmlEscape(p.unit), HtmlEscape(p.source),
+                        HtmlEscape(p.range_reason), p.range[0], p.range[1], HtmlEscape(p.note));
   }
   html += "</table><h2>Held-out fit (fitted on even time blocks, scored on odd ones)</h2><table><tr><th>output</th>"
           "<th>RMS measured</th><th>RMS residual</th><th>R²</th><th>samples</th></tr>";

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include "hexsim/common/plausibility.h"
 #include "hexsim/common/rotation.h"
 #include "hexsim/common/yaml_reader.h"
 #include "hexsim/control/controller.h"
@@ -96,7 +97,8 @@ vehicle::VehicleParams ApplyIdentified(const vehicle::VehicleParams& base, const
       }
       return vehicle::CommandForThrust(w, 0, T, r.v_ref_V);
     };
-    double lo = 0.5, hi = 2.0;
+    const plausibility::PhysicalRange* range = plausibility::FindRange("thrust_scale");  // the k_T factor's range
+    double lo = range->lo, hi = range->hi;
     if (cmd(lo) >= *u_h && cmd(hi) <= *u_h) {
       for (int i = 0; i < 50; ++i) {
         const double mid = std::sqrt(lo * hi);

@@ -120,6 +120,7 @@ Result<RunSetup> LoadRunSetup(const RunRequest& req) {
     YamlReader r(sim_node, "--set", "sim");
     r.Opt("physics_dt_s", &o.physics_dt_s, InRange(1e-5, 0.01));
     r.Opt("log_rate_hz", &o.log_rate_hz, Positive());
+    r.Opt("stream_rate_hz", &o.stream_rate_hz, InRange(0.0, 1e5));
     r.Opt("max_duration_s", &o.max_duration_s, Positive());
     r.Opt("estimator", &o.estimator, {"truth", "eskf", "complementary"});
     r.Opt("write_log", &o.write_log);

@@ -74,7 +74,53 @@ LogRecorder::LogRecorder(logs::FlightLog* log, size_t rotors, size_t compasses, 
   payload_ = add("payload_kg");
 }
 
+void LogRecorder::EnableStreams(double rate_hz) {
+  stream_period_s_ = rate_hz > 0 ? 1.0 / rate_hz : -1.0;
+  const char* xyz[3] = {"x", "y", "z"};
+  imu_.table.AddColumn("t_s");
+  for (const char* a : xyz) imu_.table.AddColumn(fmt::format("gyro_{}_radps", a));
+  for (const char* a : xyz) imu_.table.AddColumn(fmt::format("accel_{}_mps2", a));
+  rcou_.table.AddColumn("t_s");
+  for (size_t i = 0; i < motor_u_.size(); ++i) rcou_.table.AddColumn(fmt::format("motor_{}_u", i + 1));
+  for (const char* c : {"t_s", "current_A", "voltage_V"}) batt_.table.AddColumn(c);
+}
+
+bool LogRecorder::Stream::Due(double t_s, double period_s) {
+  if (t_s + 1e-9 < next_t_s) return false;
+  // Stay on the grid of kept times; restart it when behind (the first sample, a gap).
+  next_t_s = next_t_s + period_s > t_s ? next_t_s + period_s : t_s + period_s;
+  table.AppendRow();
+  return true;
+}
+
+void LogRecorder::AttachStreams() {
+  if (stream_period_s_ < 0) return;
+  log_->SetStream("imu", std::move(imu_.table));
+  log_->SetStream("rcou", std::move(rcou_.table));
+  log_->SetStream("batt", std::move(batt_.table));
+  stream_period_s_ = -1.0;
+}
+
 void LogRecorder::OnStep(const StepRecord& r) {
+  if (stream_period_s_ > 0) {
+    const vehicle::SensorReadings& rd = *r.readings;
+    if (rd.gyro_radps.fresh && imu_.Due(rd.gyro_radps.t_s, stream_period_s_)) {
+      imu_.table.Set(size_t{0}, rd.gyro_radps.t_s);
+      for (size_t i = 0; i < 3; ++i) {
+        imu_.table.Set(1 + i, rd.gyro_radps.value[static_cast<int>(i)]);
+        imu_.table.Set(4 + i, rd.accel_mps2.value[static_cast<int>(i)]);
+      }
+    }
+    if (rcou_.Due(r.t_s, stream_period_s_)) {
+      rcou_.table.Set(size_t{0}, r.t_s);
+      for (size_t i = 0; i < motor_u_.size(); ++i) rcou_.table.Set(1 + i, (*r.commands)[i]);
+    }
+    if (batt_.Due(r.t_s, stream_period_s_)) {
+      batt_.table.Set(size_t{0}, r.t_s);
+      batt_.table.Set(size_t{1}, r.battery_A);
+      batt_.table.Set(size_t{2}, r.powertrain->motors.empty() ? r.nominal_V : r.powertrain->bus_V);
+    }
+  }
   if (r.step % log_every_ != 0) return;
   logs::FlightLog& log = *log_;
   const BodyState& s = *r.truth;

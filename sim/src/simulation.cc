@@ -60,6 +60,7 @@ struct Simulation::Impl {
     // A fixed duration fixes the row count (steps + 1 instants, every log_every-th logged): reserve
     // it so the columns never grow. An open-ended mission is left to grow.
     if (opt.write_log && opt.duration_s > 0) out.log.Reserve(static_cast<size_t>(steps / log_every + 1));
+    if (opt.write_log && opt.stream_rate_hz > 0) recorder.EnableStreams(opt.stream_rate_hz);
   }
 
   RunSetup setup;
@@ -232,6 +233,8 @@ RunOutput Simulation::Impl::Finish() {
   }
   log.meta["compasses"] = compasses;
   log.meta["rotors"] = vp.rotors.size();
+  if (opt.stream_rate_hz > 0) log.meta["stream_rate_hz"] = opt.stream_rate_hz;
+  recorder.AttachStreams();
   out.status = run_status;
   return std::move(out);
 }

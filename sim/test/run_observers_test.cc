@@ -78,5 +78,48 @@ TEST(LogRecorder, GivenTenRecordsAndEveryFifthLogged_WhenRecorded_ThenTwoRowsCar
   EXPECT_TRUE(std::isnan(col("gps_N_m")[0]));  // no GPS sample yet
 }
 
+
+TEST(LogRecorder, GivenStreamsAt50Hz_WhenAFourHundredHertzImuIsRecorded_ThenEachStreamKeepsEveryEighthSampleWithItsOwnTime) {
+  Fixture f;
+  logs::FlightLog log;
+  LogRecorder rec(&log, 6, 0, 100);  // table at 10 Hz of a 1 kHz loop
+  rec.EnableStreams(50.0);
+  for (int64_t k = 0; k <= 1000; ++k) {
+    f.readings.gyro_radps.fresh = k % 5 == 2;  // 200 Hz IMU, sampled 2 ms into each period
+    f.readings.gyro_radps.valid = k >= 2;
+    if (f.readings.gyro_radps.fresh) f.readings.gyro_radps.t_s = 0.001 * static_cast<double>(k);
+    f.readings.gyro_radps.value = Eigen::Vector3d(0.001 * static_cast<double>(k), 0, 0);
+    f.commands[0] = 0.001 * static_cast<double>(k);
+    rec.OnStep(f.Record(k, control::FlightMode::kWaypoint));
+  }
+  rec.AttachStreams();
+  EXPECT_EQ(log.rows(), 11u);  // the table is untouched by the streams
+  for (const char* name : {"imu", "rcou", "batt"}) {
+    const logs::FlightLog* s = log.Stream(name);
+    ASSERT_NE(s, nullptr) << name;
+    const auto& t = s->Column("t_s");
+    ASSERT_GE(t.size(), 50u) << name;
+    EXPECT_LE(t.size(), 51u) << name;
+    for (size_t i = 1; i < t.size(); ++i) EXPECT_NEAR(t[i] - t[i - 1], 0.02, 1e-9) << name << " sample " << i;
+  }
+  // Each sample carries its own time and the value of that instant, never a resampled one.
+  const logs::FlightLog& imu = *log.Stream("imu");
+  EXPECT_NEAR(imu.Column("t_s")[0], 0.002, 1e-12);
+  for (size_t i = 0; i < imu.rows(); ++i) EXPECT_NEAR(imu.Column("gyro_x_radps")[i], imu.Column("t_s")[i], 1e-12);
+  const logs::FlightLog& rcou = *log.Stream("rcou");
+  for (size_t i = 0; i < rcou.rows(); ++i) EXPECT_NEAR(rcou.Column("motor_1_u")[i], rcou.Column("t_s")[i], 1e-12);
+  EXPECT_NEAR(log.Stream("batt")->Column("voltage_V")[0], 24.0, 1e-12);
+}
+
+TEST(LogRecorder, GivenNoStreamsEnabled_WhenRecorded_ThenTheLogHasNoStreams) {
+  const Fixture f;
+  logs::FlightLog log;
+  LogRecorder rec(&log, 6, 0, 1);
+  for (int64_t k = 0; k < 10; ++k) rec.OnStep(f.Record(k, control::FlightMode::kWaypoint));
+  rec.AttachStreams();
+  EXPECT_TRUE(log.stream_names().empty());
+  EXPECT_EQ(log.rows(), 10u);
+}
+
 }  // namespace
 }  // namespace hexsim::sim

@@ -94,5 +94,22 @@ TEST(Simulation, GivenAnExternalForceAndPayload_WhenApplied_ThenTheStateAccessor
   EXPECT_EQ(sim->currents().motor_A.size(), setup.vehicle.rotors.size());
 }
 
+
+TEST(Simulation, GivenStreamsRequested_WhenRun_ThenTheTableIsByteIdenticalAndImuRcouBattComeAtTheirOwnRate) {
+  RunSetup setup = MakeSetup("truth");
+  setup.options.duration_s = 3.0;
+  setup.options.log_rate_hz = 10.0;
+  const RunOutput plain = RunMission(setup);
+  setup.options.stream_rate_hz = 50.0;
+  const RunOutput streamed = RunMission(setup);
+  EXPECT_TRUE(plain.log.stream_names().empty());
+  EXPECT_EQ(logs::FlightLogToCsv(plain.log), logs::FlightLogToCsv(streamed.log));
+  for (const char* name : {"imu", "rcou", "batt"}) {
+    const logs::FlightLog* s = streamed.log.Stream(name);
+    ASSERT_NE(s, nullptr) << name;
+    EXPECT_NEAR(static_cast<double>(s->rows()), 3.0 * 50.0, 2.0) << name;  // 50 Hz, never resampled to the rows
+  }
+}
+
 }  // namespace
 }  // namespace hexsim::sim

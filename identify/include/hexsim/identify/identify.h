@@ -46,7 +46,8 @@ struct Param {
   double ci95[2] = {0.0, 0.0};
   std::string unit;
   std::string source = "fitted";  // fitted | base | "model mismatch"
-  double range[2] = {0.0, 0.0};   // physical range
+  double range[2] = {0.0, 0.0};   // physical range (the shared plausibility table's row)
+  std::string range_reason;       // that row's reason
   std::string note;
   // Written into the vehicle: fitted, and the whole 95 % interval inside the physical range (a fit
   // whose interval leaves the range did not determine the parameter; the base value stays).

@@ -39,6 +39,9 @@ struct SimOptions {
   // jumping from stop to hover duty draws hundreds of amperes for a few milliseconds.
   double motor_slew_up_per_s = 4.0;
   bool write_log = true;
+  // > 0: the log also carries native-rate imu, rcou and batt streams at up to this rate (sim.stream_rate_hz;
+  // sim/step_record.h LogRecorder::EnableStreams); 0: none, the outputs unchanged.
+  double stream_rate_hz = 0.0;
 };
 
 // Everything one run needs; plain data, validated before a run starts.

@@ -62,6 +62,14 @@ class LogRecorder {
   LogRecorder(logs::FlightLog* log, size_t rotors, size_t compasses, int log_every);
   void OnStep(const StepRecord& r);
   size_t time_column() const { return t_; }
+  // Native-rate streams (CONTRACTS "Second wave", FlightLog::Stream), as an autopilot logs them:
+  //   imu   gyro_*_radps, accel_*_mps2 at each IMU sample's own time stamp
+  //   rcou  motor_i_u at the instant the autopilot's commands are read
+  //   batt  current_A (sensed), voltage_V (bus)
+  // each kept when at least 1/rate_hz after the last kept sample of its stream (rate_hz above the
+  // sensor rate keeps every sample). Off unless enabled; AttachStreams hands them to the log.
+  void EnableStreams(double rate_hz);
+  void AttachStreams();
 
  private:
   logs::FlightLog* log_;
@@ -72,6 +80,13 @@ class LogRecorder {
   std::vector<std::array<size_t, 4>> mag_;  // x, y, z, t per compass
   size_t est_q_[4] = {}, est_pos_[3] = {}, est_vel_[3] = {}, yaw_true_ = 0, yaw_est_ = 0, mode_ = 0, wp_ = 0;
   size_t wind_[3] = {}, payload_ = 0;
+  struct Stream {
+    logs::FlightLog table;
+    double next_t_s = -1.0;  // earliest time of the next kept sample
+    bool Due(double t_s, double period_s);
+  };
+  double stream_period_s_ = -1.0;  // < 0: no streams
+  Stream imu_, rcou_, batt_;
 };
 
 // Running max/RMS/mean of one quantity.
