@@ -54,6 +54,10 @@ const std::vector<PhysicalRange>& PlausibilityTable() {
       Effect("motor_time_constant", "s", 0.0, 0.5, "small-motor speed time constants are 20-150 ms"),
       Effect("thrust_scale", "1", 0.5, 2.0, "thrust coefficient or mass within a factor of two of the configured one"),
       Effect("wind", "m/s", 0.0, 25.0, "a multirotor does not fly in mean winds above ~25 m/s"),
+      // Logged inputs the replay and the identification drive their models with.
+      Effect("bus_voltage_V", "V", 3.0, 100.0,
+             "battery bus of a flying multirotor: one discharged lithium cell (3.0 V) up to ~24S heavy-lift packs; "
+             "a flight median below it means no power monitor is connected"),
       // Identified vehicle parameters (identify/, `hexsim identify`; names as in identify.json).
       // thrust_scale above is shared: the same k_T factor over the base vehicle.
       Effect("thrust_to_weight", "1", 1.2, 8.0,

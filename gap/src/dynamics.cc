@@ -21,6 +21,8 @@
 #include <fmt/format.h>
 
 #include "channels.h"
+#include "replay_util.h"
+#include "hexsim/common/plausibility.h"
 #include "hexsim/common/rotation.h"
 #include "hexsim/vehicle/powertrain.h"
 
@@ -153,7 +155,12 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
   const std::vector<double>* qc[4] = {&log.Column("q_w"), &log.Column("q_x"), &log.Column("q_y"), &log.Column("q_z")};
   std::vector<const std::vector<double>*> mu;
   for (size_t m = 0; m < n_rot; ++m) mu.push_back(&log.Column(fmt::format("motor_{}_u", m + 1)));
-  const std::vector<double>* Vcol = has_V ? &log.Column("voltage_V") : nullptr;
+  // A logged voltage whose median is no battery bus (no power monitor connected: e.g. 0.06 V) would
+  // stop every rotor in the replay; the configured battery stands in for it, and the channel says so.
+  const double median_V = has_V ? MedianFinite(log.Column("voltage_V")) : std::nan("");
+  const bool V_usable = has_V && plausibility::IsPlausible("bus_voltage_V", median_V);
+  const std::vector<double>* Vcol = V_usable ? &log.Column("voltage_V") : nullptr;
+  const bool current_usable = !has_V || V_usable;  // the same monitor measures both
   const std::vector<double>* Icol = has_I ? &log.Column("current_A") : nullptr;
   const std::vector<double>* soc_col = HasData(log, "battery_soc") ? &log.Column("battery_soc") : nullptr;
   const std::vector<double>* payload = HasData(log, "payload_kg") ? &log.Column("payload_kg") : nullptr;
@@ -171,7 +178,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
       bus_V[i] = (*Vcol)[i];
       continue;
     }
-    const double I = (*Icol)[i];
+    const double I = Icol && current_usable ? (*Icol)[i] : 0.0;  // no usable monitor: no load known
     if (soc_col && std::isfinite((*soc_col)[i])) soc = (*soc_col)[i];
     if (std::isfinite(I)) bus_V[i] = v.battery.OpenCircuitVoltage_V(soc) - v.battery.internal_resistance_ohm * I;
     if (!soc_col && i + 1 < N && std::isfinite(I) && capacity_As > 0) {
@@ -252,6 +259,10 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
   ChannelData ch;
   ch.name = kName;
   ch.unit = "m/s^2";
+  if (has_V && !V_usable) {
+    ch.note = fmt::format("logged voltage_V (median {:.3g} V) is outside {}: no power monitor; the configured battery's "
+                          "open-circuit voltage drives the replay", median_V, plausibility::RangeText("bus_voltage_V"));
+  }
   const vehicle::NoiseParams& np = v.sensors.accel.noise;
   ch.bias_nuisance = np.bias_std > 0 || np.bias_walk_per_sqrt_s > 0;
   ch.explain_above_noise = true;
@@ -381,7 +392,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
   if (!mt.X.empty()) ch.candidates.push_back(std::move(mt));
 
   // battery_sag: the ESCs see V − ΔR·I.
-  bool current_ok = Icol != nullptr;
+  bool current_ok = Icol != nullptr && current_usable;
   for (double I : current) current_ok = current_ok && std::isfinite(I);
   if (current_ok) {
     // Secant over a replay with the ESC voltage lowered by δ·I (rotor dynamics included).
@@ -397,7 +408,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     }
     ch.candidates.push_back(std::move(bs));
   } else {
-    ch.not_available.emplace_back("battery_sag (no current_A column)");
+    ch.not_available.emplace_back(current_usable ? "battery_sag (no current_A column)" : "battery_sag (no usable power monitor)");
   }
 
   // ground_effect: gain(a, z) − 1 = 1/(1 − a/(16 z²)) − 1, a = R², z the rotor height above ground.

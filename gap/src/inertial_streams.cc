@@ -18,6 +18,8 @@
 #include <fmt/format.h>
 
 #include "channels.h"
+#include "hexsim/common/plausibility.h"
+#include "replay_util.h"
 #include "hexsim/common/rotation.h"
 #include "hexsim/realdata/windows.h"
 #include "hexsim/vehicle/powertrain.h"
@@ -145,7 +147,13 @@ bool ReplayAccelStream(const logs::FlightLog& log, const vehicle::VehicleParams&
   std::vector<const std::vector<double>*> mu;
   for (size_t m = 0; m < n_rot; ++m) mu.push_back(&rcou->Column(fmt::format("motor_{}_u", m + 1)));
   const auto& tb = batt->Column("t_s");
-  const auto& volt = batt->Column("voltage_V");
+  // A logged voltage whose median is no battery bus (no power monitor connected) is replaced by the
+  // configured battery's open-circuit voltage (as the dynamics channel does), and the note says so.
+  const double median_V = MedianFinite(batt->Column("voltage_V"));
+  const bool V_usable = plausibility::IsPlausible("bus_voltage_V", median_V);
+  const std::vector<double> volt =
+      V_usable ? batt->Column("voltage_V")
+               : std::vector<double>(batt->rows(), v.battery.OpenCircuitVoltage_V(v.battery.initial_soc));
   const auto& t = log.Column("t_s");
   const auto &vn = log.Column("vel_N_mps"), &ve = log.Column("vel_E_mps"), &vd = log.Column("vel_D_mps");
   const auto& pd = log.Column("pos_D_m");
@@ -219,6 +227,10 @@ bool ReplayAccelStream(const logs::FlightLog& log, const vehicle::VehicleParams&
   ch.note = fmt::format("native-rate accel: IMU at {:.0f} Hz against the thrust model driven by RCOU at {:.0f} Hz",
                         MedianStep_s(ti) > 0 ? 1.0 / MedianStep_s(ti) : 0.0,
                         MedianStep_s(tr) > 0 ? 1.0 / MedianStep_s(tr) : 0.0);
+  if (!V_usable) {
+    ch.note += fmt::format("; logged voltage_V (median {:.3g} V) is outside {}: no power monitor, the configured "
+                           "battery's open-circuit voltage is used", median_V, plausibility::RangeText("bus_voltage_V"));
+  }
   FinishChannel(h, &ch);
   ch.not_available.emplace_back("rotor_drag, ground_effect, battery_sag, motor_time_constant, wind: see the "
                                 "'dynamics' channel");

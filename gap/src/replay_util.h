@@ -64,6 +64,17 @@ inline Eigen::Quaterniond QuatLerp(const std::vector<const std::vector<double>*>
 }
 
 
+// Median of the finite values (NaN when none).
+inline double MedianFinite(const std::vector<double>& v) {
+  std::vector<double> f;
+  for (double x : v) {
+    if (std::isfinite(x)) f.push_back(x);
+  }
+  if (f.empty()) return std::nan("");
+  std::nth_element(f.begin(), f.begin() + static_cast<std::ptrdiff_t>(f.size() / 2), f.end());
+  return f[f.size() / 2];
+}
+
 inline Mat3X Diag3(double v) { return Mat3X(Eigen::Matrix3d::Identity() * v); }
 
 inline std::string MagPrefix(size_t c) { return c == 0 ? "mag" : fmt::format("mag{}", c + 1); }

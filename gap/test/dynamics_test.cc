@@ -134,6 +134,24 @@ TEST(GapDynamics, GivenALogWithoutMotorOutputsWhenDiagnosedThenOneLineSaysWhatIs
   EXPECT_NE(FindChannel(*rep, "mag2"), nullptr);
 }
 
+// A log whose power monitor was not connected (ArduPilot logs ~0.06 V and 0 A): the replay must not
+// run the rotors at that voltage (every rotor stopped, the whole weight left as "residual").
+TEST(GapDynamics, GivenALogWithoutAPowerMonitorWhenDiagnosedThenTheConfiguredBatteryDrivesTheReplayAndSaysSo) {
+  Flown f = FlyTrialWith({}, 217);
+  logs::FlightLog log = f.log;
+  auto& V = log.MutableColumn(static_cast<size_t>(log.ColumnIndex("voltage_V")));
+  std::fill(V.begin(), V.end(), 0.06);
+  auto& I = log.MutableColumn(static_cast<size_t>(log.ColumnIndex("current_A")));
+  std::fill(I.begin(), I.end(), 0.0);
+  auto rep = Diagnose(log, f.trial.configured, gaptest::IdealOptions());
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* d = FindChannel(*rep, "dynamics");
+  ASSERT_NE(d, nullptr) << Summary(*rep);
+  EXPECT_NE(d->explanation.find("no power monitor"), std::string::npos) << d->explanation;
+  EXPECT_LT(d->rms_before, 0.2 * 9.80665) << Summary(*rep);  // thrust predicted, not the weight left over
+  for (const auto& k : d->candidates) EXPECT_NE(k.effect, "battery_sag");
+}
+
 TEST(GapDynamics, GivenAVehicleYamlWithAeroKeysWhenParsedThenTheyAreReadAndDefaultToOff) {
   const char* base = "name: v\nmass_kg: 1.0\nmotor: {kv_rpm_per_V: 900, winding_resistance_ohm: 0.1, no_load_current_A: 0.5, "
                      "inertia_kgm2: 5.0e-5}\nrotor_defaults: {k_T_Nprps2: 1.0e-5, k_Q_Nmprps2: 2.0e-7}\n"

@@ -553,7 +553,8 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
     }
   }
   DynamicsComparison(s, base, expo, st, fit, &res);
-  if (s.V_ref <= 0) res.notes.emplace_back("no bus voltage in the log: motor outputs used without voltage scaling");
+  res.notes.insert(res.notes.end(), s.notes.begin(), s.notes.end());
+  if (s.V_ref <= 0 && s.notes.empty()) res.notes.emplace_back("no bus voltage in the log: motor outputs used without voltage scaling");
   return res;
 }
 

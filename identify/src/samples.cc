@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 #include <fmt/format.h>
 
+#include "hexsim/common/plausibility.h"
 #include "hexsim/realdata/windows.h"
 
 namespace hexsim::identify::internal {
@@ -198,6 +199,18 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
       out.batt_block.push_back(b);
     }
     out.V_ref = vf.empty() ? 0.0 : Median(vf);
+    if (!vf.empty() && !plausibility::IsPlausible("bus_voltage_V", out.V_ref)) {
+      // No power monitor (e.g. 0.06 V logged): neither the voltage nor the current is a measurement.
+      out.notes.push_back(fmt::format("logged voltage_V (median {:.3g} V in flight) is outside {}: no power monitor; "
+                                      "motor outputs used without voltage scaling, battery kept from the base",
+                                      out.V_ref, plausibility::RangeText("bus_voltage_V")));
+      out.V_ref = 0.0;
+      out.batt_t_s.clear();
+      out.batt_V.clear();
+      out.batt_I.clear();
+      out.batt_Q_Ah.clear();
+      out.batt_block.clear();
+    }
   }
   const bool has_V = out.V_ref > 0;
 

@@ -46,6 +46,7 @@ struct FlightSamples {
   std::vector<FlightWindow> windows;
   std::vector<BlockSpan> blocks;
   std::string source;
+  std::vector<std::string> notes;    // what was left out and why (e.g. no power monitor)
 };
 
 // Builds the samples. `spins` per motor (size = motors). Bad input when the log lacks accel, gyro,
