@@ -229,6 +229,20 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
       break;
     }
     if (res.verdict != "ambiguous" && !second.empty()) res.explanation = "together with " + second;
+    // What the reported model leaves must not hold a structure of its own (a line or a drift far
+    // above the residual's own spectrum): a model that takes half of a form it cannot describe is
+    // not the explanation. A right model leaves only the floor, so this never blocks it.
+    const Structure left = DetectStructure(ch.t, after, cv_after, o.materiality, 1.0, 0.0, o.alpha);
+    if (left.present && res.verdict != "ambiguous") {
+      res.verdict = "unexplained";
+      res.explanation = fmt::format("{} explains {} of the held-out residual above the floor, but what it leaves still holds "
+                                    "{}: structure no candidate describes",
+                                    top.effect, Percent(res.explained_share), left.found);
+      top.selected = false;
+      if (b2 < F) at.results[b2].selected = false;
+      res.chosen_regressor_name.clear();
+      res.chosen_regressor.clear();
+    }
   } else {
     res.verdict = "unexplained";
     std::string best_txt = "no plausible, significant candidate";
