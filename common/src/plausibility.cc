@@ -46,6 +46,25 @@ const std::vector<PhysicalRange>& PlausibilityTable() {
        "scale or a strong anomaly"},
       {"local_anomaly", "uT", 0.0, 30.0, 0.0, 3.0,
        "difference of the fitted NED field from WMM: crustal anomalies are ~0.2-2 uT, steel structures nearby more"},
+      // Compass calibration (hexsim calibrate: magnetics/field_calibration and ellipsoid_fit). Magnitudes
+      // in µT of the raw reading's units after unit detection; shapes unitless (soft iron K, det K = 1).
+      Effect("earth_field_norm", "uT", 22.0, 67.0,
+             "Earth's main field at the surface (WMM): ~22 uT over the South Atlantic to ~67 uT near the magnetic poles"),
+      {"raw_field_norm", "uT", 11.0, 167.5, 22.0, 67.0,
+       "median |raw| of a compass: the 22-67 uT Earth field through a gain off by up to 2x, plus hard iron up to "
+       "~1.5x the field; outside it the numbers are in another unit (mG, G, nT or counts)"},
+      {"compass_offset", "uT", 0.0, 180.0, 0.0, 85.0,
+       "hard iron of a mounted compass: ArduPilot refuses offsets over COMPASS_OFFS_MAX (1800 mG now, 850 mG in "
+       "3.x); beyond that a magnet or steel sits on the sensor"},
+      Effect("calibration_radius", "uT", 15.0, 100.0,
+             "radius of the fitted sphere: the 22-67 uT Earth field times a raw sensor gain that may be ~30 % off"),
+      Effect("soft_iron_diagonal", "1", 0.8, 1.2,
+             "K(i,i) with det K = 1: steel near a compass changes an axis's gain by a few percent; 20 % is a wrong model"),
+      Effect("soft_iron_off_diagonal", "1", 0.0, 0.2,
+             "|K(i,j)|, det K = 1: soft iron couples axes by a few percent; 0.2 is a mis-mounted or damaged sensor"),
+      Effect("soft_iron_condition", "1", 1.0, 2.0,
+             "largest/smallest eigenvalue of K (and of A): soft iron stretches the field ellipsoid by a few percent; "
+             "2 means an axis at half gain, a broken sensor or a wrong model"),
       // Dynamics channel.
       Effect("rotor_drag", "N/((rad/s)(m/s))", 0.0, 1e-3,
              "induced drag of a small rotor: ~1e-5..1e-4 N per (rad/s)(m/s); never negative"),

@@ -120,7 +120,7 @@ Result<CalibrateOutcome> Calibrate(std::vector<MagSample> samples, const Calibra
   if (samples.empty()) return Status::BadInput("no samples");
   CalibrateOutcome out;
   for (const auto& s : samples) out.raw_uT.push_back(s.mag_B_uT);
-  auto units = DetectUnits(out.raw_uT, rq.units, rq.field_norm_uT, rq.field.ranges);
+  auto units = DetectUnits(out.raw_uT, rq.units, rq.field_norm_uT);
   if (!units.ok()) return units.status();
   out.units = *units;
   for (auto& b : out.raw_uT) b *= out.units.to_uT;

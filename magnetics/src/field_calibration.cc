@@ -5,8 +5,11 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
+#include <Eigen/SVD>
 
 #include "hexsim/common/format.h"
+
+#include "hexsim/common/plausibility.h"
 
 namespace hexsim::magnetics {
 namespace {
@@ -132,8 +135,9 @@ double NormSpread(const std::vector<Vector3d>& B) {
   return mean > 0.0 ? std::sqrt(std::max(0.0, ss / n - mean * mean)) / mean : 0.0;
 }
 
-Result<UnitGuess> DetectUnits(const std::vector<Vector3d>& raw, const std::string& units, double field_norm_uT,
-                              const FieldRanges& rg) {
+Result<UnitGuess> DetectUnits(const std::vector<Vector3d>& raw, const std::string& units, double field_norm_uT) {
+  const auto& earth = CalibrationRange("earth_field_norm");
+  const auto& window = CalibrationRange("raw_field_norm");
   struct Unit {
     const char* name;
     double to_uT;
@@ -141,7 +145,7 @@ Result<UnitGuess> DetectUnits(const std::vector<Vector3d>& raw, const std::strin
   static const Unit kUnits[] = {{"uT", 1.0}, {"mG", 0.1}, {"G", 100.0}, {"nT", 0.001}};
   UnitGuess g;
   g.median_norm = Median(Norms(raw));
-  const double lo_uT = rg.unit_window_lo * rg.earth_min_uT, hi_uT = rg.unit_window_hi * rg.earth_max_uT;
+  const double lo_uT = window.lo, hi_uT = window.hi;
   if (units == "counts") {
     if (!(field_norm_uT > 0.0)) return Status::BadInput("--units counts needs --field-norm F (the local field in uT, e.g. from hexsim field)");
     if (!(g.median_norm > 0.0)) return Status::BadInput("all samples are zero");
@@ -161,7 +165,7 @@ Result<UnitGuess> DetectUnits(const std::vector<Vector3d>& raw, const std::strin
         g.assumption += "; raw counts can look like milligauss: if these are counts, give --units counts --field-norm F";
       }
       if (m_uT < lo_uT || m_uT > hi_uT) {
-        g.assumption += Format("; WARNING: %.4g uT is far from Earth's %g-%g uT", m_uT, rg.earth_min_uT, rg.earth_max_uT);
+        g.assumption += Format("; WARNING: %.4g uT is far from Earth's %g-%g uT", m_uT, earth.lo, earth.hi);
       }
       return g;
     }
@@ -170,7 +174,7 @@ Result<UnitGuess> DetectUnits(const std::vector<Vector3d>& raw, const std::strin
   return Status::BadInput(Format(
       "median field norm %.4g matches no unit (Earth's %g-%g uT is %g-%g in uT, x10 in mG, /100 in G, x1000 in nT): "
       "give --units, or --units counts --field-norm F",
-      g.median_norm, rg.earth_min_uT, rg.earth_max_uT, lo_uT, hi_uT));
+      g.median_norm, earth.lo, earth.hi, lo_uT, hi_uT));
 }
 
 Coverage ComputeCoverage(const std::vector<Vector3d>& B, double median_norm) {
@@ -322,6 +326,20 @@ Result<FieldCalibration> CalibrateField(const std::vector<Vector3d>& H, const Fi
   }
   c.fitness_uT = sw > 0.0 ? std::sqrt(ss / sw) : 0.0;
   c.norm_spread_after = NormSpread(after);
+  // Physical ranges (plausibility table): outside them the fit describes no real compass.
+  const double offset_uT = c.offset_uT.norm();
+  if (!plausibility::IsPlausible("compass_offset", offset_uT)) {
+    c.warnings.push_back(Format("model mismatch: offset |b| = %.1f uT outside %s (%s)", offset_uT,
+                                plausibility::RangeText("compass_offset").c_str(),
+                                CalibrationRange("compass_offset").reason.c_str()));
+  }
+  const Vector3d sv = Eigen::JacobiSVD<Matrix3d>(c.K).singularValues();
+  const double condition = sv(2) > 0.0 ? sv(0) / sv(2) : INFINITY;
+  if (!plausibility::IsPlausible("soft_iron_condition", condition)) {
+    c.warnings.push_back(Format("model mismatch: soft-iron condition %.3g outside %s (%s)", condition,
+                                plausibility::RangeText("soft_iron_condition").c_str(),
+                                CalibrationRange("soft_iron_condition").reason.c_str()));
+  }
   return c;
 }
 

@@ -20,6 +20,7 @@
 #include <Eigen/Core>
 
 #include "hexsim/common/status.h"
+#include "hexsim/magnetics/calibration_ranges.h"
 
 namespace hexsim::magnetics {
 
@@ -33,11 +34,12 @@ struct EllipsoidFitOptions {
   double planarity_tolerance = 1e-3;
 
   // Acceptance gate. Earth's field is 22–67 µT at the surface.
-  double min_radius_uT = 15.0;
-  double max_radius_uT = 100.0;
-  double min_diagonal = 0.8;       // K(i,i) with det(K) = 1
-  double max_diagonal = 1.2;
-  double max_off_diagonal = 0.2;   // |K(i,j)|, i ≠ j
+  // Bounds from the plausibility table (calibration_ranges.h).
+  double min_radius_uT = CalibrationRange("calibration_radius").lo;
+  double max_radius_uT = CalibrationRange("calibration_radius").hi;
+  double min_diagonal = CalibrationRange("soft_iron_diagonal").lo;  // K(i,i) with det(K) = 1
+  double max_diagonal = CalibrationRange("soft_iron_diagonal").hi;
+  double max_off_diagonal = CalibrationRange("soft_iron_off_diagonal").hi;  // |K(i,j)|, i ≠ j
   double max_rms_residual_uT = 2.0;
   double max_condition_number = 1e6;  // of the column-scaled LM Jacobian
   // Coverage: fraction of `coverage_bins` direction bins (Fibonacci sphere) hit by the corrected

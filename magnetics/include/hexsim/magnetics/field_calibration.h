@@ -22,17 +22,6 @@
 
 namespace hexsim::magnetics {
 
-// Physical ranges, in one place. (The real-data plausibility table of realdata/ had not landed
-// when this was written; these are the compass's own.)
-struct FieldRanges {
-  // Earth's main field at the surface (WMM): 22–67 µT. Raw norms may stray further by hard iron.
-  double earth_min_uT = 22.0;
-  double earth_max_uT = 67.0;
-  // Median raw norm accepted as "this unit" (µT window × the unit's size): 0.5×min … 2.5×max.
-  double unit_window_lo = 0.5;
-  double unit_window_hi = 2.5;
-};
-
 // The unit of the raw numbers, from the median norm or as given.
 struct UnitGuess {
   std::string unit;          // "uT", "mG", "G", "nT" or "counts"
@@ -41,10 +30,11 @@ struct UnitGuess {
   std::string assumption;    // the printed sentence
 };
 
-// units: "auto" | "uT" | "mG" | "G" | "nT" | "counts". counts needs field_norm_uT > 0.
+// units: "auto" | "uT" | "mG" | "G" | "nT" | "counts". counts needs field_norm_uT > 0. "auto"
+// takes the unit whose median norm falls in the table's raw_field_norm (calibration_ranges.h).
 // BadInput when "auto" matches no unit, or counts lacks the field norm.
 Result<UnitGuess> DetectUnits(const std::vector<Eigen::Vector3d>& raw, const std::string& units,
-                              double field_norm_uT, const FieldRanges& rg = {});
+                              double field_norm_uT);
 
 struct Coverage {
   Eigen::Vector3d eigenvalues = Eigen::Vector3d::Zero();  // ascending, dimensionless (see top)
@@ -79,7 +69,6 @@ struct FieldCalibrationOptions {
   double tukey_c = 4.685;
   int robust_iterations = 12;
   double outlier_sigmas = 5.0;  // auto switches to robust when a residual exceeds this many σ
-  FieldRanges ranges;
 };
 
 struct FieldCalibration {
@@ -93,7 +82,7 @@ struct FieldCalibration {
   double norm_spread_before = 0.0;
   double norm_spread_after = 0.0;
   Coverage coverage;
-  std::vector<std::string> warnings;
+  std::vector<std::string> warnings;  // incl. "model mismatch" for an offset or shape outside its range
   std::vector<size_t> downweighted;  // robust: samples whose weight ended below 0.1 (outliers)
   EllipsoidFit fit;                  // gate, iterations, ...; status OK and defaults for "none"
   bool accepted = true;              // the fit's gate
