@@ -244,6 +244,15 @@ Result<FieldCalibration> CalibrateField(const std::vector<Vector3d>& H, const Fi
                                    "turn the vehicle through all attitudes%s",
                                    Eigs(l).c_str(), o.sphere_eigen, consistent ? ("; " + spread_note).c_str() : ""));
   }
+  // The first look scaled the covariance by the median raw norm, which includes the hard iron: a
+  // 40 uT offset on a 30 uT field shrinks every eigenvalue fourfold and calls a good dump poor.
+  // Judge the coverage about the field itself: scaled by a first sphere's radius (in the plane for
+  // a flat spin), the eigenvalues are those of the sample directions about the fitted centre.
+  {
+    const EllipsoidFit first = RunBase(l(0) < o.sphere_eigen ? Base::kSpherePlanar : Base::kSphere, H, c.coverage,
+                                       o.fit, {}, o.prior_offset_uT);
+    if (first.status.ok() && first.radius_uT > 0.0) c.coverage = ComputeCoverage(H, first.radius_uT);
+  }
   if (consistent) c.warnings.push_back(spread_note);
   const bool want_ellipsoid = o.method == "ellipsoid" || o.method == "robust-ellipsoid";
   const bool want_sphere = o.method == "sphere" || o.method == "robust-sphere";

@@ -69,6 +69,24 @@ TEST(FieldCalibration, GivenFullSphere_WhenAuto_ThenEllipsoidRecoversOffsetAndSh
   EXPECT_TRUE(c->warnings.empty());
 }
 
+TEST(FieldCalibration, GivenAHardIronLargerThanTheField_WhenAuto_ThenCoverageIsJudgedOnTheFieldNotTheOffset) {
+  // Directions in a belt |u_z| <= 0.5 (the z axis spread is a quarter of the others, still enough
+  // for an ellipsoid), |B| = 50 uT, hard iron 57 uT: scaled by the raw norm (~76 uT) the smallest
+  // eigenvalue would be ~0.036, below the ellipsoid's 0.05; about the field it is ~0.083.
+  const Vector3d b(40.0, 35.0, -20.0);
+  std::vector<Vector3d> H;
+  const int n = 400;
+  for (int i = 0; i < n; ++i) {
+    const double z = 0.5 * (1.0 - (2.0 * i + 1.0) / n), rho = std::sqrt(1.0 - z * z), phi = 2.39996322972865332 * i;
+    H.emplace_back(TrueK() * Vector3d(kF_uT * rho * std::cos(phi), kF_uT * rho * std::sin(phi), kF_uT * z) + b);
+  }
+  auto c = CalibrateField(H, Method("auto"));
+  ASSERT_TRUE(c.ok()) << c.status().message();
+  EXPECT_EQ(c->method_used, "ellipsoid") << c->why;
+  EXPECT_NEAR(c->coverage.eigenvalues(0), 1.0 / 12.0, 0.02);
+  EXPECT_LT((c->offset_uT - b).norm(), 0.05);
+}
+
 TEST(FieldCalibration, GivenFieldNorm_WhenFitted_ThenAMapsToThatNorm) {
   const auto H = Dump("sphere", 400, 0.05, 2);
   FieldCalibrationOptions o = Method("ellipsoid");

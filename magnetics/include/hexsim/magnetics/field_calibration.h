@@ -6,10 +6,12 @@
 // local field norm when it is known (FieldCalibrationOptions::field_norm_uT), else r, the fitted
 // radius, so that det A = 1 and |A·(raw − b)| ≈ r.
 //
-// Coverage: the eigenvalues λ1 ≤ λ2 ≤ λ3 of the sample covariance divided by s², s = the median
-// sample norm: samples spread evenly over the whole sphere give ≈ 1/3 each (less when a large hard
-// iron inflates s); a flat spin about one body axis gives λ1 ≈ 0 with that axis as its eigenvector;
-// little rotation gives all three small. The missing rotation is named from λ1's eigenvector.
+// Coverage: the eigenvalues λ1 ≤ λ2 ≤ λ3 of the sample covariance divided by s²: samples spread
+// evenly over the whole sphere give ≈ 1/3 each; a flat spin about one body axis gives λ1 ≈ 0 with
+// that axis as its eigenvector; little rotation gives all three small. The missing rotation is
+// named from λ1's eigenvector. CalibrateField takes s = the median raw norm for a first look (too
+// little rotation for any fit?), then s = a first sphere fit's radius, so that a hard iron larger
+// than the field does not shrink the eigenvalues (the figures reported are the second).
 #pragma once
 
 #include <string>
