@@ -48,7 +48,7 @@ TEST(CalibrateULog, GivenACalibratedTopicWithAStaleCalibration_WhenCalibrated_Th
     w.Data(att, Pack(t) + Pack(1.0f) + Pack(0.0f) + Pack(0.0f) + Pack(0.0f));
     if (i == n) break;
     const double z = 1.0 - (2.0 * i + 1.0) / n, rho = std::sqrt(1.0 - z * z), phi = 2.39996322972865332 * i;
-    raw.push_back(K * Eigen::Vector3d(0.5 * rho * std::cos(phi), 0.5 * rho * std::sin(phi), 0.5 * z) + b);
+    raw.emplace_back(K * Eigen::Vector3d(0.5 * rho * std::cos(phi), 0.5 * rho * std::sin(phi), 0.5 * z) + b);
     const Eigen::Vector3f c = (R * S * (raw.back() - off)).cast<float>();
     w.Data(vm, Pack(t) + Pack<uint32_t>(4242) + Pack(c(0)) + Pack(c(1)) + Pack(c(2)));
   }

@@ -95,7 +95,11 @@ void Vec3(Channel* ch, const std::string& prefix, const std::string& suffix, con
   const ULogTopic* t = ch->topic;
   for (size_t k = 0; k < 3; ++k) {
     const std::string& field = f[k];
-    ch->columns.push_back({prefix + "_" + ax[k] + suffix, [t, field, scale](size_t i) { return t->Get(i, field) * scale; }});
+    std::string name = prefix;
+    name += "_";
+    name += ax[k];
+    name += suffix;
+    ch->columns.push_back({name, [t, field, scale](size_t i) { return t->Get(i, field) * scale; }});
   }
 }
 

@@ -231,7 +231,7 @@ Result<FieldCalibration> CalibrateField(const std::vector<Vector3d>& H, const Fi
     // parameters written reproduce it instead of resetting it.
     c.offset_uT = o.prior_offset_uT;
     if (!o.prior_offset_uT.isZero()) {
-      c.warnings.push_back("no fit: the autopilot's offset in force is kept in the parameters written (its soft iron is not)");
+      c.warnings.emplace_back("no fit: the autopilot's offset in force is kept in the parameters written (its soft iron is not)");
     }
     return c;
   }
