@@ -10,6 +10,7 @@
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/paths.h"
 #include "hexsim/common/yaml_reader.h"
+#include "hexsim/magnetics/calib_io.h"
 #include "hexsim/magnetics/compensator.h"
 #include "hexsim/magnetics/heading_error.h"
 #include "turntable_util.h"

@@ -1,10 +1,15 @@
 # cmake -DSOURCE=... -DBINARY=... -DPREFIX=... -DGENERATOR=... -DCOMPILER=... [-DLAUNCHER=...] -DEXE=...
+#       [-DCONFIGURE_ARGS=a|b|c] (extra -D arguments for the example's configure, '|'-separated)
 #       -P build_and_run.cmake
 file(REMOVE_RECURSE ${BINARY})
 set(args -S ${SOURCE} -B ${BINARY} -G ${GENERATOR} -DCMAKE_PREFIX_PATH=${PREFIX}
          -DCMAKE_CXX_COMPILER=${COMPILER} -DCMAKE_BUILD_TYPE=Release)
 if(LAUNCHER)
   list(APPEND args -DCMAKE_CXX_COMPILER_LAUNCHER=${LAUNCHER})
+endif()
+if(CONFIGURE_ARGS)
+  string(REPLACE "|" ";" extra "${CONFIGURE_ARGS}")
+  list(APPEND args ${extra})
 endif()
 execute_process(COMMAND ${CMAKE_COMMAND} ${args} RESULT_VARIABLE rc)
 if(NOT rc EQUAL 0)

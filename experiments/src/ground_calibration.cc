@@ -5,6 +5,7 @@
 
 #include "hexsim/common/paths.h"
 #include "hexsim/common/yaml_reader.h"
+#include "hexsim/magnetics/calib_io.h"
 #include "hexsim/sim/turntable.h"
 
 namespace hexsim::experiments {

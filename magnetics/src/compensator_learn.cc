@@ -7,7 +7,6 @@
 #include <Eigen/LU>
 
 #include "hexsim/common/format.h"
-#include "hexsim/magnetics/calib_io.h"
 #include "hexsim/magnetics/compensator.h"
 #include "hexsim/magnetics/compensators.h"
 
@@ -19,12 +18,7 @@ using Eigen::Vector3d;
 using Indices = std::vector<size_t>;
 
 // One ellipsoid fit over a group of samples, with its context for the report.
-struct GroupFit {
-  double control_u = 0.0;
-  double mean_current_A = 0.0;
-  int planes = 0;
-  EllipsoidFit fit;
-};
+using GroupFit = LearnedFit;
 
 Status ValidateSamples(const std::vector<MagSample>& s) {
   if (s.empty()) return Status::BadInput("no samples");
@@ -87,14 +81,6 @@ Result<GroupFit> FitGround(const std::vector<MagSample>& s, const LearnOptions& 
   return FitGroup(s, zero, o);
 }
 
-nlohmann::json GroupJson(const GroupFit& g) {
-  nlohmann::json j = EllipsoidFitToJson(g.fit);
-  j["control_u"] = g.control_u;
-  j["mean_current_A"] = g.mean_current_A;
-  j["planes"] = g.planes;
-  return j;
-}
-
 Status NeedControlAmounts(const std::string& method, size_t n, const LearnOptions& o) {
   if (static_cast<int>(n) < o.min_control_amounts) {
     return Status::BadInput(Format("%s needs samples at %d or more control amounts, got %zu", method.c_str(),
@@ -116,7 +102,7 @@ double AngleDiffDeg(double a, double b) {
 struct Learnt {
   std::unique_ptr<Compensator> comp;
   std::vector<GroupFit> fits;  // fits[0] is the ground (or lowest-control) fit
-  nlohmann::json extra = nlohmann::json::object();
+  LearnDiagnostics diagnostics;
 };
 
 Result<Learnt> LearnTraditional(const std::vector<MagSample>& s, const LearnOptions& o) {
@@ -144,15 +130,15 @@ Result<Learnt> LearnLine(const std::string& method, const std::vector<MagSample>
   const SvdLineFit svd = FitLineSvd(centres);
   HEXSIM_RETURN_IF_ERROR(svd.status.WithContext("hard-iron line"));
   SpaceLine line = svd.line;
-  l.extra["line_svd_rms_residual_uT"] = svd.rms_residual_uT;
+  l.diagnostics.line_svd_rms_residual_uT = svd.rms_residual_uT;
   if (o.line_form == LineForm::kPaper) {
     const PaperLineFit paper = FitLinePaperTls(centres, o.line);
     HEXSIM_RETURN_IF_ERROR(paper.status.WithContext("hard-iron line (paper form)"));
     line = paper.line;
     const double cosang = std::min(1.0, std::abs(paper.line.direction.dot(svd.line.direction)));
-    l.extra["line_paper"] = {{"a", paper.a}, {"b_uT", paper.b_uT}, {"c", paper.c}, {"d_uT", paper.d_uT},
-                             {"iterations", paper.iterations}, {"rms_residual_uT", paper.rms_residual_uT},
-                             {"angle_to_svd_deg", std::acos(cosang) * 180.0 / 3.14159265358979323846}};
+    l.diagnostics.line_paper = PaperLineSummary{paper.a,         paper.b_uT,         paper.c,
+                                                paper.d_uT,      paper.iterations,   paper.rms_residual_uT,
+                                                std::acos(cosang) * 180.0 / 3.14159265358979323846};
   }
   std::vector<double> x, pos;
   for (size_t i = 0; i < centres.size(); ++i) {
@@ -169,9 +155,9 @@ Result<Learnt> LearnLine(const std::string& method, const std::vector<MagSample>
   // Position along the line: linear in current; monotone (PCHIP) or linear in control amount.
   const AlongFit along = (by_current || o.along_control == AlongKind::kLinear) ? FitLinearAlong(x, pos) : FitMonotoneAlong(x, pos);
   HEXSIM_RETURN_IF_ERROR(along.status);
-  l.extra["along_rms_residual_uT"] = along.rms_residual_uT;
-  l.extra["along_index"] = by_current ? "current_A" : "control_u";
-  l.extra["along_model"] = along.model.kind == AlongKind::kLinear ? "linear" : "monotone";
+  l.diagnostics.along_rms_residual_uT = along.rms_residual_uT;
+  l.diagnostics.along_index = by_current ? "current_A" : "control_u";
+  l.diagnostics.along_model = along.model.kind == AlongKind::kLinear ? "linear" : "monotone";
   // Soft iron from the ground (lowest control amount) fit.
   l.comp = std::make_unique<LineCompensator>(method, l.fits.front().fit.soft_iron, HardIronLine{line, along.model},
                                              by_current ? LineIndex::kCurrent : LineIndex::kControl);
@@ -218,7 +204,7 @@ Result<Learnt> LearnCurrentSlope(const std::string& method, const std::vector<Ma
     c = sum / sum_dI2;
     double ss = 0.0;
     for (const auto& [dI, dH] : dd) ss += (dH - c * dI).squaredNorm();
-    l.extra["pair_rms_residual_uT"] = std::sqrt(ss / static_cast<double>(dd.size()));
+    l.diagnostics.pair_rms_residual_uT = std::sqrt(ss / static_cast<double>(dd.size()));
     l.comp = std::make_unique<CurrentSlopeCompensator>(method, gf.soft_iron, gf.hard_iron_uT, c, I0, CurrentFrame::kCorrected);
   } else {
     // PX4 style: raw H = o_pose + c·I per axis, a free offset per (plane, angle) pose.
@@ -258,15 +244,19 @@ Result<Learnt> LearnCurrentSlope(const std::string& method, const std::vector<Ma
     c = sum / sum_dI2;
     double ss = 0.0;
     for (const auto& [dI, dH] : dd) ss += (dH - c * dI).squaredNorm();
-    l.extra["pose_rms_residual_uT"] = std::sqrt(ss / static_cast<double>(dd.size()));
+    l.diagnostics.pose_rms_residual_uT = std::sqrt(ss / static_cast<double>(dd.size()));
     l.comp = std::make_unique<CurrentSlopeCompensator>(method, gf.soft_iron, gf.hard_iron_uT, c, I0, CurrentFrame::kRaw);
   }
-  l.extra["samples_used_for_c"] = pairs;
+  l.diagnostics.samples_used_for_c = pairs;
   l.fits.push_back(std::move(ground.value()));
   return l;
 }
 
 }  // namespace
+
+bool LearnReport::accepted() const {
+  return std::all_of(fits.begin(), fits.end(), [](const LearnedFit& f) { return f.fit.gate.accepted; });
+}
 
 Status LearnOptions::IsValid() const {
   HEXSIM_RETURN_IF_ERROR(ellipsoid.IsValid());
@@ -281,7 +271,7 @@ Status LearnOptions::IsValid() const {
 }
 
 Result<std::unique_ptr<Compensator>> LearnCompensator(const std::string& method, const std::vector<MagSample>& samples,
-                                                      const LearnOptions& options, nlohmann::json* report) {
+                                                      const LearnOptions& options, LearnReport* report) {
   const auto names = CompensatorNames();
   if (std::find(names.begin(), names.end(), method) == names.end()) {
     return Status::BadInput(Format("unknown calibration method '%s' (one of: %s)", method.c_str(), Join(names, ", ").c_str()));
@@ -303,39 +293,10 @@ Result<std::unique_ptr<Compensator>> LearnCompensator(const std::string& method,
   if (!learnt.ok()) return learnt.status().WithContext(method);
   Learnt& l = learnt.value();
   if (report) {
-    nlohmann::json& r = *report;
-    r = nlohmann::json::object();
-    r["schema"] = "hexsim.calib/1";
-    r["method"] = method;
-    bool accepted = true;
-    nlohmann::json fits = nlohmann::json::array();
-    for (const auto& g : l.fits) {
-      accepted = accepted && g.fit.gate.accepted;
-      fits.push_back(GroupJson(g));
-    }
-    r["accepted"] = accepted;
-    if (l.fits.empty()) {
-      r["gate"] = {{"accepted", true}, {"criteria", nlohmann::json::array()}, {"failures", ""}};
-      r["rms_residual_uT"] = nullptr;
-      r["coverage"] = nullptr;
-    } else {
-      // The ground fit's gate; every fit's own gate is under "fits". Rejected fits are named.
-      nlohmann::json gate = GateToJson(l.fits.front().fit.gate);
-      std::string failures;
-      for (const auto& g : l.fits) {
-        if (g.fit.gate.accepted) continue;
-        failures += (failures.empty() ? "" : " | ") + std::string("control_u ") + ShortestDouble(g.control_u) + ": " + g.fit.gate.Failures();
-      }
-      gate["accepted"] = accepted;
-      gate["failures"] = failures;
-      r["gate"] = gate;
-      r["rms_residual_uT"] = l.fits.front().fit.rms_residual_uT;
-      r["coverage"] = {{"fraction", l.fits.front().fit.coverage_fraction}, {"planes", l.fits.front().planes}};
-    }
-    r["fits"] = fits;
-    r["params"] = YamlToJson(l.comp->ToYaml());
-    r["diagnostics"] = l.extra;
-    r["num_samples"] = samples.size();
+    report->method = method;
+    report->fits = std::move(l.fits);
+    report->diagnostics = std::move(l.diagnostics);
+    report->num_samples = samples.size();
   }
   return Result<std::unique_ptr<Compensator>>(std::move(l.comp));
 }

@@ -24,10 +24,15 @@ std::vector<MagSample> PaperSamples(uint64_t seed, testing::SynthRig* rig_out = 
   return testing::Turntable(rig, rng);
 }
 
-std::unique_ptr<Compensator> Learn(const std::string& method, const std::vector<MagSample>& s, nlohmann::json* report = nullptr) {
-  auto r = LearnCompensator(method, s, LearnOptions{}, report);
+// The hexsim.calib/1 JSON of the report into *report_json when given (magnetics_io).
+std::unique_ptr<Compensator> Learn(const std::string& method, const std::vector<MagSample>& s,
+                                   nlohmann::json* report_json = nullptr) {
+  LearnReport report;
+  auto r = LearnCompensator(method, s, LearnOptions{}, &report);
   EXPECT_TRUE(r.ok()) << method << ": " << r.status().message();
-  return r.ok() ? std::move(r).value() : nullptr;
+  if (!r.ok()) return nullptr;
+  if (report_json) *report_json = LearnReportToJson(report, **r);
+  return std::move(r).value();
 }
 
 TEST(Compensator, GivenTheNameList_ThenItHoldsEveryMethodAndEachLearnsFromPaperTurntableData) {
@@ -93,9 +98,11 @@ TEST(Compensator, GivenTwoPlanesOnly_WhenLearning_ThenBadInputAskingForThree) {
 TEST(Compensator, GivenAGateBoundTheDataViolates_WhenLearning_ThenTheCompensatorIsReturnedButTheReportRejectsIt) {
   LearnOptions o;
   o.ellipsoid.max_radius_uT = 40.0;  // the synthetic field is ≈ 52 µT
-  nlohmann::json report;
-  const auto r = LearnCompensator("adaptive", PaperSamples(13), o, &report);
+  LearnReport learnt;
+  const auto r = LearnCompensator("adaptive", PaperSamples(13), o, &learnt);
   ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_FALSE(learnt.accepted());
+  const nlohmann::json report = LearnReportToJson(learnt, **r);
   EXPECT_FALSE(report["accepted"].get<bool>());
   EXPECT_FALSE(report["gate"]["accepted"].get<bool>());
   EXPECT_NE(report["gate"]["failures"].get<std::string>().find("radius_uT"), std::string::npos) << report["gate"].dump();

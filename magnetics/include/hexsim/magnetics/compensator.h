@@ -21,13 +21,12 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-#include <nlohmann/json.hpp>
-#include <yaml-cpp/yaml.h>
 
 #include "hexsim/common/status.h"
 #include "hexsim/magnetics/ellipsoid_fit.h"
@@ -46,8 +45,6 @@ class Compensator {
   virtual std::string name() const = 0;
   // Raw body-frame reading → corrected body-frame field (µT).
   virtual Eigen::Vector3d Correct(const Eigen::Vector3d& raw_B_uT, const CompensatorInput& in) const = 0;
-  // calib.yaml content (schema, method and parameters); CompensatorFromYaml reads it back.
-  virtual YAML::Node ToYaml() const = 0;
 };
 
 // What a user records on the turntable or in a throttle ramp (sensor data only — never simulator
@@ -82,16 +79,45 @@ struct LearnOptions {
   Status IsValid() const;
 };
 
+// What LearnCompensator fitted, for its report (magnetics_io's LearnReportToJson writes hexsim.calib/1).
+struct LearnedFit {
+  double control_u = 0.0;  // the group's control amount
+  double mean_current_A = 0.0;
+  int planes = 0;          // distinct rig planes in the group
+  EllipsoidFit fit;
+};
+// The paper's line form x = a z + b, y = c z + d (LineForm::kPaper) beside the direction-vector fit.
+struct PaperLineSummary {
+  double a = 0.0, b_uT = 0.0, c = 0.0, d_uT = 0.0;
+  int iterations = 0;
+  double rms_residual_uT = 0.0;
+  double angle_to_svd_deg = 0.0;  // between the paper line and the direction-vector line
+};
+// Each method's own figures; the absent ones are not reported.
+struct LearnDiagnostics {
+  std::optional<double> line_svd_rms_residual_uT;  // adaptive methods: centres about the line
+  std::optional<PaperLineSummary> line_paper;
+  std::optional<double> along_rms_residual_uT;     // position along the line vs its model
+  std::string along_index;                         // "control_u" | "current_A"
+  std::string along_model;                         // "linear" | "monotone"
+  std::optional<double> pair_rms_residual_uT;      // compassmot
+  std::optional<double> pose_rms_residual_uT;      // px4-ls
+  std::optional<int> samples_used_for_c;           // compassmot, px4-ls
+};
+struct LearnReport {
+  std::string method;
+  std::vector<LearnedFit> fits;  // fits[0]: the ground (lowest-control) fit; none for "none"
+  LearnDiagnostics diagnostics;
+  size_t num_samples = 0;
+  bool accepted() const;         // every fit passed its gate
+};
+
 // Learns `method` (one of CompensatorNames()). BadInput with a clear reason when the samples
 // cannot support the method (one plane, too few, NaN, one control amount for adaptive, ...);
-// Numerical for a singular fit. `report` (may be null) receives the hexsim.calib/1 JSON:
-// schema, method, accepted, gate, rms_residual_uT, coverage, params, fits. A fit rejected by its
-// gate still returns the compensator, with report["accepted"] = false.
+// Numerical for a singular fit. `report` (may be null) receives what was fitted. A fit rejected by
+// its gate still returns the compensator, with report->accepted() false.
 Result<std::unique_ptr<Compensator>> LearnCompensator(const std::string& method, const std::vector<MagSample>& samples,
-                                                      const LearnOptions& options, nlohmann::json* report);
-
-// calib.yaml → compensator; errors name file:line:field.
-Result<std::unique_ptr<Compensator>> CompensatorFromYaml(const YAML::Node& node, const std::string& file);
+                                                      const LearnOptions& options, LearnReport* report);
 
 // none, traditional, adaptive, adaptive-current, compassmot, px4-ls
 std::vector<std::string> CompensatorNames();

@@ -13,7 +13,6 @@ class EllipsoidCompensator : public Compensator {
   EllipsoidCompensator(std::string method, const Eigen::Matrix3d& soft_iron, const Eigen::Vector3d& hard_iron_uT);
   std::string name() const override { return method_; }
   Eigen::Vector3d Correct(const Eigen::Vector3d& raw_B_uT, const CompensatorInput& in) const override;
-  YAML::Node ToYaml() const override;
   const Eigen::Matrix3d& soft_iron() const { return K_; }
   const Eigen::Vector3d& hard_iron_uT() const { return beta_uT_; }
 
@@ -32,7 +31,7 @@ class LineCompensator : public Compensator {
   LineCompensator(std::string method, const Eigen::Matrix3d& soft_iron, HardIronLine line, LineIndex index);
   std::string name() const override { return method_; }
   Eigen::Vector3d Correct(const Eigen::Vector3d& raw_B_uT, const CompensatorInput& in) const override;
-  YAML::Node ToYaml() const override;
+  const Eigen::Matrix3d& soft_iron() const { return K_; }
   const HardIronLine& line() const { return line_; }
   LineIndex index() const { return index_; }
 
@@ -56,8 +55,11 @@ class CurrentSlopeCompensator : public Compensator {
                           const Eigen::Vector3d& c_uT_per_A, double current_ref_A, CurrentFrame frame);
   std::string name() const override { return method_; }
   Eigen::Vector3d Correct(const Eigen::Vector3d& raw_B_uT, const CompensatorInput& in) const override;
-  YAML::Node ToYaml() const override;
+  const Eigen::Matrix3d& soft_iron() const { return K_; }
+  const Eigen::Vector3d& hard_iron_uT() const { return beta_uT_; }
   const Eigen::Vector3d& c_uT_per_A() const { return c_uT_per_A_; }
+  double current_ref_A() const { return current_ref_A_; }
+  CurrentFrame frame() const { return frame_; }
 
  private:
   std::string method_;

@@ -57,9 +57,10 @@ Result<CalibrateOutcome> FieldPath(CalibrateOutcome out, const std::string& meth
 // The turntable path: LearnCompensator, then the ground fit's offset and soft iron as A and b.
 Result<CalibrateOutcome> TurntablePath(CalibrateOutcome out, const std::vector<MagSample>& s, const std::string& method,
                                        const CalibrateRequest& rq) {
-  nlohmann::json learnt;
-  auto comp = LearnCompensator(method, s, rq.learn, &learnt);
+  LearnReport report;
+  auto comp = LearnCompensator(method, s, rq.learn, &report);
   if (!comp.ok()) return comp.status();
+  const nlohmann::json learnt = LearnReportToJson(report, **comp);
   out.compensator = std::move(*comp);
   FieldCalibration& f = out.field;
   f.method_used = method;
@@ -160,7 +161,7 @@ Result<CalibrateOutcome> Calibrate(std::vector<MagSample> samples, const Calibra
   r["downweighted"] = {{"count", f.downweighted.size()}, {"samples", dw}, {"indexing", "0-based, in input order, first 200"}};
   r["ardupilot_params"] = Params(o.ardupilot);
   r["px4_params"] = Params(o.px4);
-  r["params"] = YamlToJson(o.compensator->ToYaml());
+  r["params"] = YamlToJson(CompensatorToYaml(*o.compensator));
   r["num_samples"] = o.raw_uT.size();
   return done;
 }

@@ -124,7 +124,7 @@ std::string SamplesToCsv(const std::vector<MagSample>& samples) {
 std::string CompensatorToYamlText(const Compensator& compensator) {
   YAML::Emitter e;
   e.SetDoublePrecision(17);
-  e << compensator.ToYaml();
+  e << CompensatorToYaml(compensator);
   return std::string("# hexsim compass calibration (") + compensator.name() + ")\n" + e.c_str() + "\n";
 }
 

@@ -1,7 +1,9 @@
-// Serialisation for calibration: samples.csv text ↔ MagSample, compensator → calib.yaml text,
-// fits and gates → JSON. Strings only: the app reads and writes the files.
+// Serialisation for calibration (hexsim::magnetics_io; the magnetics core has no YAML or JSON):
+// samples.csv text ↔ MagSample, compensator ↔ calib.yaml, fits, gates and learn reports → JSON.
+// Strings and nodes only: the app reads and writes the files.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -23,8 +25,15 @@ Result<std::vector<MagSample>> ParseSamplesCsv(const std::string& text, const st
 // The same columns (with earth_*), full double precision.
 std::string SamplesToCsv(const std::vector<MagSample>& samples);
 
-// calib.yaml text for a compensator.
+// calib.yaml content (schema, method and parameters) of a compensator of compensators.h, and its
+// text; CompensatorFromYaml reads it back (errors name file:line:field).
+YAML::Node CompensatorToYaml(const Compensator& compensator);
 std::string CompensatorToYamlText(const Compensator& compensator);
+Result<std::unique_ptr<Compensator>> CompensatorFromYaml(const YAML::Node& node, const std::string& file);
+
+// hexsim.calib/1 of LearnCompensator's report: schema, method, accepted, gate, rms_residual_uT,
+// coverage, fits, params, diagnostics, num_samples.
+nlohmann::json LearnReportToJson(const LearnReport& report, const Compensator& compensator);
 
 nlohmann::json GateToJson(const FitGate& gate);
 nlohmann::json EllipsoidFitToJson(const EllipsoidFit& fit);
