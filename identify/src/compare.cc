@@ -80,6 +80,11 @@ nlohmann::json DistanceFromVehicle(const IdentifyResult& r, const vehicle::Vehic
     auto it = r.params.find(k);
     if (it == r.params.end()) continue;
     const Param& p = it->second;
+    if (!std::isfinite(p.value)) {  // not identified (too few samples, or no data for it): no comparison
+      j[k] = {{"identified", nullptr}, {"vehicle", value}, {"unit", p.unit}, {"source", p.source}};
+      if (lines) lines->push_back(fmt::format("{}: not identified from this log ({} in {})", k, value, v.name));
+      continue;
+    }
     const bool inside = value >= p.ci95[0] && value <= p.ci95[1];
     j[k] = {{"identified", p.value}, {"ci95", {p.ci95[0], p.ci95[1]}}, {"vehicle", value}, {"unit", p.unit},
             {"vehicle_inside_ci95", inside}, {"source", p.source}};

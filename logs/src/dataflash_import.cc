@@ -182,9 +182,11 @@ struct Collected {
   Channel mode{"", {"mode"}};
   Channel waypoint{"", {"waypoint_index"}};
   // EV ARMED (10) / DISARMED (11) as 1/0. 3.3's EV has no time field: it takes the time of the
-  // latest message that had one (last_time_s).
+  // latest message that had one (last_time_s); an event before any timed message (a log that starts
+  // at arming writes EV ARMED first) takes the first time that follows (pending_events).
   Channel armed{"", {"armed"}};
   double last_time_s = kNaN;
+  std::vector<double> pending_events;  // armed values waiting for a time
   std::optional<nlohmann::json> first_fix;
   std::optional<nlohmann::json> home;
   int gps_week = -1;
@@ -202,11 +204,21 @@ void CollectMessage(const DataFlashMessage& m, Collected* c) {
   const std::string& name = m.name();
   ++c->messages;
   constexpr int64_t kEvArmed = 10, kEvDisarmed = 11;  // ArduPilot LogEvent ids
-  if (name != "GPS" && std::isfinite(m.BootTime_s())) c->last_time_s = m.BootTime_s();
+  if (name != "GPS" && std::isfinite(m.BootTime_s())) {
+    c->last_time_s = m.BootTime_s();
+    for (const double a : c->pending_events) c->armed.Add(c->last_time_s, {a});
+    c->pending_events.clear();
+  }
   if (name == "EV" && m.Has("Id")) {
     const int64_t id = m.GetRawInt("Id");
     const double t = std::isfinite(m.BootTime_s()) ? m.BootTime_s() : c->last_time_s;
-    if (id == kEvArmed || id == kEvDisarmed) c->armed.Add(t, {id == kEvArmed ? 1.0 : 0.0});
+    if (id == kEvArmed || id == kEvDisarmed) {
+      if (std::isfinite(t)) {
+        c->armed.Add(t, {id == kEvArmed ? 1.0 : 0.0});
+      } else {
+        c->pending_events.push_back(id == kEvArmed ? 1.0 : 0.0);
+      }
+    }
     return;
   }
   if (name == "PARM") {
@@ -253,6 +265,7 @@ void CollectMessage(const DataFlashMessage& m, Collected* c) {
     const size_t n = std::min<size_t>(c->rcou.columns.size(), 14);
     for (size_t i = 0; i < n; ++i) {
       pwm[i] = m.Has(kLabels[i].first) ? m.Get(kLabels[i].first) : m.Get(kLabels[i].second);
+      if (!IsPlausiblePwm_us(pwm[i])) pwm[i] = kNaN;  // an unused channel's garbage: absent
     }
     c->rcou.AddValues(m.BootTime_s(), std::vector<double>(pwm, pwm + n));
   } else if (name == "CTUN") {
@@ -590,9 +603,17 @@ Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string
     pwm_source = "RC3_MIN/MAX";
   }
   if (c.rcou.size() > 0) {
-    const size_t n = motors > 0 ? std::min<size_t>(static_cast<size_t>(motors), c.rcou.columns.size())
-                                : c.rcou.columns.size();
-    if (motors == 0) motors_source = "all RCOU channels (frame unknown)";
+    // Frame unknown: the leading channels that ever hold a plausible output are the motors (a
+    // multirotor's motors take the first outputs; unused ones log nothing plausible).
+    size_t active = 0;
+    while (active < c.rcou.columns.size()) {
+      bool any = false;
+      for (size_t s = 0; s < c.rcou.size() && !any; ++s) any = std::isfinite(c.rcou.At(s, active));
+      if (!any) break;
+      ++active;
+    }
+    const size_t n = motors > 0 ? std::min<size_t>(static_cast<size_t>(motors), c.rcou.columns.size()) : active;
+    if (motors == 0) motors_source = "the leading RCOU channels with plausible outputs (frame unknown)";
     Channel u("rcou_t_s", {});
     for (size_t i = 0; i < n; ++i) u.columns.push_back(fmt::format("motor_{}_u", i + 1));
     for (size_t s = 0; s < c.rcou.size(); ++s) {

@@ -35,7 +35,8 @@ struct FieldBound {
 //   MAG field and motor offsets ±16 G per axis: the full scale of the common autopilot compasses
 //     (HMC5883 8 G, LSM303D 12 G, IST8310/LIS3MDL 16 G) and 25x the strongest Earth field (0.67 G).
 //   CURR/BAT current -50..1000 A, voltage 0..120 V: beyond a 24S pack (100.8 V) and any hobby sensor.
-//   RCOU 0..3000 us: servo pulses are 800..2200 us; 0 is "output off".
+//   RCOU 0..3000 us: servo pulses are 800..2200 us; 0 is "output off" (the record only when no channel
+//   is plausible; one implausible channel is read as absent: IsPlausiblePwm_us in the header).
 //   CTUN ThrOut 0..1000 (3.x), ThO 0..1: the throttle's own domain, with 10 % margin.
 //   GPS Lat ±90, Lng ±180 deg; Spd 0..600 m/s, VZ ±600 m/s (above the COCOM 515 m/s limit);
 //     Alt -1000..50000 m (receivers stop at 18 km for the same rule).
@@ -70,7 +71,6 @@ constexpr FieldBound kBounds[] = {
     {"XKF1", "PN", -2e6, 2e6},       {"XKF1", "PE", -2e6, 2e6},       {"XKF1", "PD", -5e4, 5e4},
     {"XKF1", "VN", -600, 600},       {"XKF1", "VE", -600, 600},       {"XKF1", "VD", -600, 600},
 };
-constexpr double kMaxPwm_us = 3000.0;
 
 // MAG2 matches "MAG", IMU2 matches "IMU": a base name plus one instance digit.
 bool NameMatches(std::string_view name, std::string_view base) {
@@ -121,15 +121,18 @@ Verdict Check(const DataFlashMessage& m) {
   }
   if (name == "MSG") return TextContradictsType(m.GetString("Message")) ? Verdict::kType : Verdict::kOk;
   if (name == "RCOU") {
-    Verdict worst = Verdict::kOk;
+    // Range: only when no channel holds a plausible output (a single implausible channel is read as
+    // absent by the importers, see IsPlausiblePwm_us).
+    bool any_channel = false, any_plausible = false;
     for (size_t i = 0; i < m.format().format.size(); ++i) {
       const std::string& label = m.format().labels[i];
       if (label.empty() || label[0] != 'C') continue;  // C1..C14 or Ch1..Ch14
       const Verdict v = CheckField(m, static_cast<int>(i), 0, kMaxPwm_us, Unit::kAsDecoded);
       if (v == Verdict::kType) return v;
-      if (v == Verdict::kRange) worst = v;
+      any_channel = true;
+      any_plausible = any_plausible || v == Verdict::kOk;
     }
-    return worst;
+    return any_channel && !any_plausible ? Verdict::kRange : Verdict::kOk;
   }
   Verdict worst = Verdict::kOk;
   for (const FieldBound& b : kBounds) {

@@ -140,7 +140,8 @@ std::vector<std::pair<std::string, FlightLog>> DataFlashStreams(std::string_view
       const size_t n_u = x.columns.size() - rcou_labels.size();
       std::vector<double> v(x.columns.size(), kNaN);
       for (size_t i = 0; i < rcou_labels.size(); ++i) {
-        const double pwm = m.Has(rcou_labels[i].first) ? m.Get(rcou_labels[i].first) : m.Get(rcou_labels[i].second);
+        double pwm = m.Has(rcou_labels[i].first) ? m.Get(rcou_labels[i].first) : m.Get(rcou_labels[i].second);
+        if (!IsPlausiblePwm_us(pwm)) pwm = kNaN;  // an unused channel's garbage: absent
         v[n_u + i] = pwm;
         if (i < n_u && std::isfinite(pwm)) {
           v[i] = std::clamp((pwm - motors.pwm_min_us) / (motors.pwm_max_us - motors.pwm_min_us), 0.0, 1.0);

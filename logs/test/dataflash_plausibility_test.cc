@@ -183,5 +183,44 @@ TEST(DataFlashPlausibility, GivenMoreThanAFifthOfTheRecordsDamaged_WhenImported_
       << r.status().message();
 }
 
+TEST(DataFlashPlausibility, GivenUnusedRcouChannelsHoldingGarbage_WhenImported_ThenRecordsStayAndOnlyThoseChannelsAreAbsent) {
+  // Given: RCOU with four motor channels in range and four unused ones holding constant values no
+  // servo output can have (as a PXF cape logs them), then one record with every channel implausible
+  DataFlashWriter w = SmallLog(20);
+  w.Fmt(134, "RCOU", "Ihhhhhhhh", "TimeMS,Ch1,Ch2,Ch3,Ch4,Ch5,Ch6,Ch7,Ch8");
+  for (int i = 0; i < 20; ++i) {
+    w.Msg(134, "Ihhhhhhhh", {1000.0 + 100 * i, 1500, 1500, 1500, 1500, -8047, -27794, -30415, -21887});
+  }
+  w.Msg(134, "Ihhhhhhhh", {1000.0 + 100 * 20, -1, -2, -3, -4, -8047, -27794, -30415, -21887});
+  // When
+  auto r = ImportDataFlash(w.bytes(), "small.bin");
+  // Then: the frame is unknown, so the leading plausible channels are the motors; the garbage
+  // channels are absent, and only the all-implausible record is dropped
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_EQ(r->records.range, 1u);
+  EXPECT_TRUE(r->log.Has("motor_4_u"));
+  EXPECT_FALSE(r->log.Has("motor_5_u"));
+  EXPECT_NEAR(r->log.Column("motor_1_u")[10], 0.5, 1e-9);  // 1500 us in the default 1000..2000
+  const FlightLog* rcou = r->log.Stream("rcou");
+  ASSERT_NE(rcou, nullptr);
+  EXPECT_TRUE(std::isnan(rcou->Column("pwm_5_us")[3]));
+  EXPECT_DOUBLE_EQ(rcou->Column("pwm_4_us")[3], 1500.0);
+}
+
+TEST(DataFlashPlausibility, GivenALogStartingWithEvArmedBeforeAnyTime_WhenImported_ThenItIsArmedFromTheStart) {
+  // Given: a log that starts at arming (EV ARMED first, an EV without a time field, as 3.x writes it)
+  DataFlashWriter w;
+  w.Fmt(135, "EV", "B", "Id");
+  w.Msg(135, "B", {10});
+  DataFlashWriter rest = SmallLog(40);
+  w.Raw(rest.bytes());
+  // When
+  auto r = ImportDataFlash(w.bytes(), "small.bin");
+  // Then
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  ASSERT_TRUE(r->log.Has("armed"));
+  for (const double a : r->log.Column("armed")) EXPECT_EQ(a, 1.0);
+}
+
 }  // namespace
 }  // namespace hexsim::logs

@@ -128,10 +128,22 @@ FlightWindows FindFlightWindows(const logs::FlightLog& log, const WindowOptions&
       i = j;
     }
   }
+  // An impact is a crash only when the flight ends within crash_settle_s of it (the log ends, the
+  // vehicle over-tilts, the autopilot disarms, or the throttle falls to idle): a spike the vehicle flies on through (a bump
+  // at spin-up, a vibration burst) is not one.
+  const auto flight_ends_after = [&](size_t i) {
+    for (size_t j = i + 1; j < n; ++j) {
+      if (t[j] - t[i] > o.crash_settle_s) return false;
+      if (!std::isnan(cut) && t[j] >= cut) return true;  // the flip or over-tilt found above
+      if (armed && (*armed)[j] == 0.0) return true;
+      if (!armed && thr && (*thr)[j] / kThrottleFullScale < o.idle_margin) return true;
+    }
+    return true;  // the log ends
+  };
   if (ax && ay && az) {
     for (size_t i = 0; i < n; ++i) {
       const double f = std::sqrt((*ax)[i] * (*ax)[i] + (*ay)[i] * (*ay)[i] + (*az)[i] * (*az)[i]);
-      if (f > o.impact_mps2 && (std::isnan(cut) || t[i] - o.lead_s < cut)) {
+      if (f > o.impact_mps2 && (std::isnan(cut) || t[i] - o.lead_s < cut) && flight_ends_after(i)) {
         cut = t[i] - o.lead_s;
         fw.cut_why = fmt::format("impact: |specific force| {:.0f} m/s^2 at {:.1f} s", f, t[i]);
         break;

@@ -103,5 +103,26 @@ TEST(MergeShortSegments, GivenAOneSampleBlip_WhenMerged_ThenItJoinsItsLongerNeig
   EXPECT_EQ(m[95], "excluded");
 }
 
+TEST(FlightWindows, GivenAnImpactSpikeTheVehicleFliesOnThrough_WhenWindowed_ThenNothingIsCut) {
+  // Given: the synthetic flight with a single 8 g specific-force sample at 30 s, then flying on,
+  // and the same spike at 74 s followed by the flip (a crash: the flight ends)
+  logs::FlightLog log = SyntheticFlight(true);
+  for (const char* c : {"accel_x_mps2", "accel_y_mps2", "accel_z_mps2"}) {
+    auto& a = log.MutableColumn(log.AddColumn(c));
+    for (size_t r = 0; r < log.rows(); ++r) a[r] = c[6] == 'z' ? -9.81 : 0.0;
+  }
+  auto& az = log.MutableColumn(log.AddColumn("accel_z_mps2"));
+  az[300] = -80.0;
+  // When
+  const FlightWindows bump = FindFlightWindows(log);
+  az[745] = -80.0;
+  const FlightWindows crash = FindFlightWindows(log);
+  // Then: the bump cuts nothing (the flip still does, at 74.5 s); the impact before the flip cuts there
+  EXPECT_NEAR(bump.cut_at_s, 74.5, 0.15);
+  EXPECT_EQ(bump.cut_why.find("impact"), std::string::npos) << bump.cut_why;
+  EXPECT_NEAR(crash.cut_at_s, 74.0, 0.15);
+  EXPECT_NE(crash.cut_why.find("impact"), std::string::npos) << crash.cut_why;
+}
+
 }  // namespace
 }  // namespace hexsim::realdata

@@ -32,6 +32,13 @@ namespace hexsim::logs {
 // sample-and-hold can bridge without the held values standing for more time than they were valid.
 inline constexpr double kMaxDamagedRecordShare = 0.20;
 
+// An RCOU channel value a servo output can hold: 0 ("output off") to 3000 us (pulses are 800-2200 us).
+// A value outside is that channel's, not the record's: some boards log unused channels as garbage
+// that never changes (e.g. the PXF cape logs C5..C12 as -8047, -27794, ...), so the importers read such
+// a value as absent (NaN) and keep the record; a record is dropped only when no channel is plausible.
+inline constexpr double kMaxPwm_us = 3000.0;
+inline bool IsPlausiblePwm_us(double pwm_us) { return pwm_us >= 0.0 && pwm_us <= kMaxPwm_us; }
+
 struct RecordDamage {
   size_t checked = 0;  // records of the types the importer reads
   size_t type = 0;     // dropped: a value its FMT type cannot mean

@@ -6,8 +6,9 @@
 //   ground    disarmed, or armed at idle throttle, before any flip or crash: kept as evidence of its
 //             own (ground-vs-hover comparisons, compassmot's principle), never mixed into flight;
 //   excluded  a flip or crash and everything after it: sustained |roll| or |pitch| above
-//             max_tilt_deg for sustained_s, or an impact (|specific force| above impact_mps2); the
-//             cut starts where the attitude last was sane (tilt below sane_tilt_deg), lead_s earlier.
+//             max_tilt_deg for sustained_s, or an impact (|specific force| above impact_mps2) after
+//             which the flight ends within crash_settle_s (log end, disarm, idle throttle); the cut
+//             starts where the attitude last was sane (tilt below sane_tilt_deg), lead_s earlier.
 // Segments shorter than min_segment_s are merged into their neighbours (hysteresis), except that an
 // excluded tail is never shortened.
 #pragma once
@@ -27,6 +28,7 @@ struct WindowOptions {
   double sane_tilt_deg = 30.0;  // the cut goes back to where the tilt last was below this
   double lead_s = 0.5;          // and this much earlier (the manoeuvre starting)
   double impact_mps2 = 5.0 * 9.80665;  // |specific force| of a crash, above any landing
+  double crash_settle_s = 3.0;  // a crash ends the flight within this (ArduPilot's crash check disarms after 2 s)
   double idle_margin = 0.05;    // flight: throttle (0..1) above the armed idle level by this
   double min_segment_s = 2.0;   // shorter segments merge into their neighbours
 };
