@@ -440,8 +440,11 @@ bool IsParameterOfInterest(const std::string& n) {
   return false;
 }
 
-double DecimalYearFromGps(int week, double time_of_week_s) {
-  const double unix_s = UnixFromGps(week, time_of_week_s);
+double DecimalYearFromGps(int week, double time_of_week_s) { return DecimalYearFromUnix(UnixFromGps(week, time_of_week_s)); }
+
+std::string IsoUtcFromUnix(double unix_s) { return IsoUtc(unix_s); }
+
+double DecimalYearFromUnix(double unix_s) {
   const std::time_t t = static_cast<std::time_t>(std::floor(unix_s));
   std::tm tm{};
   gmtime_r(&t, &tm);

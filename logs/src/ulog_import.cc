@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "hexsim/logs/dataflash_import.h"
 #include "hexsim/logs/ulog.h"
 #include "ulog_mag_cal.h"
 
@@ -288,6 +289,25 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
     log.SetStream(ch.stream, StreamOf(ch, recs));
   }
   nlohmann::json& meta = log.meta;
+  // Place and date for the Earth-field model (gap diagnose): the first 3-D fix, as for DataFlash.
+  if (const ULogTopic* g = u.Find("vehicle_gps_position"); g != nullptr && g->Has("fix_type")) {
+    const bool deg = g->Has("latitude_deg");
+    for (size_t i = 0; i < g->records.size(); ++i) {
+      if (!(g->Get(i, "fix_type") >= kGps3dFix)) continue;
+      const double lat = deg ? g->Get(i, "latitude_deg") : 1e-7 * g->Get(i, "lat");
+      const double lon = deg ? g->Get(i, "longitude_deg") : 1e-7 * g->Get(i, "lon");
+      const double alt = deg ? g->Get(i, "altitude_msl_m") : 1e-3 * g->Get(i, "alt");
+      if (!(std::fabs(lat) <= 90) || !(std::fabs(lon) <= 180) || (lat == 0 && lon == 0)) continue;
+      meta["location"] = {{"lat_deg", lat}, {"lon_deg", lon}, {"alt_m", alt},
+                          {"source", "first GPS 3-D fix (vehicle_gps_position)"}};
+      const double utc_s = g->Has("time_utc_usec") ? 1e-6 * g->Get(i, "time_utc_usec") : 0.0;
+      if (utc_s > 1.0e9) {  // after 2001: a real UTC time, not an unset 0
+        meta["date_decimal_year"] = DecimalYearFromUnix(utc_s);
+        meta["date_utc"] = IsoUtcFromUnix(utc_s);
+      }
+      break;
+    }
+  }
   meta["schema"] = "hexsim.log_meta/1";
   meta["source"] = name;
   meta["format"] = "px4-ulog";

@@ -8,6 +8,8 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
+#include "hexsim/logs/dataflash_import.h"
+
 #include "hexsim/logs/mag_input.h"
 #include "hexsim/logs/ulog_import.h"
 #include "support/ulog_writer.h"
@@ -181,6 +183,22 @@ TEST(ULogPx4Calibration, GivenAnUnknownRotation_WhenRead_ThenTheFieldIsLeftAsLog
   ASSERT_TRUE(imp.ok()) << imp.status().message();
   ASSERT_EQ(imp->warnings.size(), 1u);
   EXPECT_NE(imp->warnings[0].find("relative to the one in force"), std::string::npos);
+}
+
+TEST(ULogStreams, GivenGpsFixes_WhenImported_ThenTheMetaHoldsTheFirst3dFixAsTheLocationAndNoDateWithoutUtc) {
+  auto r = ImportULog(MultiRate(), "multi.ulg");
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  const auto& meta = r->log.meta;
+  ASSERT_TRUE(meta.contains("location"));  // the place of the Earth-field model (gap diagnose)
+  EXPECT_NEAR(meta["location"]["lat_deg"].get<double>(), 47.0, 0.01);
+  EXPECT_DOUBLE_EQ(meta["location"]["lon_deg"].get<double>(), 8.5);
+  EXPECT_DOUBLE_EQ(meta["location"]["alt_m"].get<double>(), 500.0);
+  EXPECT_FALSE(meta.contains("date_decimal_year"));  // this topic layout has no time_utc_usec
+}
+
+TEST(ULogStreams, GivenAUnixTime_WhenConvertedToADecimalYear_ThenItIsUtc) {
+  EXPECT_NEAR(DecimalYearFromUnix(1577836800.0), 2020.0, 1e-9);  // 2020-01-01T00:00:00Z
+  EXPECT_EQ(IsoUtcFromUnix(1577836800.0), "2020-01-01T00:00:00Z");
 }
 
 }  // namespace

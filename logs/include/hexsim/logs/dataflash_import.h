@@ -72,6 +72,9 @@ nlohmann::json DataFlashInfoJson(const std::string& bytes, const std::string& na
 
 // Decimal year (UTC) of a GPS week and time of week.
 double DecimalYearFromGps(int week, double time_of_week_s);
+// Decimal year (UTC) of a Unix time in seconds, and the same time as ISO 8601 UTC ("2015-11-02T10:04:05Z").
+double DecimalYearFromUnix(double unix_s);
+std::string IsoUtcFromUnix(double unix_s);
 // Whether a parameter is one the meta keeps (COMPASS_*, MOT_PWM_*, RC3_*, BATT_*, FRAME*, ...).
 bool IsParameterOfInterest(const std::string& name);
 
