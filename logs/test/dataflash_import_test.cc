@@ -1,5 +1,7 @@
 #include "hexsim/logs/dataflash_import.h"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -217,7 +219,8 @@ TEST(DataFlashImport, GivenTheArmEvent_WhenImported_ThenArmedIsZeroBeforeItAndOn
 }
 
 TEST(DataFlashImport, GivenAnImport_WhenWrittenAndReadBack_ThenTheFlightLogReaderAcceptsItWithItsMeta) {
-  const std::string dir = ::testing::TempDir() + "/hexsim_import_test";
+  // Per process: several checkouts may run this test at once.
+  const std::string dir = ::testing::TempDir() + "/hexsim_import_test_" + std::to_string(::getpid());
   std::filesystem::create_directories(dir);
   const std::string path = dir + "/log.csv";
   ASSERT_TRUE(WriteImport(RealImport(), path).ok());

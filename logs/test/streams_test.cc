@@ -1,4 +1,6 @@
 // Native-rate streams of an imported DataFlash log (CONTRACTS "Second wave": `<log>.<stream>.csv`).
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -88,7 +90,8 @@ TEST(Streams, GivenTheRealLog_WhenImported_ThenEachSensorKeepsItsOwnRate) {
 }
 
 TEST(Streams, GivenAnImportWithStreams_WhenWrittenAndReadBack_ThenStreamsComeBackFromTheirOwnFiles) {
-  const std::string dir = ::testing::TempDir() + "/hexsim_streams_test";
+  // Per process: several checkouts may run this test at once.
+  const std::string dir = ::testing::TempDir() + "/hexsim_streams_test_" + std::to_string(::getpid());
   std::filesystem::create_directories(dir);
   const std::string path = dir + "/log.csv";
   ASSERT_TRUE(WriteImport(RealImport(), path).ok());
