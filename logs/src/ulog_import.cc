@@ -20,6 +20,18 @@ constexpr double kRadToDeg = 57.29577951308232;
 constexpr double kMicroteslaPerGauss = 100.0;
 constexpr double kGps3dFix = 3;  // vehicle_gps_position fix_type: 3 = 3-D fix
 
+// vehicle_gps_position: PX4 1.14 on logs latitude_deg/longitude_deg/altitude_msl_m; before, lat/lon in
+// 1e-7 deg and alt in mm.
+double GpsLatDeg(const ULogTopic& g, size_t i) {
+  return g.Has("latitude_deg") ? g.Get(i, "latitude_deg") : 1e-7 * g.Get(i, "lat");
+}
+double GpsLonDeg(const ULogTopic& g, size_t i) {
+  return g.Has("longitude_deg") ? g.Get(i, "longitude_deg") : 1e-7 * g.Get(i, "lon");
+}
+double GpsAltM(const ULogTopic& g, size_t i) {
+  return g.Has("altitude_msl_m") ? g.Get(i, "altitude_msl_m") : 1e-3 * g.Get(i, "alt");
+}
+
 struct Column {
   std::string name;
   std::function<double(size_t)> value;  // of record i
@@ -269,12 +281,10 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
     channels.push_back({air, "baro", {{"baro_alt_m", [air](size_t i) { return air->Get(i, "baro_alt_meter"); }}}, nullptr});
   }
   if (const ULogTopic* g = u.Find("vehicle_gps_position"); g != nullptr && g->Has("vel_n_m_s")) {
-    // PX4 1.14 on: latitude_deg/longitude_deg/altitude_msl_m; before: lat/lon in 1e-7 deg, alt in mm.
-    const bool deg = g->Has("latitude_deg");
     Channel c{g, "gps", {}, [g](size_t i) { return g->Get(i, "fix_type") >= kGps3dFix; }};
-    c.columns.push_back({"lat_deg", [g, deg](size_t i) { return deg ? g->Get(i, "latitude_deg") : 1e-7 * g->Get(i, "lat"); }, false});
-    c.columns.push_back({"lon_deg", [g, deg](size_t i) { return deg ? g->Get(i, "longitude_deg") : 1e-7 * g->Get(i, "lon"); }, false});
-    c.columns.push_back({"alt_m", [g, deg](size_t i) { return deg ? g->Get(i, "altitude_msl_m") : 1e-3 * g->Get(i, "alt"); }, false});
+    c.columns.push_back({"lat_deg", [g](size_t i) { return GpsLatDeg(*g, i); }, false});
+    c.columns.push_back({"lon_deg", [g](size_t i) { return GpsLonDeg(*g, i); }, false});
+    c.columns.push_back({"alt_m", [g](size_t i) { return GpsAltM(*g, i); }, false});
     for (const char* axis : {"N", "E", "D"}) {
       const std::string f = fmt::format("vel_{}_m_s", static_cast<char>(std::tolower(axis[0])));
       c.columns.push_back({fmt::format("gps_vel_{}_mps", axis), [g, f](size_t i) { return g->Get(i, f); }});
@@ -291,12 +301,9 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
   nlohmann::json& meta = log.meta;
   // Place and date for the Earth-field model (gap diagnose): the first 3-D fix, as for DataFlash.
   if (const ULogTopic* g = u.Find("vehicle_gps_position"); g != nullptr && g->Has("fix_type")) {
-    const bool deg = g->Has("latitude_deg");
     for (size_t i = 0; i < g->records.size(); ++i) {
       if (!(g->Get(i, "fix_type") >= kGps3dFix)) continue;
-      const double lat = deg ? g->Get(i, "latitude_deg") : 1e-7 * g->Get(i, "lat");
-      const double lon = deg ? g->Get(i, "longitude_deg") : 1e-7 * g->Get(i, "lon");
-      const double alt = deg ? g->Get(i, "altitude_msl_m") : 1e-3 * g->Get(i, "alt");
+      const double lat = GpsLatDeg(*g, i), lon = GpsLonDeg(*g, i), alt = GpsAltM(*g, i);
       if (!(std::fabs(lat) <= 90) || !(std::fabs(lon) <= 180) || (lat == 0 && lon == 0)) continue;
       meta["location"] = {{"lat_deg", lat}, {"lon_deg", lon}, {"alt_m", alt},
                           {"source", "first GPS 3-D fix (vehicle_gps_position)"}};
