@@ -185,9 +185,12 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
   const std::vector<double>* tb = batt.rows() > 0 ? &batt.Column("t_s") : nullptr;
   {
     std::vector<double> vf;
-    double q_As = 0.0;
+    double q_As = 0.0, q_right_As = 0.0;  // Σ I_{k−1}·Δt and Σ I_k·Δt
     for (size_t k = 0; tb && k < batt.rows(); ++k) {
-      if (bI && k > 0 && std::isfinite((*bI)[k - 1])) q_As += (*bI)[k - 1] * ((*tb)[k] - (*tb)[k - 1]);
+      if (bI && k > 0 && std::isfinite((*bI)[k - 1]) && std::isfinite((*bI)[k])) {
+        q_As += (*bI)[k - 1] * ((*tb)[k] - (*tb)[k - 1]);
+        q_right_As += (*bI)[k] * ((*tb)[k] - (*tb)[k - 1]);
+      }
       const int b = bm.At((*tb)[k]);
       if (b < 0 || !bV || !std::isfinite((*bV)[k])) continue;
       vf.push_back((*bV)[k]);
@@ -196,6 +199,7 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
       out.batt_V.push_back((*bV)[k]);
       out.batt_I.push_back((*bI)[k]);
       out.batt_Q_Ah.push_back(q_As / 3600.0);
+      out.batt_Q_right_Ah.push_back(q_right_As / 3600.0);
       out.batt_block.push_back(b);
     }
     out.V_ref = vf.empty() ? 0.0 : Median(vf);
@@ -209,6 +213,7 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
       out.batt_V.clear();
       out.batt_I.clear();
       out.batt_Q_Ah.clear();
+      out.batt_Q_right_Ah.clear();
       out.batt_block.clear();
     }
   }

@@ -38,7 +38,9 @@ struct FlightSamples {
   size_t motors = 0;
   double z0 = 0.0;                   // Σ s_i (0 for a balanced frame)
   // Battery samples in flight windows (own rate): V, I and the charge drawn since the log start.
-  std::vector<double> batt_t_s, batt_V, batt_I, batt_Q_Ah;
+  // batt_Q_Ah is the left Riemann sum of the sampled current, batt_Q_right_Ah the right one: the
+  // charge actually drawn between two samples is known only to about their difference.
+  std::vector<double> batt_t_s, batt_V, batt_I, batt_Q_Ah, batt_Q_right_Ah;
   std::vector<int> batt_block;
   // Second differences of consecutive IMU samples in flight (noise): Δ²gyro, Δ²accel.
   std::vector<Vec3> d_gyro, d_accel;

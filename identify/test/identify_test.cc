@@ -26,7 +26,9 @@ struct Flight {
 
 // The square mission (take-off, four legs with yaw turns, landing) at the real logs' 10 Hz rows; with
 // stream_hz > 0 also the IMU, motor outputs and battery as native-rate streams at that rate.
-Flight FlySquare(const std::string& vehicle, uint64_t seed, double stream_hz = 0.0) {
+// gust_std_mps > 0: turbulence of that strength, drawn from the seed (with the truth estimator and
+// no turbulence the seed changes the sensor noise only, and the flight itself is the same).
+Flight FlySquare(const std::string& vehicle, uint64_t seed, double stream_hz = 0.0, double gust_std_mps = 0.0) {
   sim::RunRequest req;
   req.mission = "square";
   req.vehicle = vehicle;
@@ -34,6 +36,7 @@ Flight FlySquare(const std::string& vehicle, uint64_t seed, double stream_hz = 0
   req.seed = seed;
   req.sets = {"sim.log_rate_hz=10"};
   if (stream_hz > 0) req.sets.push_back(fmt::format("sim.stream_rate_hz={}", stream_hz));
+  if (gust_std_mps > 0) req.sets.push_back(fmt::format("world.wind.turbulence_std_mps={}", gust_std_mps));
   auto setup = sim::LoadRunSetup(req);
   if (!setup.ok()) throw std::runtime_error(setup.status().message());
   Flight f{*setup, sim::RunMission(*setup).log};
@@ -166,14 +169,19 @@ double ThrustScaleTruth(const vehicle::VehicleParams& base, double u_h, double V
 // from the flown vehicle through hexsim's models, expressed against that base where identify reports
 // relative to it (thrust_scale; yaw_torque_coefficient_m, which the log gives as k_Q/k_T·m/J_z).
 // HEXSIM_BLIND_STREAM_HZ=50: the simulator also writes IMU, motor outputs and battery at 50 Hz.
+// HEXSIM_BLIND_VEHICLE=paper_hex: that vehicle only. HEXSIM_BLIND_GUST_MPS (default 0.5): turbulence
+// std, so that each seed is its own flight (gusts, and the sensor noise), not one flight re-noised.
 //   build/identify/identify_test --gtest_also_run_disabled_tests --gtest_filter='*BlindSweep*'
 TEST(Identify, DISABLED_BlindSweep) {
   const int seeds = std::getenv("HEXSIM_BLIND_SEEDS") ? std::atoi(std::getenv("HEXSIM_BLIND_SEEDS")) : 10;
   const double stream_hz = std::getenv("HEXSIM_BLIND_STREAM_HZ") ? std::atof(std::getenv("HEXSIM_BLIND_STREAM_HZ")) : 0.0;
   std::map<std::string, std::pair<int, int>> cover;  // quantity -> (covered, trials)
+  const double gust_mps = std::getenv("HEXSIM_BLIND_GUST_MPS") ? std::atof(std::getenv("HEXSIM_BLIND_GUST_MPS")) : 0.5;
+  const char* only = std::getenv("HEXSIM_BLIND_VEHICLE");  // one vehicle (e.g. paper_hex), else all three
   for (const char* vehicle : {"quad_x", "default_hex", "paper_hex"}) {
+    if (only && std::string(only) != vehicle) continue;
     for (int seed = 1; seed <= seeds; ++seed) {
-      const Flight f = FlySquare(vehicle, static_cast<uint64_t>(seed), stream_hz);
+      const Flight f = FlySquare(vehicle, static_cast<uint64_t>(seed), stream_hz, gust_mps);
       std::string source;
       const std::string base_name = DefaultBaseFor(FrameOfLog(f.log, &source));
       auto base_path = ResolveWorldFile("vehicles", base_name);
@@ -203,6 +211,7 @@ TEST(Identify, DISABLED_BlindSweep) {
             t.yaw_coef_m * (m_v / v.inertia_kgm2(2, 2)) * (base->inertia_kgm2(2, 2) / m_b));
     }
   }
+  std::printf("turbulence std %.2f m/s\n", gust_mps);
   std::printf("streams: %s\n", stream_hz > 0 ? fmt::format("imu, rcou, batt at {} Hz", stream_hz).c_str() : "none (10 Hz table)");
   for (const auto& [k, c] : cover) std::printf("coverage %-28s %d/%d\n", k.c_str(), c.first, c.second);
 }
