@@ -1,5 +1,6 @@
 // hexsim gap diagnose --real LOG.csv [--sim VEHICLE_OR_CONFIG] --out DIR [--from S --to S]
-// hexsim gap selftest [--profile real|ideal] [--trials N] [--seed S] [--json FILE]
+// hexsim gap selftest [--profile real|ideal] [--trials N] [--seed S] [--jobs N] [--json FILE]
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -7,6 +8,7 @@
 
 #include "cli_util.h"
 #include "commands.h"
+#include "hexsim/batch/pool.h"
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/paths.h"
 #include "hexsim/gap/diagnose.h"
@@ -120,6 +122,7 @@ Status DiagnoseCommand(const DiagnoseArgs& a) {
 struct SelftestArgs {
   gap::SelftestOptions options;
   std::string json;
+  int jobs = 0;  // 0: every core
 };
 
 void Progress(int done, int total) {
@@ -131,7 +134,16 @@ Status SelftestCommand(const SelftestArgs& a, int* exit_code) {
   if (a.options.profile != "real" && a.options.profile != "ideal") {
     return Status::BadInput("--profile: '" + a.options.profile + "': expected real or ideal");
   }
-  auto r = gap::RunSelftest(a.options, isatty(2) ? &Progress : nullptr);
+  // The trials run in forked workers (batch's process pool), one per core; the results do not
+  // depend on the number of workers.
+  const int jobs = a.jobs > 0 ? a.jobs : std::max(1, static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN)));
+  const bool tty = isatty(2) != 0;
+  gap::TrialRunner runner = [jobs, tty](size_t n, const gap::TrialFn& one) {
+    return batch::RunForkedMap(n, one, jobs, [tty](size_t done, size_t total) {
+      if (tty) Progress(static_cast<int>(done), static_cast<int>(total));
+    });
+  };
+  auto r = gap::RunSelftest(a.options, nullptr, runner);
   if (!r.ok()) return r.status();
   if (!a.json.empty()) HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(a.json, r->json.dump(2) + "\n"));
   std::fputs(r->table.c_str(), stdout);
@@ -167,6 +179,7 @@ void AddGapCommand(CLI::App& app, int* exit_code) {
   self->add_option("--threshold-trials", st->options.threshold_trials, "Trials per magnitude in the threshold sweep")
       ->capture_default_str();
   self->add_option("--json", st->json, "Also write hexsim.gap_selftest/1 JSON here");
+  self->add_option("--jobs,-j", st->jobs, "Trials run in parallel, each in its own process (default: every core)");
   self->callback([st, exit_code] {
     const Status s = SelftestCommand(*st, exit_code);
     if (!s.ok()) *exit_code = Report(s);

@@ -7,7 +7,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <deque>
 #include <filesystem>
 #include <map>
 #include <thread>
@@ -35,8 +34,8 @@ std::string RunDir(const PoolOptions& options, const RunPoint& point) {
   return options.run_dir ? options.run_dir(point) : options.out_dir + "/runs/" + point.RunId();
 }
 
-// The worker: runs one point, leaves summary.json or error.txt, never returns.
-[[noreturn]] void WorkerMain(const RunPoint& point, const RunFn& fn, const std::string& dir) {
+// The worker: runs one point, leaves summary.json or error.txt; returns its exit code.
+int WorkerMain(const RunPoint& point, const RunFn& fn, const std::string& dir) {
   int code = kExitNoResult;
   try {
     Result<json> r = fn(point);
@@ -49,7 +48,7 @@ std::string RunDir(const PoolOptions& options, const RunPoint& point) {
     code = WriteFileAtomic(dir + "/error.txt", std::string("exception: ") + e.what()).ok() ? kExitErrorWritten
                                                                                            : kExitNoResult;
   }
-  std::_Exit(code);  // no atexit handlers, no flushing of the parent's buffers
+  return code;
 }
 
 struct Running {
@@ -97,45 +96,49 @@ Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, co
   return RunPool(runs, fn, options, [db](const RunRow& row, const json& /*summary*/) { return db->Insert(row); });
 }
 
-Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, const PoolOptions& options,
-                          const RecordFn& record) {
-  if (options.jobs < 1) return Status::BadInput("--jobs: must be at least 1");
-  PoolStats stats;
-  const double start = NowS();
-  Progress progress(options.progress_stream, options.progress_tty, runs.size() + options.already_done,
-                    options.already_done);
-  std::deque<const RunPoint*> queue;
-  for (const auto& p : runs) queue.push_back(&p);
-  std::map<pid_t, Running> running;
+Status ForkEach(size_t n, int jobs, double timeout_s, const std::function<Status(size_t)>& before_fork,
+                const std::function<int(size_t)>& child, const ReapFn& reaped) {
+  if (jobs < 1) return Status::BadInput("--jobs: must be at least 1");
+  struct Worker {
+    size_t index = 0;
+    double start_s = 0.0;
+    bool timed_out = false;
+  };
+  size_t next = 0;
+  std::map<pid_t, Worker> running;
   Status error;
-  while ((!queue.empty() && error.ok()) || !running.empty()) {
-    while (error.ok() && !queue.empty() && static_cast<int>(running.size()) < options.jobs) {
-      const RunPoint& p = *queue.front();
-      queue.pop_front();
-      Running r{p, RunDir(options, p), NowS(), false};
-      const std::string& dir = r.dir;
-      std::error_code ec;
-      std::filesystem::create_directories(dir, ec);
-      std::filesystem::remove(dir + "/summary.json", ec);  // a result left by a killed earlier attempt
-      std::filesystem::remove(dir + "/error.txt", ec);
+  while ((next < n && error.ok()) || !running.empty()) {
+    while (error.ok() && next < n && static_cast<int>(running.size()) < jobs) {
+      const size_t i = next++;
+      error = before_fork(i);
+      if (!error.ok()) break;
       std::fflush(nullptr);
+      const double start = NowS();
       const pid_t pid = fork();
       if (pid < 0) {
         error = Status::Numerical(fmt::format("fork failed: {}", std::strerror(errno)));
         break;
       }
-      if (pid == 0) WorkerMain(p, fn, dir);
-      running.emplace(pid, std::move(r));
+      if (pid == 0) {
+        int code = kExitNoResult;
+        try {
+          code = child(i);
+        } catch (...) {
+          code = kExitNoResult;
+        }
+        std::_Exit(code);  // no atexit handlers, no flushing of the parent's buffers
+      }
+      running.emplace(pid, Worker{i, start, false});
     }
     if (running.empty()) break;
     int wait_status = 0;
     pid_t pid = 0;
-    if (options.run_timeout_s > 0) {
+    if (timeout_s > 0) {
       pid = waitpid(-1, &wait_status, WNOHANG);
       if (pid == 0) {
         const double now = NowS();
         for (auto& [wpid, r] : running) {
-          if (!r.timed_out && now - r.start_s > options.run_timeout_s) {
+          if (!r.timed_out && now - r.start_s > timeout_s) {
             r.timed_out = true;
             kill(wpid, SIGKILL);
           }
@@ -153,20 +156,96 @@ Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, co
     }
     auto it = running.find(pid);
     if (it == running.end()) continue;  // not one of ours
-    const double wall_s = NowS() - it->second.start_s;
-    json summary;
-    const RunRow row = Collect(it->second, wait_status, wall_s, &summary);
+    const Worker r = it->second;
     running.erase(it);
-    const Status s = record(row, summary);
+    const Status s = reaped(r.index, wait_status, NowS() - r.start_s, r.timed_out);
     if (!s.ok() && error.ok()) error = s;
+  }
+  return error;
+}
+
+Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, const PoolOptions& options,
+                          const RecordFn& record) {
+  if (options.jobs < 1) return Status::BadInput("--jobs: must be at least 1");
+  PoolStats stats;
+  const double start = NowS();
+  Progress progress(options.progress_stream, options.progress_tty, runs.size() + options.already_done,
+                    options.already_done);
+  std::vector<std::string> dirs(runs.size());
+  auto before_fork = [&](size_t i) {
+    dirs[i] = RunDir(options, runs[i]);
+    const std::string& dir = dirs[i];
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    std::filesystem::remove(dir + "/summary.json", ec);  // a result left by a killed earlier attempt
+    std::filesystem::remove(dir + "/error.txt", ec);
+    return Status::Ok();
+  };
+  auto child = [&](size_t i) { return WorkerMain(runs[i], fn, dirs[i]); };
+  auto reaped = [&](size_t i, int wait_status, double wall_s, bool timed_out) {
+    json summary;
+    const RunRow row = Collect(Running{runs[i], dirs[i], 0.0, timed_out}, wait_status, wall_s, &summary);
+    const Status s = record(row, summary);
     ++stats.finished;
     if (IsFailure(row.status)) ++stats.failed;
     progress.RunFinished(row);
-  }
+    return s;
+  };
+  const Status error = ForkEach(runs.size(), options.jobs, options.run_timeout_s, before_fork, child, reaped);
   progress.Finish();
   stats.wall_s = NowS() - start;
   if (!error.ok()) return error;
   return stats;
+}
+
+Result<std::vector<json>> RunForkedMap(size_t n, const std::function<Result<json>(size_t)>& fn, int jobs,
+                                       const std::function<void(size_t done, size_t total)>& progress) {
+  if (jobs < 1) return Status::BadInput("--jobs: must be at least 1");
+  std::string tmpl = (std::filesystem::temp_directory_path() / "hexsim_forked_XXXXXX").string();
+  if (!mkdtemp(tmpl.data())) return Status::Numerical(fmt::format("mkdtemp failed: {}", std::strerror(errno)));
+  const std::string dir = tmpl;
+  auto path = [&](size_t i, const char* ext) { return fmt::format("{}/{}.{}", dir, i, ext); };
+  std::vector<json> out(n);
+  std::vector<Status> failed(n);
+  size_t done = 0;
+  auto child = [&](size_t i) {
+    Result<json> r = fn(i);
+    if (r.ok()) return WriteFileAtomic(path(i, "json"), r->dump()).ok() ? kExitResultWritten : kExitNoResult;
+    return WriteFileAtomic(path(i, "err"), r.status().message()).ok() ? kExitErrorWritten : kExitNoResult;
+  };
+  auto reaped = [&](size_t i, int wait_status, double /*wall_s*/, bool /*timed_out*/) {
+    const int code = WIFEXITED(wait_status) ? WEXITSTATUS(wait_status) : -1;
+    if (code == kExitResultWritten) {
+      auto text = ReadFile(path(i, "json"));
+      if (text.ok()) {
+        try {
+          out[i] = json::parse(*text);
+        } catch (const json::exception& e) {
+          failed[i] = Status::Numerical(fmt::format("task {}: unreadable result: {}", i, e.what()));
+        }
+      } else {
+        failed[i] = text.status();
+      }
+    } else if (code == kExitErrorWritten) {
+      auto text = ReadFile(path(i, "err"));
+      failed[i] = Status::Numerical(text.ok() ? *text : fmt::format("task {} failed", i));
+    } else if (WIFSIGNALED(wait_status)) {
+      const int sig = WTERMSIG(wait_status);
+      failed[i] = Status::Numerical(fmt::format("task {}: worker killed by signal {} ({})", i, sig, strsignal(sig)));
+    } else {
+      failed[i] = Status::Numerical(fmt::format("task {}: worker exited with code {} and left no result", i, code));
+    }
+    if (progress) progress(++done, n);
+    return failed[i];
+  };
+  const Status s = ForkEach(n, jobs, 0.0, [](size_t) { return Status::Ok(); }, child, reaped);
+  std::error_code ec;
+  std::filesystem::remove_all(dir, ec);
+  for (const Status& f : failed) {
+    if (!f.ok()) return f;  // the first failure in task order
+  }
+  if (!s.ok()) return s;
+  return out;
 }
 
 Progress::Progress(std::FILE* out, bool tty, size_t total, size_t already_done)

@@ -133,6 +133,47 @@ TEST(RunPool, GivenARunThatHangsWhenATimeoutIsSetThenItIsKilledAndRecordedAsTime
   for (const auto& r : *rows) EXPECT_EQ(r.status, r.seed == 1 ? "timeout" : "completed");
 }
 
+// Task i sleeps longer the smaller i is, so with two workers the tasks end out of order.
+Result<json> SlowFirst(size_t i) {
+  std::this_thread::sleep_for(std::chrono::milliseconds(static_cast<int>(40 - 8 * i)));
+  return json{{"i", i}, {"square", static_cast<double>(i * i) / 3.0}};
+}
+
+TEST(RunForkedMap, GivenTasksEndingOutOfOrderWhenMappedOnOneOrTwoWorkersThenTheResultsAreInTaskOrderAndIdentical) {
+  size_t last_done = 0;
+  auto one = RunForkedMap(5, SlowFirst, 1);
+  auto two = RunForkedMap(5, SlowFirst, 2, [&](size_t done, size_t total) {
+    EXPECT_EQ(total, 5u);
+    last_done = done;
+  });
+  ASSERT_TRUE(one.ok()) << one.status().message();
+  ASSERT_TRUE(two.ok()) << two.status().message();
+  ASSERT_EQ(one->size(), 5u);
+  for (size_t i = 0; i < 5; ++i) {
+    EXPECT_EQ((*two)[i]["i"].get<size_t>(), i);
+    EXPECT_EQ((*two)[i]["square"].get<double>(), static_cast<double>(i * i) / 3.0);  // exact through the file
+  }
+  EXPECT_EQ(*one, *two);
+  EXPECT_EQ(last_done, 5u);
+}
+
+TEST(RunForkedMap, GivenTasksThatFailOrCrashWhenMappedThenTheFirstFailureInTaskOrderIsReturned) {
+  auto fail = [](size_t i) -> Result<json> {
+    if (i == 3) std::abort();
+    if (i == 1) return Status::BadInput("task one is bad");
+    return json(i);
+  };
+  auto r = RunForkedMap(4, fail, 2);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().message(), "task one is bad");
+  auto crash = RunForkedMap(4, [](size_t i) -> Result<json> {
+    if (i == 2) std::abort();
+    return json(i);
+  }, 2);
+  ASSERT_FALSE(crash.ok());
+  EXPECT_NE(crash.status().message().find("task 2: worker killed by signal"), std::string::npos) << crash.status().message();
+}
+
 TEST(ResultsDb, GivenARowInsertedTwiceWhenReadThenItIsPresentOnceAndTheFirstIsKept) {
   const std::string dir = testing::TempDir("db_dupe");
   auto db = ResultsDb::Open(dir + "/results.sqlite", true);

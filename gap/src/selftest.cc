@@ -244,7 +244,7 @@ const ChannelResult* Find(const GapReport& r, const std::string& ch) {
 
 }  // namespace
 
-Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progress)(int, int)) {
+Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progress)(int, int), const TrialRunner& runner) {
   if (options.trials < 1) return Status::BadInput("--trials: must be >= 1");
   if (options.profile != "real" && options.profile != "ideal") return Status::BadInput("--profile: expected real or ideal");
   const bool real = options.profile == "real";
@@ -252,7 +252,6 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
   // The ideal profile's configured vehicle is the calibrated truth: any significant nuisance term
   // is a finding; on real-profile logs the normal ranges apply.
   o.diagnose.nuisance_ranges = real ? "normal" : "exact";
-  RngStream rng(o.seed, "gap_selftest");
   const auto& effects = real ? RealInjectableEffects() : InjectableEffects();
   const std::string ch_name = fmt::format("mag{}", kSelftestCompass + 1);
   const auto& dyn_effects = InjectableDynamicsEffects();
@@ -263,12 +262,12 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
   const int kClasses = static_cast<int>(classes.size());
   // Flies a trial; on the real profile degrades its log and corrects the truth of the nuisance-like
   // effects by the log's own nuisance terms.
-  auto fly = [&](Trial* trial, const std::string& ool_family) -> Result<logs::FlightLog> {
-    auto log = FlyTrial(trial, &rng);
+  auto fly = [&](Trial* trial, const std::string& ool_family, RngStream* rng) -> Result<logs::FlightLog> {
+    auto log = FlyTrial(trial, rng);
     if (!log.ok() || !real) return log;
-    if (!ool_family.empty()) HEXSIM_RETURN_IF_ERROR(internal::InjectOutOfLibrary(&*log, kSelftestCompass, ool_family, &rng));
+    if (!ool_family.empty()) HEXSIM_RETURN_IF_ERROR(internal::InjectOutOfLibrary(&*log, kSelftestCompass, ool_family, rng));
     internal::RealLogTruth lt;
-    auto deg = internal::DegradeToRealLog(*log, trial->configured, &rng, &lt);
+    auto deg = internal::DegradeToRealLog(*log, trial->configured, rng, &lt);
     if (!deg.ok()) return deg.status();
     const auto& ct = trial->truth.vehicle.compasses[kSelftestCompass].error;
     const auto& cc = trial->configured.compasses[kSelftestCompass].error;
@@ -285,116 +284,159 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
   std::vector<double> threshold_grid = {0.002, 0.005, 0.01, 0.02, 0.05, 0.1};
   const int threshold_runs = static_cast<int>(threshold_grid.size()) * o.threshold_trials;
   const int total = kClasses * o.trials + threshold_runs;
-  int done = 0;
-  uint64_t run_seed = o.seed * 100003;
-  std::map<std::string, ClassStats> stats;
-  for (const char* cls : classes) {
-    ClassStats& st = stats[cls];
-    for (int k = 0; k < o.trials; ++k) {
-      std::vector<Injection> inj;
-      const std::string c = cls;
-      auto draw = [&](size_t i) {
-        const EffectRange& e = effects[i];
-        double m = e.lo + (e.hi - e.lo) * rng.Uniform();
-        if (e.signed_magnitude && rng.Uniform() < 0.5) m = -m;
-        return Injection{e.effect, m};
-      };
-      if (c == "one_effect") {
-        inj.push_back(draw(static_cast<size_t>(k) % effects.size()));
-      } else if (c == "dynamics_one_effect") {
-        const EffectRange& e = dyn_effects[static_cast<size_t>(k) % dyn_effects.size()];
-        inj.push_back({e.effect, e.lo + (e.hi - e.lo) * rng.Uniform()});
-      } else if (c == "two_effects") {
-        const size_t a = static_cast<size_t>(rng.Uniform() * effects.size());
-        size_t b = static_cast<size_t>(rng.Uniform() * (effects.size() - 1));
-        if (b >= a) ++b;
-        inj.push_back(draw(a));
-        inj.push_back(draw(b));
-      }
-      std::string family;
-      if (c == "out_of_library" && real) {
-        const auto& fams = internal::OutOfLibraryFamilies();
-        family = fams[static_cast<size_t>(rng.Uniform() * static_cast<double>(fams.size())) % fams.size()];
-        ++st.per_effect[family].second;
-      } else if (c == "out_of_library") {
-        if (k % 2 == 0) inj.push_back({"current_exponent", 0.3 + 0.5 * rng.Uniform()});
-        else inj.push_back({"thermal_ramp", 2.0 + 4.0 * rng.Uniform()});
-      }
-      auto trial = MakeTrial(o, ++run_seed, inj, &rng);
+  // Every trial is independent (trial i: simulator seed seed·100003 + i + 1, its own random stream
+  // "gap_selftest/i"), so the runner may run them in any order or in parallel; the metrics are
+  // accumulated afterwards in trial order. Trials [0, classes·trials) are the classes' (class-major),
+  // the rest the detection-threshold sweep (magnitude-major).
+  auto run_trial = [&](size_t index) -> Result<nlohmann::json> {
+    const int i = static_cast<int>(index);
+    RngStream rng(o.seed, fmt::format("gap_selftest/{}", i));
+    const uint64_t run_seed = o.seed * 100003 + index + 1;
+    if (i >= kClasses * o.trials) {
+      const double m = threshold_grid[static_cast<size_t>((i - kClasses * o.trials) / o.threshold_trials)];
+      auto trial = MakeTrial(o, run_seed, {{"current_hard_iron", m}}, &rng);
       if (!trial.ok()) return trial.status();
-      auto log = fly(&*trial, family);
+      auto log = fly(&*trial, "", &rng);
       if (!log.ok()) return log.status();
       auto rep = Diagnose(*log, trial->configured, o.diagnose);
       if (!rep.ok()) return rep.status();
-      const bool dyn_class = c == "dynamics_one_effect";
-      const std::string cls_channel = dyn_class ? "dynamics" : ch_name;
-      const ChannelResult* r = Find(*rep, cls_channel);
-      if (!r) return Status::Numerical("selftest: channel " + cls_channel + " was not diagnosed");
-      if (c == "clean") {
-        if (const ChannelResult* d = Find(*rep, "dynamics")) {
-          ++st.dynamics_n;
-          st.dynamics_alarm += d->gap_detected;
-        }
+      const ChannelResult* r = Find(*rep, ch_name);
+      return nlohmann::json{{"flagged", r && r->gap_detected}};
+    }
+    const std::string c = classes[static_cast<size_t>(i / o.trials)];
+    const int k = i % o.trials;
+    std::vector<Injection> inj;
+    auto draw = [&](size_t e_index) {
+      const EffectRange& e = effects[e_index];
+      double m = e.lo + (e.hi - e.lo) * rng.Uniform();
+      if (e.signed_magnitude && rng.Uniform() < 0.5) m = -m;
+      return Injection{e.effect, m};
+    };
+    if (c == "one_effect") {
+      inj.push_back(draw(static_cast<size_t>(k) % effects.size()));
+    } else if (c == "dynamics_one_effect") {
+      const EffectRange& e = dyn_effects[static_cast<size_t>(k) % dyn_effects.size()];
+      inj.push_back({e.effect, e.lo + (e.hi - e.lo) * rng.Uniform()});
+    } else if (c == "two_effects") {
+      const size_t a = static_cast<size_t>(rng.Uniform() * effects.size());
+      size_t b = static_cast<size_t>(rng.Uniform() * (effects.size() - 1));
+      if (b >= a) ++b;
+      inj.push_back(draw(a));
+      inj.push_back(draw(b));
+    }
+    std::string family;
+    if (c == "out_of_library" && real) {
+      const auto& fams = internal::OutOfLibraryFamilies();
+      family = fams[static_cast<size_t>(rng.Uniform() * static_cast<double>(fams.size())) % fams.size()];
+    } else if (c == "out_of_library") {
+      if (k % 2 == 0) inj.push_back({"current_exponent", 0.3 + 0.5 * rng.Uniform()});
+      else inj.push_back({"thermal_ramp", 2.0 + 4.0 * rng.Uniform()});
+    }
+    auto trial = MakeTrial(o, run_seed, inj, &rng);
+    if (!trial.ok()) return trial.status();
+    auto log = fly(&*trial, family, &rng);
+    if (!log.ok()) return log.status();
+    auto rep = Diagnose(*log, trial->configured, o.diagnose);
+    if (!rep.ok()) return rep.status();
+    const bool dyn_class = c == "dynamics_one_effect";
+    const std::string cls_channel = dyn_class ? "dynamics" : ch_name;
+    const ChannelResult* r = Find(*rep, cls_channel);
+    if (!r) return Status::Numerical("selftest: channel " + cls_channel + " was not diagnosed");
+    // What the metrics need of this trial.
+    nlohmann::json out = {{"family", family},           {"verdict", r->verdict},
+                          {"gap_detected", r->gap_detected}, {"heldout_shrink", r->heldout_shrink},
+                          {"any_compass_alarm", false},  {"effects", nlohmann::json::array()},
+                          {"covered", nlohmann::json::array()}};
+    for (const Injection& x : inj) out["effects"].push_back(x.effect);
+    if (c == "clean") {
+      if (const ChannelResult* d = Find(*rep, "dynamics")) out["dynamics_detected"] = d->gap_detected;
+    }
+    for (const auto& cr : rep->channels) {
+      if (cr.unit == "uT" && cr.gap_detected) {
+        out["any_compass_alarm"] = true;
+        break;
+      }
+    }
+    if (c == "one_effect" || dyn_class) {
+      // The true effect's held-out explained share (of the baseline residual), 0 when not reported.
+      double true_share = 0;
+      for (const auto& cand : r->candidates) {
+        if (cand.effect == inj[0].effect) true_share = cand.explained_share;
+      }
+      out["true_share"] = true_share;
+      for (const auto& cand : r->candidates) {
+        if (cand.effect != inj[0].effect) continue;
+        const double tm = trial->true_magnitude[0];
+        out["covered"].push_back(tm >= cand.magnitude_ci95[0] && tm <= cand.magnitude_ci95[1]);
+      }
+    }
+    return out;
+  };
+  int done = 0;
+  auto serial = [&](size_t n, const TrialFn& one) -> Result<std::vector<nlohmann::json>> {
+    std::vector<nlohmann::json> outs;
+    for (size_t i = 0; i < n; ++i) {
+      auto r = one(i);
+      if (!r.ok()) return r.status();
+      outs.push_back(std::move(*r));
+      if (progress) progress(++done, total);
+    }
+    return outs;
+  };
+  auto outcomes = runner ? runner(static_cast<size_t>(total), run_trial) : serial(static_cast<size_t>(total), run_trial);
+  if (!outcomes.ok()) return outcomes.status();
+  if (outcomes->size() != static_cast<size_t>(total)) return Status::Numerical("selftest: the runner lost trials");
+  std::map<std::string, ClassStats> stats;
+  size_t next = 0;
+  for (const char* cls : classes) {
+    ClassStats& st = stats[cls];
+    const std::string c = cls;
+    const bool dyn_class = c == "dynamics_one_effect";
+    for (int k = 0; k < o.trials; ++k) {
+      const nlohmann::json& out = (*outcomes)[next++];
+      const std::string verdict = out.at("verdict").get<std::string>();
+      const std::string family = out.at("family").get<std::string>();
+      const auto inj = out.at("effects").get<std::vector<std::string>>();
+      if (!family.empty()) ++st.per_effect[family].second;
+      if (out.contains("dynamics_detected")) {
+        ++st.dynamics_n;
+        st.dynamics_alarm += out["dynamics_detected"].get<bool>();
       }
       ++st.n;
-      st.detected += r->gap_detected;
-      ++st.verdicts[r->verdict];
-      for (const auto& cr : rep->channels) {
-        if (cr.unit == "uT" && cr.gap_detected) {
-          ++st.any_compass_alarm;
-          break;
-        }
-      }
-      const bool hit = std::any_of(inj.begin(), inj.end(), [&](const Injection& i) { return i.effect == r->verdict; });
+      st.detected += out.at("gap_detected").get<bool>();
+      ++st.verdicts[verdict];
+      st.any_compass_alarm += out.at("any_compass_alarm").get<bool>();
+      const bool hit = std::find(inj.begin(), inj.end(), verdict) != inj.end();
       if (c == "one_effect" || c == "two_effects" || dyn_class) {
         st.top1 += hit;
-        auto& pe = st.per_effect[c != "two_effects" ? inj[0].effect : inj[0].effect + "+" + inj[1].effect];
+        auto& pe = st.per_effect[c != "two_effects" ? inj[0] : inj[0] + "+" + inj[1]];
         pe.first += hit;
         pe.second += 1;
       }
       if (c == "one_effect" || dyn_class) {
-        st.shrink.push_back(r->heldout_shrink);
-        // The true effect's held-out explained share (of the baseline residual), 0 when not reported.
-        double true_share = 0;
-        for (const auto& cand : r->candidates) {
-          if (cand.effect == inj[0].effect) true_share = cand.explained_share;
-        }
-        st.share.push_back(true_share);
-        for (const auto& cand : r->candidates) {
-          if (cand.effect != inj[0].effect) continue;
-          const double tm = trial->true_magnitude[0];
-          const bool in = tm >= cand.magnitude_ci95[0] && tm <= cand.magnitude_ci95[1];
+        st.shrink.push_back(out.at("heldout_shrink").get<double>());
+        st.share.push_back(out.at("true_share").get<double>());
+        for (const auto& in : out.at("covered")) {
           ++st.coverage_n;
-          st.covered += in;
-          auto& pc = st.per_effect_coverage[inj[0].effect];
-          pc.first += in;
+          st.covered += in.get<bool>();
+          auto& pc = st.per_effect_coverage[inj[0]];
+          pc.first += in.get<bool>();
           pc.second += 1;
         }
       }
       if (c == "out_of_library") {
-        if (!family.empty()) st.per_effect[family].first += r->verdict == "unexplained";
-        st.unexplained += r->verdict == "unexplained";
-        st.confident_wrong += r->verdict != "unexplained" && r->verdict != "ambiguous";
+        if (!family.empty()) st.per_effect[family].first += verdict == "unexplained";
+        st.unexplained += verdict == "unexplained";
+        st.confident_wrong += verdict != "unexplained" && verdict != "ambiguous";
       }
-      if (progress) progress(++done, total);
     }
   }
   // Detection threshold of current_hard_iron: the smallest magnitude flagged in ≥ 90 % of trials
   // (and at every larger magnitude of the grid).
   std::vector<double> flagged_rate;
-  for (double m : threshold_grid) {
+  for (size_t g = 0; g < threshold_grid.size(); ++g) {
     int flagged = 0;
-    for (int k = 0; k < o.threshold_trials; ++k) {
-      auto trial = MakeTrial(o, ++run_seed, {{"current_hard_iron", m}}, &rng);
-      if (!trial.ok()) return trial.status();
-      auto log = fly(&*trial, "");
-      if (!log.ok()) return log.status();
-      auto rep = Diagnose(*log, trial->configured, o.diagnose);
-      if (!rep.ok()) return rep.status();
-      const ChannelResult* r = Find(*rep, ch_name);
-      flagged += r && r->gap_detected;
-      if (progress) progress(++done, total);
-    }
+    for (int k = 0; k < o.threshold_trials; ++k) flagged += (*outcomes)[next++].at("flagged").get<bool>();
     flagged_rate.push_back(static_cast<double>(flagged) / o.threshold_trials);
   }
   double threshold = std::nan("");

@@ -47,6 +47,24 @@ Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, co
 Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, const PoolOptions& options,
                           ResultsDb* db);
 
+// The pool's core, for any kind of task: forks a worker for each i in [0, n), in order, at most
+// `jobs` at a time. In the parent `before_fork(i)` runs first (an error stops new workers); the
+// worker runs `child(i)` and exits with the code it returns (an exception: code 5) without running
+// atexit handlers; as each worker ends the parent gets `reaped(i, wait status, wall s, timed out)`
+// (an error stops new workers; the running ones are still reaped). timeout_s > 0: a worker still
+// running after that long is killed (SIGKILL). Returns the first error.
+using ReapFn = std::function<Status(size_t index, int wait_status, double wall_s, bool timed_out)>;
+Status ForkEach(size_t n, int jobs, double timeout_s, const std::function<Status(size_t)>& before_fork,
+                const std::function<int(size_t)>& child, const ReapFn& reaped);
+
+// fn(i) for every i in [0, n) in forked workers (at most `jobs` at a time; a crash in one never takes
+// the caller down), each JSON result passed back through a temporary file; the results in index
+// order, whatever order the workers end in. Any task's failure (its error, a crash) fails the call:
+// the first failure in index order. `progress` (may be empty) is called in the parent as each ends.
+Result<std::vector<nlohmann::json>> RunForkedMap(size_t n, const std::function<Result<nlohmann::json>(size_t)>& fn,
+                                                 int jobs,
+                                                 const std::function<void(size_t done, size_t total)>& progress = {});
+
 // The progress display (exposed for tests).
 class Progress {
  public:

@@ -3,6 +3,7 @@
 // the unmodified vehicle); classes clean / one effect / two effects / out-of-library.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -86,7 +87,15 @@ struct SelftestResult {
   bool targets_met = false;
 };
 
-// Runs every class and the detection-threshold sweep. `progress` (may be null) is called per trial.
-Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progress)(int done, int total) = nullptr);
+// Runs trials 0 … n−1 of a selftest with `one` and returns their outcomes in trial order. Trials are
+// independent (each has its own seed and random stream), so a runner may run them in any order or
+// in parallel (e.g. forked workers: an outcome is plain JSON); the metrics do not depend on it.
+using TrialFn = std::function<Result<nlohmann::json>(size_t trial)>;
+using TrialRunner = std::function<Result<std::vector<nlohmann::json>>(size_t n, const TrialFn& one)>;
+
+// Runs every class and the detection-threshold sweep. `progress` (may be null) is called per trial
+// when the trials run here, one after the other; an empty `runner` means that.
+Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progress)(int done, int total) = nullptr,
+                                   const TrialRunner& runner = {});
 
 }  // namespace hexsim::gap
