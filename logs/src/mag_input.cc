@@ -164,16 +164,24 @@ void UndoArduPilot(const nlohmann::json& meta, const std::string& compass, const
   }
 }
 
-// Undoes PX4's correction of compass `compass` when the meta describes it (ulog_import.h):
-// calibrated = R·S·(raw − off), so raw = S⁻¹·Rᵀ·calibrated + off (gauss); a raw topic is kept as
-// it is. Either way the autopilot's slot and offset become the parameters' index and the prior.
-void UndoPx4(const nlohmann::json& meta, const std::string& compass, MagInput* in) {
+// Brings compass `compass` of a PX4 log (meta as ulog_import.h writes it) to the reading PX4's
+// CAL_MAGn offsets and scales act on: calibrated = R·S·(raw + P·comp − off) (ulog_mag_cal.h), so
+//   u = raw + P·comp = S⁻¹·Rᵀ·calibrated + off     for a calibrated topic,
+//   u = raw + P·comp                              for raw sensor_mag, P from the px4_mag_power column.
+// PX4 keeps applying P·comp (CAL_MAG_COMP_TYP, CAL_MAGn_X/Y/ZCOMP; calibrate never writes them), so
+// a fit of u gives parameters that are right with that compensation in force; a fit of raw alone
+// would take the motors' field, which the compensation already removes, into the offset. With P = 0
+// (disarmed on the ground, or no compensation) u is the raw reading. Either way the autopilot's slot
+// and offset become the parameters' index and the prior.
+void UndoPx4(const nlohmann::json& meta, const std::string& compass, const std::vector<double>& power, MagInput* in) {
   if (!meta.is_object() || meta.value("format", "") != "px4-ulog" || !meta.contains("compasses")) return;
   for (const auto& c : meta["compasses"]) {
     if (c.value("column", "") != compass || !c.contains("px4_calibration")) continue;
     const auto& p = c["px4_calibration"];
     auto vec = [&](const char* key) { return Vector3d(p[key][0].get<double>(), p[key][1].get<double>(), p[key][2].get<double>()); };
     const Vector3d off_uT = 100.0 * vec("offsets_G"), dia = vec("scales"), odi = vec("offdiagonals");
+    const Vector3d comp_uT = 100.0 * vec("power_compensation");  // µT per unit of P
+    const int comp_type = static_cast<int>(p.value("power_compensation_type", 0.0));
     Matrix3d S;
     S << dia(0), odi(0), odi(1), odi(0), dia(1), odi(2), odi(1), odi(2), dia(2);
     Matrix3d R;
@@ -181,9 +189,25 @@ void UndoPx4(const nlohmann::json& meta, const std::string& compass, MagInput* i
     const int slot = p["index"].get<int>();
     in->px4_index = slot;
     in->prior_offset = off_uT;
+    const bool comp_on = comp_type != 0 && !comp_uT.isZero();
+    std::string comp_note;
+    if (comp_on) {
+      double p_max = 0.0;
+      for (const double v : power) p_max = std::isfinite(v) ? std::max(p_max, std::fabs(v)) : p_max;
+      comp_note = fmt::format(
+          "; PX4 power compensation in force (CAL_MAG_COMP_TYP {}, CAL_MAG{}_X/Y/ZCOMP {:.4g},{:.4g},{:.4g} G, largest P "
+          "{:.3g}{}): the fit is of raw + P·comp, what PX4's offsets act on, so keep those parameters",
+          comp_type, slot, comp_uT(0) / 100, comp_uT(1) / 100, comp_uT(2) / 100, p_max,
+          power.empty() ? ", no power signal in the log: P taken as 0" : "");
+    }
     if (!c.value("calibrated", false)) {
-      in->notes.push_back(fmt::format("PX4 log: raw sensor_mag, calibration slot CAL_MAG{} (matched by {})", slot,
-                                      p["matched_by"].get<std::string>()));
+      if (comp_on && power.size() == in->field.size()) {
+        for (size_t i = 0; i < in->field.size(); ++i) {
+          if (std::isfinite(power[i])) in->field[i] += power[i] * comp_uT;
+        }
+      }
+      in->notes.push_back(fmt::format("PX4 log: raw sensor_mag, calibration slot CAL_MAG{} (matched by {}){}", slot,
+                                      p["matched_by"].get<std::string>(), comp_note));
       continue;
     }
     if (!p["rotation_known"].get<bool>() || std::abs(S.determinant()) < 1e-6) continue;  // warned at import
@@ -193,8 +217,7 @@ void UndoPx4(const nlohmann::json& meta, const std::string& compass, MagInput* i
         "PX4 log: raw field rebuilt from the calibrated one with CAL_MAG{}_* (matched by {}; offsets {:.4f},{:.4f},{:.4f} G, "
         "rotation {}): the calibration is absolute{}",
         slot, p["matched_by"].get<std::string>(), off_uT(0) / 100, off_uT(1) / 100, off_uT(2) / 100,
-        p["rotation"].get<double>(),
-        vec("power_compensation").isZero() ? "" : "; CAL_MAG_COMP (throttle/current compensation) is not undone"));
+        p["rotation"].get<double>(), comp_note));
   }
 }
 
@@ -222,10 +245,11 @@ Result<MagInput> FromHeaderTable(const Table& t, const std::string& name, const 
     }
   }
   const int it = Find(h, compass + "_t_s"), ic = Find(h, "control_u"), ii = Find(h, "current_A"),
-            ia = Find(h, "angle_deg"), ip = Find(h, "plane");
+            ia = Find(h, "angle_deg"), ip = Find(h, "plane"), ipw = Find(h, "px4_mag_power");
   const int im[3] = {Find(h, compass + "_mot_x_uT"), Find(h, compass + "_mot_y_uT"), Find(h, compass + "_mot_z_uT")};
   const bool has_mot = im[0] >= 0 && im[1] >= 0 && im[2] >= 0;
   std::vector<Vector3d> mot;
+  std::vector<double> power;  // PX4's magnetometer power signal P, when the log has it
   double last_t = std::nan("");
   for (size_t r = 0; r < t.rows.size(); ++r) {
     const auto& f = t.rows[r];
@@ -264,6 +288,7 @@ Result<MagInput> FromHeaderTable(const Table& t, const std::string& name, const 
     HEXSIM_RETURN_IF_ERROR(opt(ic, &in.control_u));
     HEXSIM_RETURN_IF_ERROR(opt(ii, &in.current_A));
     HEXSIM_RETURN_IF_ERROR(opt(ia, &in.angle_deg));
+    HEXSIM_RETURN_IF_ERROR(opt(ipw, &power));
     if (ip >= 0) in.plane.push_back(f[static_cast<size_t>(ip)]);
     if (has_mot) {
       Vector3d m = Vector3d::Zero();
@@ -278,7 +303,7 @@ Result<MagInput> FromHeaderTable(const Table& t, const std::string& name, const 
                                  flightlog ? "FlightLog CSV" : "plain columns with a header",
                                  it >= 0 ? ", one per new " + compass + "_t_s" : ""));
   UndoArduPilot(meta, compass, mot, &in);
-  UndoPx4(meta, compass, &in);
+  UndoPx4(meta, compass, power, &in);
   return in;
 }
 

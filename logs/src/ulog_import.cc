@@ -42,7 +42,7 @@ struct Column {
 // native-rate stream `stream`.
 struct Channel {
   const ULogTopic* topic = nullptr;
-  std::string stream;
+  std::string stream;  // "": table columns only, no `_t_s` and no stream
   std::vector<Column> columns;
   std::function<bool(size_t)> keep;  // records to use (null: all)
 };
@@ -67,7 +67,7 @@ std::vector<size_t> Usable(const Channel& ch, size_t* dropped) {
 
 // The table's columns: each row holds the latest record at or before its time, never interpolated.
 void Hold(const Channel& ch, const std::vector<size_t>& recs, FlightLog* log, const std::vector<double>& row_t) {
-  const size_t tc = log->AddColumn(ch.stream + "_t_s");
+  const size_t tc = ch.stream.empty() ? 0 : log->AddColumn(ch.stream + "_t_s");
   std::vector<std::pair<size_t, const Column*>> cols;
   for (const auto& c : ch.columns) {
     if (c.in_table) cols.emplace_back(log->AddColumn(c.name), &c);
@@ -78,7 +78,7 @@ void Hold(const Channel& ch, const std::vector<size_t>& recs, FlightLog* log, co
     while (next < recs.size() && ch.topic->TimeS(recs[next]) <= row_t[r]) held = static_cast<long>(next++);
     if (held < 0) continue;
     const size_t i = recs[static_cast<size_t>(held)];
-    log->MutableColumn(tc)[r] = ch.topic->TimeS(i);
+    if (!ch.stream.empty()) log->MutableColumn(tc)[r] = ch.topic->TimeS(i);
     for (const auto& [col, c] : cols) log->MutableColumn(col)[r] = c->value(i);
   }
 }
@@ -187,6 +187,67 @@ void Magnetometers(const ULog& u, const std::string& name, std::vector<Channel>*
   }
 }
 
+// The armed state over time, from actuator_armed.armed (the outputs' own state), else vehicle_status
+// arming_state (2 = ARMED in every PX4 release; older releases' 3, ARMED_ERROR, is rare and taken as
+// disarmed). Before the first record the state is the first record's: PX4's logger writes each
+// topic's current value when it starts.
+struct ArmedState {
+  std::vector<double> t_s;
+  std::vector<double> armed;  // 0/1
+  std::string source;
+  double At(double t) const {
+    if (t_s.empty()) return kMissing;
+    const size_t k = static_cast<size_t>(std::upper_bound(t_s.begin(), t_s.end(), t) - t_s.begin());
+    return armed[k == 0 ? 0 : k - 1];
+  }
+};
+
+ArmedState ArmedOf(const ULog& u) {
+  ArmedState s;
+  const ULogTopic* aa = u.Find("actuator_armed");
+  const ULogTopic* vs = u.Find("vehicle_status");
+  const bool use_aa = aa != nullptr && aa->Has("armed") && !aa->records.empty();
+  const ULogTopic* t = use_aa ? aa : vs;
+  if (t == nullptr || (!use_aa && !t->Has("arming_state"))) return s;
+  constexpr double kArmingStateArmed = 2;  // vehicle_status ARMING_STATE_ARMED
+  s.source = use_aa ? "actuator_armed.armed" : "vehicle_status.arming_state (2 = armed)";
+  for (size_t i = 0; i < t->records.size(); ++i) {
+    const double ti = t->TimeS(i);
+    const double v = use_aa ? t->Get(i, "armed") : t->Get(i, "arming_state");
+    if (!std::isfinite(ti) || !std::isfinite(v) || (!s.t_s.empty() && ti < s.t_s.back())) continue;
+    s.t_s.push_back(ti);
+    s.armed.push_back(use_aa ? (v != 0 ? 1.0 : 0.0) : (v == kArmingStateArmed ? 1.0 : 0.0));
+  }
+  return s;
+}
+
+// PX4's power signal P of the magnetometer power compensation (CAL_MAG_COMP_TYP; VehicleMagnetometer
+// UpdatePowerCompensation): 1 throttle, only while armed (actuator_controls_0 control[3], or
+// |vehicle_thrust_setpoint xyz| in releases without actuator_controls), 2 and 3 the current of
+// battery_status instance 0 and 1 in kA (current_a / 1000). Null topic: no power signal.
+Channel PowerSignal(const ULog& u, int comp_type, const ArmedState& armed, std::string* source) {
+  constexpr double kAmperesPerKiloampere = 1000.0;
+  if (comp_type == 2 || comp_type == 3) {
+    const ULogTopic* b = u.Find("battery_status", comp_type - 2);
+    if (b == nullptr || !b->Has("current_a")) return {};
+    *source = fmt::format("battery_status instance {} current_a / 1000 (kA)", comp_type - 2);
+    return {b, "", {{"px4_mag_power", [b](size_t i) { return b->Get(i, "current_a") / kAmperesPerKiloampere; }}}, nullptr};
+  }
+  if (comp_type != 1) return {};
+  const ULogTopic* ac = u.Find("actuator_controls_0");
+  const ULogTopic* th = u.Find("vehicle_thrust_setpoint");
+  const bool use_ac = ac != nullptr && ac->Has("control[3]") && !ac->records.empty();
+  const ULogTopic* t = use_ac ? ac : th;
+  if (t == nullptr || (!use_ac && !t->Has("xyz[2]"))) return {};
+  *source = use_ac ? "actuator_controls_0 control[3] (throttle) while armed"
+                   : "|vehicle_thrust_setpoint xyz| (throttle) while armed";
+  return {t, "", {{"px4_mag_power", [t, use_ac, &armed](size_t i) {
+                     if (!(armed.At(t->TimeS(i)) > 0.5)) return 0.0;
+                     if (use_ac) return t->Get(i, "control[3]");
+                     return std::hypot(t->Get(i, "xyz[0]"), t->Get(i, "xyz[1]"), t->Get(i, "xyz[2]"));
+                   }}}, nullptr};
+}
+
 }  // namespace
 
 Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name) {
@@ -231,6 +292,21 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
     channels.push_back(std::move(c));
   }
   Magnetometers(u, name, &channels, &compasses, &out.warnings);
+  const ArmedState armed = ArmedOf(u);
+  // The power signal of PX4's magnetometer power compensation, when one is in force (ulog_mag_cal.h).
+  const auto comp_it = u.params.find("CAL_MAG_COMP_TYP");
+  const int comp_type = comp_it != u.params.end() ? static_cast<int>(comp_it->second) : 0;
+  bool comp_nonzero = false;
+  for (const auto& c : compasses) {
+    if (!c.contains("px4_calibration")) continue;
+    for (const auto& v : c["px4_calibration"]["power_compensation"]) comp_nonzero = comp_nonzero || v.get<double>() != 0.0;
+  }
+  std::string power_source;
+  if (comp_nonzero && comp_type != 0) {
+    Channel p = PowerSignal(u, comp_type, armed, &power_source);
+    if (p.topic != nullptr) channels.push_back(std::move(p));
+    else out.warnings.push_back(fmt::format("{}: CAL_MAG_COMP_TYP {}: the log lacks the power signal it needs", name, comp_type));
+  }
   if (const ULogTopic* b = u.Find("battery_status"); b != nullptr) {
     channels.push_back({b, "batt", {{"current_A", [b](size_t i) { return b->Get(i, "current_a"); }},
                                     {"voltage_V", [b](size_t i) { return b->Get(i, "voltage_v"); }}}, nullptr});
@@ -296,7 +372,11 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
     const std::vector<size_t> recs = Usable(ch, &dropped);
     if (recs.empty()) continue;
     Hold(ch, recs, &log, row_t);
-    log.SetStream(ch.stream, StreamOf(ch, recs));
+    if (!ch.stream.empty()) log.SetStream(ch.stream, StreamOf(ch, recs));
+  }
+  if (!armed.t_s.empty()) {
+    const size_t col = log.AddColumn("armed");
+    for (size_t r = 0; r < row_t.size(); ++r) log.MutableColumn(col)[r] = armed.At(row_t[r]);
   }
   nlohmann::json& meta = log.meta;
   // Place and date for the Earth-field model (gap diagnose): the first 3-D fix, as for DataFlash.
@@ -329,6 +409,11 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
                   {"base", "seconds since autopilot boot"}};
   meta["attitude_source"] = "vehicle_attitude q: the autopilot's own attitude estimate";
   meta["compasses"] = compasses;
+  meta["armed_source"] = armed.t_s.empty() ? "none (no actuator_armed or vehicle_status)" : armed.source;
+  if (comp_type != 0) {
+    meta["px4_mag_power_compensation"] = {{"type", comp_type}, {"column", power_source.empty() ? "" : "px4_mag_power"},
+                                          {"source", power_source}};
+  }
   meta["compass_units"] = "uT (PX4 logs gauss: x100)";
   meta["messages_text"] = u.messages;
   meta["bytes_skipped"] = u.bytes_skipped;

@@ -2,6 +2,8 @@
 
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
 #include <string>
 
 #include <Eigen/Geometry>
@@ -13,15 +15,36 @@ namespace {
 constexpr int kCalSlots = 4;  // CAL_MAG0..CAL_MAG3
 constexpr double kDegToRad = M_PI / 180.0;
 
-// PX4's rotation enum (src/lib/conversion/rotation.h): {roll, pitch, yaw} in degrees. Values
-// 0..25 have kept their meaning across PX4 releases; later ones were renumbered, so they are not
-// taken as known.
-constexpr std::array<std::array<int, 3>, 26> kRotations = {{
-    {0, 0, 0},     {0, 0, 45},    {0, 0, 90},    {0, 0, 135},  {0, 0, 180},   {0, 0, 225},   {0, 0, 270},
-    {0, 0, 315},   {180, 0, 0},   {180, 0, 45},  {180, 0, 90}, {180, 0, 135}, {0, 180, 0},   {180, 0, 225},
-    {180, 0, 270}, {180, 0, 315}, {90, 0, 0},    {90, 0, 45},  {90, 0, 90},   {90, 0, 135},  {270, 0, 0},
-    {270, 0, 45},  {270, 0, 90},  {270, 0, 135}, {0, 90, 0},   {0, 270, 0},
+// PX4's rotation enum (src/lib/conversion/rotation.h): {roll, pitch, yaw} in degrees. 0..25 mean
+// the same in every release. PX4 1.12 renumbered the rest to match MAVLink's MAV_SENSOR_ORIENTATION
+// (PX4 pull requests 14797 and 15784) and later appended 42..47; 1.10 and older had their own 26..34.
+// 1.11 sat between the two layouts, so there (and where the log names no release) only 0..25 are
+// taken as known. 100 is ROTATION_CUSTOM: the Euler angles CAL_MAGn_ROLL/PITCH/YAW (PX4 1.13 on).
+constexpr std::array<std::array<int, 3>, 48> kRotations = {{
+    {0, 0, 0},     {0, 0, 45},    {0, 0, 90},    {0, 0, 135},   {0, 0, 180},   {0, 0, 225},   {0, 0, 270},
+    {0, 0, 315},   {180, 0, 0},   {180, 0, 45},  {180, 0, 90},  {180, 0, 135}, {0, 180, 0},   {180, 0, 225},
+    {180, 0, 270}, {180, 0, 315}, {90, 0, 0},    {90, 0, 45},   {90, 0, 90},   {90, 0, 135},  {270, 0, 0},
+    {270, 0, 45},  {270, 0, 90},  {270, 0, 135}, {0, 90, 0},    {0, 270, 0},   {0, 180, 90},  {0, 180, 270},
+    {90, 90, 0},   {180, 90, 0},  {270, 90, 0},  {90, 180, 0},  {270, 180, 0}, {90, 270, 0},  {180, 270, 0},
+    {270, 270, 0}, {90, 180, 90}, {90, 0, 270},  {90, 68, 293}, {0, 315, 0},   {90, 315, 0},  {270, 0, 180},
+    {270, 0, 270}, {0, 90, 180},  {0, 9, 180},   {0, 45, 0},    {270, 0, 225}, {270, 0, 315},
 }};
+// PX4 1.10 and older: 26..34.
+constexpr std::array<std::array<int, 3>, 9> kRotationsBefore111 = {{
+    {270, 0, 270}, {180, 270, 0}, {0, 90, 180}, {90, 90, 0}, {90, 68, 293}, {270, 90, 0}, {0, 9, 180}, {0, 45, 0}, {0, 315, 0},
+}};
+constexpr int kStableRotations = 26;  // 0..25
+constexpr int kRotationCustom = 100;
+
+// The log's PX4 release as major·100 + minor (ver_sw_release = 0xMMmmpptt), or -1 when not logged.
+int Release(const ULog& u) {
+  const auto it = u.info.find("ver_sw_release");
+  if (it == u.info.end()) return -1;
+  const double v = std::strtod(it->second.c_str(), nullptr);
+  if (!(v > 0 && v < 4294967296.0)) return -1;
+  const auto r = static_cast<uint32_t>(v);
+  return static_cast<int>((r >> 24) & 0xFF) * 100 + static_cast<int>((r >> 16) & 0xFF);
+}
 
 // PX4's Dcm of Euler angles (roll φ, pitch θ, yaw ψ): R = Rz(ψ)·Ry(θ)·Rx(φ).
 Eigen::Matrix3d Dcm(double roll_deg, double pitch_deg, double yaw_deg) {
@@ -36,10 +59,25 @@ double Param(const ULog& u, const std::string& name, double fallback) {
   return it == u.params.end() ? fallback : it->second;
 }
 
-// The rotation of enum `rot`; false when unknown.
-bool Rotation(double rot, Eigen::Matrix3d* R) {
-  if (!(rot >= 0 && rot < static_cast<double>(kRotations.size())) || rot != std::floor(rot)) return false;
-  const auto& e = kRotations[static_cast<size_t>(rot)];
+// The rotation of enum `rot` for the log's release; false when unknown. `slot`: the CAL_MAGn
+// prefix for a custom rotation ("" for the board).
+bool Rotation(const ULog& u, double rot, const std::string& slot, Eigen::Matrix3d* R) {
+  if (rot != std::floor(rot)) return false;
+  const int release = Release(u);
+  std::array<int, 3> e{};
+  if (rot >= 0 && rot < kStableRotations) {
+    e = kRotations[static_cast<size_t>(rot)];
+  } else if (rot >= kStableRotations && rot < static_cast<double>(kRotations.size()) && release >= 112) {
+    e = kRotations[static_cast<size_t>(rot)];
+  } else if (rot >= kStableRotations && rot < kStableRotations + static_cast<double>(kRotationsBefore111.size()) &&
+             release >= 0 && release < 111) {
+    e = kRotationsBefore111[static_cast<size_t>(rot) - kStableRotations];
+  } else if (rot == kRotationCustom && !slot.empty() && u.params.count(slot + "ROLL") != 0) {
+    *R = Dcm(Param(u, slot + "ROLL", 0), Param(u, slot + "PITCH", 0), Param(u, slot + "YAW", 0));
+    return true;
+  } else {
+    return false;
+  }
   *R = Dcm(e[0], e[1], e[2]);
   return true;
 }
@@ -72,16 +110,17 @@ nlohmann::json Px4MagCalibration(const ULog& u, double device_id, int instance, 
                       {"offsets_G", vec("OFF", 0.0)},
                       {"scales", vec("SCALE", 1.0)},
                       {"offdiagonals", vec("ODIAG", 0.0)},
-                      {"power_compensation", vec("COMP", 0.0)}};
+                      {"power_compensation", vec("COMP", 0.0)},
+                      {"power_compensation_type", Param(u, "CAL_MAG_COMP_TYP", 0)}};
   const double rot = Param(u, p + "ROT", -1);
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   bool known = true;
   if (frame == MagFrame::kCalibrated) {
     if (rot < 0) {  // internal: the board rotation, trimmed
-      known = Rotation(Param(u, "SENS_BOARD_ROT", 0), &R);
+      known = Rotation(u, Param(u, "SENS_BOARD_ROT", 0), "", &R);
       R = Dcm(Param(u, "SENS_BOARD_X_OFF", 0), Param(u, "SENS_BOARD_Y_OFF", 0), Param(u, "SENS_BOARD_Z_OFF", 0)) * R;
     } else {
-      known = Rotation(rot, &R);
+      known = Rotation(u, rot, p, &R);
     }
   }
   c["rotation"] = rot;

@@ -9,9 +9,11 @@
 // An ArduPilot log (.bin, or a FlightLog imported from one, via its meta side file) holds the field
 // with the autopilot's corrections applied, logged = M·(raw + OFS) + MOT (CONTRACTS): the raw field
 // is rebuilt as raw = M⁻¹·(logged − MOT) − OFS, with the log's COMPASS_OFS/DIA/ODI and the per-sample
-// motor offsets, so that the result is an absolute calibration. A PX4 log's calibrated topics
-// (vehicle_magnetometer, old sensor_mag and sensor_combined) are undone with its CAL_MAGn_*:
-// raw = S⁻¹·Rᵀ·calibrated + off (ulog_mag_cal.h); raw sensor_mag is taken as it is.
+// motor offsets, so that the result is an absolute calibration. A PX4 log's compass becomes the
+// reading PX4's CAL_MAGn offsets and scales act on, u = raw + P·comp (its power compensation, which
+// PX4 keeps applying; zero when none is in force): calibrated topics (vehicle_magnetometer, old
+// sensor_mag and sensor_combined) give u = S⁻¹·Rᵀ·calibrated + off (ulog_mag_cal.h), raw sensor_mag
+// gives u = raw + P·comp with P from the import's px4_mag_power column.
 #pragma once
 
 #include <string>

@@ -22,6 +22,13 @@
 //   ekf      pos_*/vel_*, est_pos_*/est_vel_*   vehicle_local_position x, y, z, vx, vy, vz
 //   baro     baro_alt_m                     vehicle_air_data baro_alt_meter
 //   gps      gps_vel_N/E/D_mps (stream also lat_deg, lon_deg, alt_m)   vehicle_gps_position, 3-D fixes
+// Table columns without a stream:
+//   armed          0/1: actuator_armed.armed, else vehicle_status arming_state == 2 (ARMED); before
+//                  the first record, the first record's state (the meta's `armed_source` says which)
+//   px4_mag_power  PX4's magnetometer power-compensation signal P, only when CAL_MAG_COMP_TYP is 1..3
+//                  and a compass has nonzero CAL_MAGn_X/Y/ZCOMP: 1 throttle while armed
+//                  (actuator_controls_0 control[3], else |vehicle_thrust_setpoint xyz|), 2/3 the current
+//                  of battery_status instance 0/1 in kA (meta `px4_mag_power_compensation`)
 #pragma once
 
 #include <string>

@@ -1,0 +1,230 @@
+// PX4 state the ULog importer reads beside the sensors, on ULog files the test writes itself: the
+// armed state (actuator_armed, else vehicle_status), the sensor rotations of each PX4 release, and
+// the magnetometer power compensation (CAL_MAG_COMP_TYP, CAL_MAGn_X/Y/ZCOMP).
+#include <cmath>
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+
+#include "hexsim/logs/mag_input.h"
+#include "hexsim/logs/ulog_import.h"
+#include "support/ulog_writer.h"
+
+namespace hexsim::logs {
+namespace {
+
+using testing::Pack;
+using testing::ULogWriter;
+
+constexpr double kDeg = M_PI / 180.0;
+
+// 10 s of attitude at 10 Hz from t = 1 s (level, identity).
+void Attitude(ULogWriter* w) {
+  w->Format("vehicle_attitude:uint64_t timestamp;float[4] q;");
+  const uint16_t att = w->Subscribe("vehicle_attitude", 0);
+  for (int k = 0; k <= 100; ++k) {
+    w->Data(att, Pack<uint64_t>(1000000 + 100000ull * static_cast<uint64_t>(k)) + Pack(1.0f) + Pack(0.0f) + Pack(0.0f) +
+                     Pack(0.0f));
+  }
+}
+
+double ArmedAt(const FlightLog& log, double t) {
+  const auto& ts = log.Column("t_s");
+  for (size_t r = 0; r < ts.size(); ++r) {
+    if (std::fabs(ts[r] - t) < 1e-6) return log.Column("armed")[r];
+  }
+  return -1;
+}
+
+TEST(ULogPx4State, GivenActuatorArmedEvents_WhenImported_ThenTheArmedColumnFollowsThemFromTheFirstRow) {
+  ULogWriter w;
+  Attitude(&w);
+  w.Format("actuator_armed:uint64_t timestamp;bool armed;bool prearmed;uint8_t[6] _padding0;");
+  // vehicle_status says otherwise: actuator_armed, the outputs' own state, wins.
+  w.Format("vehicle_status:uint64_t timestamp;uint8_t nav_state;uint8_t arming_state;");
+  const uint16_t aa = w.Subscribe("actuator_armed", 0), vs = w.Subscribe("vehicle_status", 0);
+  w.Data(vs, Pack<uint64_t>(1000000) + Pack<uint8_t>(0) + Pack<uint8_t>(1));
+  // First record after the log starts (2 s): its state holds from the first row on.
+  w.Data(aa, Pack<uint64_t>(2000000) + Pack<uint8_t>(0) + Pack<uint8_t>(0) + std::string(6, '\0'));
+  w.Data(aa, Pack<uint64_t>(4000000) + Pack<uint8_t>(1) + Pack<uint8_t>(0) + std::string(6, '\0'));
+  w.Data(aa, Pack<uint64_t>(8500000) + Pack<uint8_t>(0) + Pack<uint8_t>(0) + std::string(6, '\0'));
+  auto r = ImportULog(w.bytes(), "a.ulg");
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  const FlightLog& log = r->log;
+  ASSERT_TRUE(log.Has("armed"));
+  EXPECT_EQ(ArmedAt(log, 1.0), 0.0);
+  EXPECT_EQ(ArmedAt(log, 3.9), 0.0);
+  EXPECT_EQ(ArmedAt(log, 4.0), 1.0);
+  EXPECT_EQ(ArmedAt(log, 8.4), 1.0);
+  EXPECT_EQ(ArmedAt(log, 8.5), 0.0);
+  EXPECT_EQ(log.meta["armed_source"], "actuator_armed.armed");
+  EXPECT_FALSE(log.Has("armed_t_s"));
+}
+
+TEST(ULogPx4State, GivenOnlyVehicleStatus_WhenImported_ThenArmingState2IsArmed) {
+  ULogWriter w;
+  Attitude(&w);
+  w.Format("vehicle_status:uint64_t timestamp;uint8_t nav_state;uint8_t arming_state;");
+  const uint16_t vs = w.Subscribe("vehicle_status", 0);
+  const uint8_t states[4] = {1, 2, 2, 1};  // standby, armed, armed, standby
+  for (int k = 0; k < 4; ++k) w.Data(vs, Pack<uint64_t>(1000000 + 2500000ull * k) + Pack<uint8_t>(3) + Pack(states[k]));
+  auto r = ImportULog(w.bytes(), "s.ulg");
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_EQ(ArmedAt(r->log, 3.4), 0.0);
+  EXPECT_EQ(ArmedAt(r->log, 3.5), 1.0);
+  EXPECT_EQ(ArmedAt(r->log, 8.4), 1.0);
+  EXPECT_EQ(ArmedAt(r->log, 8.5), 0.0);
+  EXPECT_NE(r->log.meta["armed_source"].get<std::string>().find("vehicle_status"), std::string::npos);
+}
+
+// The px4_calibration of a calibrated compass with CAL_MAG0_ROT `rot`, logged by release `release`
+// (ver_sw_release 0xMMmm0000; 0 = not logged).
+nlohmann::json CalibrationOf(int rot, uint32_t release, bool custom_angles = false) {
+  ULogWriter w;
+  if (release != 0) w.Info("uint32_t ver_sw_release", Pack(release));
+  w.ParamInt("CAL_MAG0_ID", 5);
+  w.ParamInt("CAL_MAG0_ROT", rot);
+  w.Param("CAL_MAG0_XOFF", 0.1f);
+  if (custom_angles) {
+    w.Param("CAL_MAG0_ROLL", 10.0f);
+    w.Param("CAL_MAG0_PITCH", -20.0f);
+    w.Param("CAL_MAG0_YAW", 30.0f);
+  }
+  Attitude(&w);
+  w.Format("vehicle_magnetometer:uint64_t timestamp;uint32_t device_id;float[3] magnetometer_ga;");
+  const uint16_t vm = w.Subscribe("vehicle_magnetometer", 0);
+  w.Data(vm, Pack<uint64_t>(1500000) + Pack<uint32_t>(5) + Pack(0.2f) + Pack(0.0f) + Pack(0.4f));
+  auto r = ImportULog(w.bytes(), "r.ulg");
+  EXPECT_TRUE(r.ok()) << r.status().message();
+  return r.ok() ? r->log.meta["compasses"][0]["px4_calibration"] : nlohmann::json();
+}
+
+Eigen::Matrix3d MatrixOf(const nlohmann::json& c) {
+  Eigen::Matrix3d R;
+  for (int k = 0; k < 9; ++k) R(k / 3, k % 3) = c["rotation_matrix"][static_cast<size_t>(k)].get<double>();
+  return R;
+}
+
+Eigen::Matrix3d Euler(double roll_deg, double pitch_deg, double yaw_deg) {
+  return (Eigen::AngleAxisd(yaw_deg * kDeg, Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(pitch_deg * kDeg, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(roll_deg * kDeg, Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
+TEST(ULogPx4State, GivenRotationsBeyond25_WhenImported_ThenEachReleaseLayoutIsUsedOrTheRotationIsUnknown) {
+  constexpr uint32_t k114 = 0x010E0000, k110 = 0x010A0000, k111 = 0x010B0200;
+  // 1.12 on (MAVLink's MAV_SENSOR_ORIENTATION): 38 = roll 90, pitch 68, yaw 293; 45 = pitch 45.
+  auto c = CalibrationOf(38, k114);
+  ASSERT_TRUE(c["rotation_known"].get<bool>());
+  EXPECT_TRUE(MatrixOf(c).isApprox(Euler(90, 68, 293), 1e-9));
+  EXPECT_TRUE(MatrixOf(CalibrationOf(45, k114)).isApprox(Euler(0, 45, 0), 1e-9));
+  // 1.10 and older: 26 = roll 270, yaw 270 (1.12 on: pitch 180, yaw 90).
+  c = CalibrationOf(26, k110);
+  ASSERT_TRUE(c["rotation_known"].get<bool>());
+  EXPECT_TRUE(MatrixOf(c).isApprox(Euler(270, 0, 270), 1e-9));
+  EXPECT_TRUE(MatrixOf(CalibrationOf(26, k114)).isApprox(Euler(0, 180, 90), 1e-9));
+  // 1.11 (between the layouts), no release logged, or past the table: unknown.
+  EXPECT_FALSE(CalibrationOf(26, k111)["rotation_known"].get<bool>());
+  EXPECT_FALSE(CalibrationOf(30, 0)["rotation_known"].get<bool>());
+  EXPECT_FALSE(CalibrationOf(48, k114)["rotation_known"].get<bool>());
+  // 0..25 are the same everywhere; 100 is the custom Euler angles CAL_MAG0_ROLL/PITCH/YAW.
+  EXPECT_TRUE(MatrixOf(CalibrationOf(25, 0)).isApprox(Euler(0, 270, 0), 1e-9));
+  c = CalibrationOf(100, k114, true);
+  ASSERT_TRUE(c["rotation_known"].get<bool>());
+  EXPECT_TRUE(MatrixOf(c).isApprox(Euler(10, -20, 30), 1e-6));
+  EXPECT_FALSE(CalibrationOf(100, k114, false)["rotation_known"].get<bool>());
+}
+
+// A compass whose raw reading holds the motors' field P·d (d = −comp, gauss per unit P), with PX4's
+// compensation CAL_MAG_COMP_TYP `type` in force; the magnetometer topic is raw sensor_mag or the
+// calibrated vehicle_magnetometer. Returns the samples calibrate reads and the truth K·B + b each.
+struct CompCase {
+  MagInput in;
+  std::vector<Eigen::Vector3d> truth_uT;
+};
+
+CompCase WithCompensation(int type, bool calibrated) {
+  const Eigen::Vector3d b(0.12, -0.05, 0.2), comp(0.05, -0.3, 0.15), off(0.02, 0.01, -0.03);
+  ULogWriter w;
+  w.Info("uint32_t ver_sw_release", Pack<uint32_t>(0x010E0000));
+  w.ParamInt("CAL_MAG_COMP_TYP", type);
+  w.ParamInt("CAL_MAG0_ID", 9);
+  w.ParamInt("CAL_MAG0_ROT", 2);  // yaw 90
+  const char* axes[3] = {"X", "Y", "Z"};
+  for (int k = 0; k < 3; ++k) {
+    w.Param(std::string("CAL_MAG0_") + axes[k] + "COMP", static_cast<float>(comp(k)));
+    w.Param(std::string("CAL_MAG0_") + axes[k] + "OFF", static_cast<float>(off(k)));
+  }
+  Attitude(&w);
+  w.Format("sensor_mag:uint64_t timestamp;uint32_t device_id;float x;float y;float z;");
+  w.Format("vehicle_magnetometer:uint64_t timestamp;uint32_t device_id;float[3] magnetometer_ga;");
+  w.Format("battery_status:uint64_t timestamp;float voltage_v;float current_a;");
+  w.Format("actuator_controls_0:uint64_t timestamp;float[8] control;");
+  w.Format("actuator_armed:uint64_t timestamp;bool armed;");
+  const uint16_t mag = w.Subscribe(calibrated ? "vehicle_magnetometer" : "sensor_mag", 0);
+  const uint16_t bat = w.Subscribe("battery_status", 0), thr = w.Subscribe("actuator_controls_0", 0),
+                 aa = w.Subscribe("actuator_armed", 0);
+  w.Data(aa, Pack<uint64_t>(1000000) + Pack<uint8_t>(0));
+  w.Data(aa, Pack<uint64_t>(3000000) + Pack<uint8_t>(1));  // armed from 3 s
+  const Eigen::Matrix3d R = Euler(0, 0, 90);
+  CompCase out;
+  for (int k = 0; k < 90; ++k) {
+    const uint64_t t = 1050000 + 100000ull * static_cast<uint64_t>(k);
+    const double throttle = 0.3 + 0.2 * std::sin(0.3 * k), current_A = 40.0 * throttle;
+    std::string ctl = Pack(t);
+    for (int m = 0; m < 8; ++m) ctl += Pack<float>(m == 3 ? static_cast<float>(throttle) : 0.0f);
+    w.Data(thr, ctl);
+    w.Data(bat, Pack(t) + Pack(15.0f) + Pack(static_cast<float>(current_A)));
+    const double armed = t >= 3000000 ? 1.0 : 0.0;
+    const double p = type == 1 ? armed * throttle : current_A / 1000.0;
+    const double az = 2.39996 * k, el = std::asin(1.0 - 2.0 * (k + 0.5) / 90);
+    const Eigen::Vector3d field = 0.5 * Eigen::Vector3d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
+    const Eigen::Vector3d raw = field + b - p * comp;  // the motors' field: −P·comp
+    const Eigen::Vector3f logged = (calibrated ? Eigen::Vector3d(R * (raw + p * comp - off)) : raw).cast<float>();
+    if (calibrated) w.Data(mag, Pack(t + 1000) + Pack<uint32_t>(9) + Pack(logged(0)) + Pack(logged(1)) + Pack(logged(2)));
+    else w.Data(mag, Pack(t + 1000) + Pack<uint32_t>(9) + Pack(logged(0)) + Pack(logged(1)) + Pack(logged(2)));
+    out.truth_uT.push_back(100.0 * (field + b));
+  }
+  auto in = ParseMagInput(w.bytes(), "c.ulg", "mag");
+  EXPECT_TRUE(in.ok()) << in.status().message();
+  if (in.ok()) out.in = *in;
+  return out;
+}
+
+TEST(ULogPx4State, GivenPowerCompensationInForce_WhenRead_ThenSamplesAreWhatPx4sOffsetsActOnForEveryTopicAndType) {
+  for (const int type : {1, 2}) {
+    for (const bool calibrated : {false, true}) {
+      SCOPED_TRACE(::testing::Message() << "type " << type << (calibrated ? " calibrated" : " raw"));
+      const CompCase c = WithCompensation(type, calibrated);
+      // One sample per new mag time; the last one comes after the last attitude row.
+      ASSERT_GE(c.in.field.size(), 80u);
+      double worst = 0.0;
+      for (size_t i = 0; i < c.in.field.size(); ++i) worst = std::max(worst, (c.in.field[i] - c.truth_uT[i]).norm());
+      // float32 logging and one attitude row of hold (0.1 s of the power signal) at most.
+      std::string notes;
+      for (const auto& n : c.in.notes) notes += n + "\n";
+      EXPECT_LT(worst, 0.05) << notes;
+      EXPECT_NE(notes.find("power compensation in force"), std::string::npos) << notes;
+    }
+  }
+}
+
+TEST(ULogPx4State, GivenCompensationButNoPowerSignal_WhenImported_ThenWarned) {
+  ULogWriter w;
+  w.ParamInt("CAL_MAG_COMP_TYP", 3);  // battery instance 1, absent
+  w.ParamInt("CAL_MAG0_ID", 9);
+  w.Param("CAL_MAG0_XCOMP", 0.1f);
+  Attitude(&w);
+  w.Format("sensor_mag:uint64_t timestamp;uint32_t device_id;float x;float y;float z;");
+  const uint16_t mag = w.Subscribe("sensor_mag", 0);
+  w.Data(mag, Pack<uint64_t>(1500000) + Pack<uint32_t>(9) + Pack(0.2f) + Pack(0.0f) + Pack(0.4f));
+  auto r = ImportULog(w.bytes(), "n.ulg");
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  ASSERT_FALSE(r->warnings.empty());
+  EXPECT_NE(r->warnings.back().find("CAL_MAG_COMP_TYP 3"), std::string::npos) << r->warnings.back();
+  EXPECT_FALSE(r->log.Has("px4_mag_power"));
+}
+
+}  // namespace
+}  // namespace hexsim::logs
