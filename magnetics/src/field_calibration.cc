@@ -145,6 +145,14 @@ Result<UnitGuess> DetectUnits(const std::vector<Vector3d>& raw, const std::strin
   static const Unit kUnits[] = {{"uT", 1.0}, {"mG", 0.1}, {"G", 100.0}, {"nT", 0.001}};
   UnitGuess g;
   g.median_norm = Median(Norms(raw));
+  // Every sample the same (beyond rounding): a compass absent, disabled or stuck, not a field.
+  if (raw.size() >= 2 && std::all_of(raw.begin(), raw.end(), [&](const Vector3d& v) {
+        return (v - raw.front()).norm() <= 1e-9 * std::max(1.0, raw.front().norm());
+      })) {
+    return Status::BadInput(Format("field: every one of the %zu samples is (%.4g, %.4g, %.4g): the compass is absent, "
+                                   "disabled or stuck",
+                                   raw.size(), raw.front()(0), raw.front()(1), raw.front()(2)));
+  }
   const double lo_uT = window.lo, hi_uT = window.hi;
   if (units == "counts") {
     if (!(field_norm_uT > 0.0)) return Status::BadInput("--units counts needs --field-norm F (the local field in uT, e.g. from hexsim field)");
@@ -165,7 +173,13 @@ Result<UnitGuess> DetectUnits(const std::vector<Vector3d>& raw, const std::strin
         g.assumption += "; raw counts can look like milligauss: if these are counts, give --units counts --field-norm F";
       }
       if (m_uT < lo_uT || m_uT > hi_uT) {
-        g.assumption += Format("; WARNING: %.4g uT is far from Earth's %g-%g uT", m_uT, earth.lo, earth.hi);
+        // Given units (or a log's own) that put the median outside what any compass reads: the
+        // numbers are no field (a compass absent, disabled or logged as zeros) or not in that unit.
+        return Status::BadInput(Format(
+            "field norm: median %.4g %s = %.4g uT, outside the %g-%g uT a compass reads (%s): %s", g.median_norm,
+            u.name, m_uT, lo_uT, hi_uT, window.reason.c_str(),
+            m_uT < 1e-6 ? "every sample is zero: the compass is absent, disabled or not logged"
+                        : "not a compass field in these units (give the right --units)"));
       }
       return g;
     }
@@ -294,6 +308,13 @@ Result<FieldCalibration> CalibrateField(const std::vector<Vector3d>& H, const Fi
     base = Base::kSphere;
     f = RunBase(base, H, c.coverage, o.fit, {}, o.prior_offset_uT);
   }
+  if (!f.status.ok() && f.status.code() == StatusCode::kNumerical) {
+    // Usable but weak coverage (a cap or a band of directions): the radius and the offset along the
+    // weak axis trade off and the fit creeps; say so rather than only that it did not converge.
+    return Status::Numerical(Format("%s: %s (coverage eigenvalues %s: %s; more rotation lets it converge)",
+                                    BaseName(base), f.status.message().c_str(), Eigs(l).c_str(),
+                                    c.coverage.missing_rotation.c_str()));
+  }
   if (!f.status.ok()) return f.status.WithContext(BaseName(base));
   if (o.method == "auto") {
     const auto e = Residuals(H, f);
@@ -306,8 +327,17 @@ Result<FieldCalibration> CalibrateField(const std::vector<Vector3d>& H, const Fi
   }
   std::vector<double> w;
   if (robust) {
-    f = RobustFit(base, H, c.coverage, o, f, &w);
-    if (!f.status.ok()) return f.status.WithContext(std::string("robust ") + BaseName(base));
+    EllipsoidFit rf = RobustFit(base, H, c.coverage, o, f, &w);
+    if (!rf.status.ok() && (o.method != "auto" || rf.status.code() != StatusCode::kNumerical)) {
+      return rf.status.WithContext(std::string("robust ") + BaseName(base));
+    }
+    if (rf.status.ok()) {
+      f = rf;
+    } else {  // auto: the unweighted fit stands, said so
+      c.warnings.push_back("robust reweighting failed (" + rf.status.message() + "): the unweighted fit is kept");
+      robust = false;
+      w.clear();
+    }
     for (size_t i = 0; i < w.size(); ++i) {
       if (w[i] < kOutlierWeight) c.downweighted.push_back(i);
     }

@@ -209,5 +209,24 @@ TEST(AutopilotParams, GivenAFit_WhenAppliedTheArduPilotAndPx4Way_ThenTheNormIsCo
   EXPECT_NE(ArduPilotParmText(ap).find("COMPASS_DIA2_X "), std::string::npos);
 }
 
+TEST(FieldCalibration, GivenAllZeroOrOutOfRangeReadingsInAGivenUnit_WhenUnitsChecked_ThenBadInputNamingWhy) {
+  // A log whose compass is absent logs zeros in uT: no calibration, "already consistent" or otherwise.
+  const std::vector<Vector3d> zeros(200, Vector3d::Zero());
+  auto z = DetectUnits(zeros, "uT", 0.0);
+  ASSERT_FALSE(z.ok());
+  EXPECT_EQ(z.status().code(), StatusCode::kBadInput);
+  EXPECT_NE(z.status().message().find("absent, disabled or stuck"), std::string::npos) << z.status().message();
+  // Almost zero (a log's zeros through its own offsets' inverse, rounding left): said so too.
+  std::vector<Vector3d> tiny = zeros;
+  for (size_t i = 0; i < tiny.size(); ++i) tiny[i] = Vector3d(1e-8 * static_cast<double>(i % 3), 0.0, 0.0);
+  auto t = DetectUnits(tiny, "uT", 0.0);
+  ASSERT_FALSE(t.ok());
+  EXPECT_NE(t.status().message().find("every sample is zero"), std::string::npos) << t.status().message();
+  auto big = DetectUnits(Dump("sphere", 100, 0.1, 3), "nT", 0.0);  // µT numbers called nT: 0.05 µT
+  ASSERT_FALSE(big.ok());
+  EXPECT_NE(big.status().message().find("--units"), std::string::npos) << big.status().message();
+  EXPECT_TRUE(DetectUnits(Dump("sphere", 100, 0.1, 3), "uT", 0.0).ok());
+}
+
 }  // namespace
 }  // namespace hexsim::magnetics
