@@ -77,6 +77,11 @@ const std::vector<PhysicalRange>& PlausibilityTable() {
       Effect("bus_voltage_V", "V", 3.0, 100.0,
              "battery bus of a flying multirotor: one discharged lithium cell (3.0 V) up to ~24S heavy-lift packs; "
              "a flight median below it means no power monitor is connected"),
+      Effect("velocity_accel_mismatch_mps2", "m/s^2", 0.0, 3.0,
+             "rate of change of the logged velocity against the measured acceleration R*f + g over 1-s flight spans, "
+             "RMS about its mean (a constant accelerometer bias drops out): a few degrees of attitude error "
+             "(5 deg = 0.9 m/s^2) and vibration averaged over a second; 3 m/s^2 (0.3 g) means the velocity does not "
+             "follow the aircraft (e.g. an EKF vertical velocity driven by a failing barometer)"),
       // Identified vehicle parameters (identify/, `hexsim identify`; names as in identify.json).
       // thrust_scale above is shared: the same k_T factor over the base vehicle.
       Effect("thrust_to_weight", "1", 1.2, 8.0,

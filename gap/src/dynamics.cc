@@ -24,6 +24,7 @@
 #include "replay_util.h"
 #include "hexsim/common/plausibility.h"
 #include "hexsim/common/rotation.h"
+#include "hexsim/realdata/velocity_check.h"
 #include "hexsim/vehicle/powertrain.h"
 
 namespace hexsim::gap::internal {
@@ -143,6 +144,12 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     std::string list;
     for (const auto& m : missing) list += (list.empty() ? "" : ", ") + m;
     skip("open-loop dynamics replay needs " + list);
+    return;
+  }
+  // The replay's drag (and every wind candidate) is driven by the logged velocity, and its airborne
+  // test by the height: a velocity that does not follow the accelerometer makes the channel meaningless.
+  if (const realdata::VelocityCheck vc = realdata::CheckVelocityAgainstAccel(log, row_kind); !vc.ok) {
+    skip(vc.why);
     return;
   }
   const auto& t = log.Column("t_s");

@@ -21,6 +21,7 @@
 #include "hexsim/common/plausibility.h"
 #include "replay_util.h"
 #include "hexsim/common/rotation.h"
+#include "hexsim/realdata/velocity_check.h"
 #include "hexsim/realdata/windows.h"
 #include "hexsim/vehicle/powertrain.h"
 
@@ -139,6 +140,10 @@ bool ReplayAccelStream(const logs::FlightLog& log, const vehicle::VehicleParams&
   if (n_rot == 0) missing = "rotors in the vehicle";
   if (!missing.empty()) {
     out->not_diagnosed.emplace_back("accel", "thrust model driven by RCOU needs " + missing);
+    return true;
+  }
+  if (const realdata::VelocityCheck vc = realdata::CheckVelocityAgainstAccel(log, row_kind); !vc.ok) {
+    out->not_diagnosed.emplace_back("accel", vc.why + " (it drives the drag of the thrust model)");
     return true;
   }
   const auto& ti = imu->Column("t_s");

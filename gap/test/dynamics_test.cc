@@ -11,6 +11,7 @@
 #include "support/gap_fixtures.h"
 
 #include "hexsim/common/rng.h"
+#include "hexsim/common/rotation.h"
 #include "hexsim/gap/diagnose.h"
 #include "hexsim/gap/selftest.h"
 
@@ -150,6 +151,27 @@ TEST(GapDynamics, GivenALogWithoutAPowerMonitorWhenDiagnosedThenTheConfiguredBat
   EXPECT_NE(d->explanation.find("no power monitor"), std::string::npos) << d->explanation;
   EXPECT_LT(d->rms_before, 0.2 * 9.80665) << Summary(*rep);  // thrust predicted, not the weight left over
   for (const auto& k : d->candidates) EXPECT_NE(k.effect, "battery_sag");
+}
+
+// A log whose vertical velocity does not follow the aircraft (an EKF fed by a failing barometer, as on
+// a public PXF log: climb rates of 120 m/s): the replay's drag would turn it into a residual of
+// ~90 m/s^2 and a "wind" of 24 m/s; the channel says what is wrong with the log instead.
+TEST(GapDynamics, GivenAVerticalVelocityThatDoesNotFollowTheAccelerometerWhenDiagnosedThenTheChannelSaysSo) {
+  Flown f = FlyTrialWith({}, 218);
+  logs::FlightLog log = f.log;
+  const auto& t = log.Column("t_s");
+  auto& vd = log.MutableColumn(static_cast<size_t>(log.ColumnIndex("vel_D_mps")));
+  for (size_t i = 0; i < vd.size(); ++i) vd[i] += 15.0 * std::sin(2.0 * kPi * 0.2 * t[i]);  // ±19 m/s^2 of fake climb
+  auto rep = Diagnose(log, f.trial.configured, gaptest::IdealOptions());
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  EXPECT_EQ(FindChannel(*rep, "dynamics"), nullptr) << Summary(*rep);
+  bool said = false;
+  for (const auto& [ch, why] : rep->not_diagnosed) {
+    if (ch != "dynamics") continue;
+    said = true;
+    EXPECT_NE(why.find("vel_D_mps does not follow the accelerometer"), std::string::npos) << why;
+  }
+  EXPECT_TRUE(said) << Summary(*rep);
 }
 
 TEST(GapDynamics, GivenAVehicleYamlWithAeroKeysWhenParsedThenTheyAreReadAndDefaultToOff) {

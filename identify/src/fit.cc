@@ -547,6 +547,19 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
       res.params[k].note += " (no voltage and current in flight: not identified)";
     }
   }
+  if (!s.velocity_ok) {
+    const double m_base = base.mass_kg + base.payload.mass_kg;
+    const std::map<std::string, double> base_drag = {{"vertical_drag_per_mass_1ps", base.drag.linear_Nspm.z() / m_base},
+                                                     {"linear_drag_per_mass_1ps", base.drag.linear_Nspm.x() / m_base},
+                                                     {"quadratic_drag_per_mass_1pm", base.drag.quadratic_Ns2pm2.x() / m_base}};
+    for (const auto& [k, v] : base_drag) {
+      res.params[k].value = res.params[k].ci95[0] = res.params[k].ci95[1] = v;
+      res.params[k].source = "base";
+      res.params[k].applied = false;
+      res.params[k].note += " (not identified: the logged velocity is not usable)";
+    }
+    res.notes.push_back(s.velocity_why + "; drag not identified, thrust fitted without the velocity terms");
+  }
   // What the log cannot determine: kept from the base.
   auto base_param = [&](const std::string& k, double v, const char* unit, const char* note) {
     Param p;

@@ -109,6 +109,7 @@ std::string Summary(const IdentifyResult& r) {
     s += fmt::format("  steady hover in the log: median motor output {:.3f} at {:.2f} V ({} samples)\n",
                      Median(r.hover_output), Median(r.hover_voltage_V), r.hover_output.size());
   }
+  for (const auto& note : r.notes) s += "  note: " + note + "\n";
   return s;
 }
 

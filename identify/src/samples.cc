@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "hexsim/common/plausibility.h"
+#include "hexsim/realdata/velocity_check.h"
 #include "hexsim/realdata/windows.h"
 
 namespace hexsim::identify::internal {
@@ -137,6 +138,9 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
   // crash), further restricted to every motor turning clear of the ground.
   const realdata::FlightWindows rw = realdata::FindFlightWindows(log);
   const double cut_s = std::isfinite(rw.cut_at_s) ? rw.cut_at_s : INFINITY;
+  const realdata::VelocityCheck vcheck = realdata::CheckVelocityAgainstAccel(log, rw.row_kind);
+  out.velocity_ok = vcheck.ok;
+  out.velocity_why = vcheck.why;
   std::vector<char> flying(log.rows(), 0);
   size_t ir = 0;
   for (size_t r = 0; r < log.rows(); ++r) {
@@ -300,7 +304,7 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
     out.f_B.push_back(f);
     out.w_B.push_back(w);
     out.r_dot.push_back(rdot);
-    out.v_B.emplace_back(q.normalized().toRotationMatrix().transpose() * vN);
+    out.v_B.emplace_back(out.velocity_ok ? Vec3(q.normalized().toRotationMatrix().transpose() * vN) : Vec3::Zero());
     out.u_mean.push_back(um);
     std::vector<double> u_k(n);
     for (size_t m = 0; m < n; ++m) u_k[m] = (*mu[m])[ir];

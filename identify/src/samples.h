@@ -49,6 +49,10 @@ struct FlightSamples {
   std::vector<BlockSpan> blocks;
   std::string source;
   std::vector<std::string> notes;    // what was left out and why (e.g. no power monitor)
+  // The logged velocity follows the accelerometer (realdata::CheckVelocityAgainstAccel); when it does
+  // not, v_B is zero throughout and the drag parameters are not identified (velocity_why says why).
+  bool velocity_ok = true;
+  std::string velocity_why;
 };
 
 // Builds the samples. `spins` per motor (size = motors). Bad input when the log lacks accel, gyro,

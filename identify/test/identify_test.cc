@@ -124,6 +124,30 @@ TEST(Identify, GivenASimulatedQuadLog_WhenIdentified_ThenBatteryResistanceCovers
   EXPECT_NEAR(v.rotors[0].k_T_Nprps2 / f.setup.vehicle.rotors[0].k_T_Nprps2, 1.0, 0.1);
 }
 
+TEST(Identify, GivenAVelocityThatDoesNotFollowTheAccelerometer_WhenIdentified_ThenDragIsNotIdentifiedAndTheNoteSaysWhy) {
+  const Flight& f = QuadFlight();
+  auto base = vehicle::LoadVehicleFile(*ResolveWorldFile("vehicles", "quad_x"));
+  ASSERT_TRUE(base.ok());
+  auto clean = Identify(f.log, *base, {});
+  ASSERT_TRUE(clean.ok()) << clean.status().message();
+  EXPECT_EQ(clean->params.at("linear_drag_per_mass_1ps").source, "fitted");
+  // The vertical velocity of an EKF fed by a failing barometer: ±19 m/s^2 of climb the IMU never felt.
+  logs::FlightLog log = f.log;
+  const auto& t = log.Column("t_s");
+  auto& vd = log.MutableColumn(static_cast<size_t>(log.ColumnIndex("vel_D_mps")));
+  for (size_t i = 0; i < vd.size(); ++i) vd[i] += 15.0 * std::sin(2.0 * kPi * 0.2 * t[i]);
+  auto r = Identify(log, *base, {});
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  for (const char* k : {"vertical_drag_per_mass_1ps", "linear_drag_per_mass_1ps", "quadratic_drag_per_mass_1pm"}) {
+    EXPECT_EQ(r->params.at(k).source, "base") << k;
+    EXPECT_FALSE(r->params.at(k).applied) << k;
+  }
+  ASSERT_FALSE(r->notes.empty());
+  EXPECT_NE(r->notes.front().find("vel_D_mps does not follow the accelerometer"), std::string::npos) << r->notes.front();
+  // The thrust curve is still identified (hover output within its interval of the clean fit's).
+  EXPECT_NEAR(r->params.at("hover_output").value, clean->params.at("hover_output").value, 0.02);
+}
+
 TEST(Identify, GivenFrameParameters_WhenTheFrameIsAsked_ThenClassAndTypeDecide) {
   logs::FlightLog log;
   log.meta["params"] = {{"FRAME_CLASS", 2}, {"FRAME_TYPE", 0}};
