@@ -125,13 +125,17 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
                                         ch.name, kMilliGaussPerMicroTesla * b.x(), kMilliGaussPerMicroTesla * b.y(),
                                         kMilliGaussPerMicroTesla * b.z(), kMilliGaussPerMicroTesla * off->normal_hi));
     }
+    // A field correction across the WMM direction beyond its normal range is an anomaly (or a
+    // heading error), which a sensor scale cannot produce; the anomaly explains the norm change along
+    // the field as well, so it is named before the scale (one cause for both parts).
+    const bool anomaly_out = perp_norm - t975 * perp_sd > an->normal_hi;
     if (scale < sc->normal_lo || scale > sc->normal_hi) {
-      if (nr.out_of_range.empty()) nr.out_of_range = "scale_error";
+      if (nr.out_of_range.empty() && !anomaly_out) nr.out_of_range = "scale_error";
       nr.findings.push_back(fmt::format("{}: fitted field norm {:.1f} % {} the WMM field: recalibrate (scale) or check "
                                         "for a local anomaly",
                                         ch.name, 100 * std::fabs(scale - 1), scale < 1 ? "below" : "above"));
     }
-    if (perp_norm - t975 * perp_sd > an->normal_hi) {
+    if (anomaly_out) {
       if (nr.out_of_range.empty()) nr.out_of_range = "local_anomaly";
       nr.findings.push_back(fmt::format("{}: fitted field direction differs from WMM by {:.1f} uT ({:.1f} deg): a local "
                                         "anomaly, or a yaw misalignment of the compass",

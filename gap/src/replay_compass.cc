@@ -74,7 +74,28 @@ std::vector<Sample> CompassSamples(const logs::FlightLog& log, const std::string
   return out;
 }
 
-magnetics::Currents CurrentsAt(const LogInputs& in, const vehicle::VehicleParams& v, size_t i, double w) {
+// How the motors share the battery current when the log has no per-motor currents, from the motor
+// outputs u_i at row i (weight w to the next): a motor's DC power V·I_i = τ·ω ∝ ω³ with ω ∝ u_i, so
+// I_i ∝ u_i³. Empty when the log has no (finite) outputs: then the motors share equally. A manoeuvre
+// that spins two motors up and two down moves the per-motor wiring fields while the battery
+// current barely changes; an equal split cannot predict that.
+std::vector<double> MotorShares(const LogInputs& in, size_t n_motor, size_t i, double w) {
+  if (in.motor_u.size() != n_motor || n_motor == 0) return {};
+  std::vector<double> share(n_motor);
+  double sum = 0;
+  for (size_t m = 0; m < n_motor; ++m) {
+    const double u = Lerp(*in.motor_u[m], i, w);
+    if (!std::isfinite(u)) return {};
+    share[m] = std::pow(std::clamp(u, 0.0, 1.0), 3.0);
+    sum += share[m];
+  }
+  if (!(sum > 0)) return {};
+  for (double& x : share) x /= sum;
+  return share;
+}
+
+magnetics::Currents CurrentsAt(const LogInputs& in, const vehicle::VehicleParams& v, size_t i, double w,
+                               const std::vector<double>& shares) {
   magnetics::Currents cu;
   const size_t n_motor = v.rotors.size();
   cu.battery_A = in.current ? Lerp(*in.current, i, w) : 0.0;
@@ -82,8 +103,10 @@ magnetics::Currents CurrentsAt(const LogInputs& in, const vehicle::VehicleParams
   if (!in.motor_A.empty()) {
     for (size_t m = 0; m < n_motor; ++m) cu.motor_A[m] = Lerp(*in.motor_A[m], i, w);
   } else if (in.current) {
-    const double each = std::max(0.0, cu.battery_A - v.avionics_current_A) / static_cast<double>(n_motor);
-    std::fill(cu.motor_A.begin(), cu.motor_A.end(), each);
+    const double motors = std::max(0.0, cu.battery_A - v.avionics_current_A);
+    for (size_t m = 0; m < n_motor; ++m) {
+      cu.motor_A[m] = shares.size() == n_motor ? motors * shares[m] : motors / static_cast<double>(n_motor);
+    }
   }
   return cu;
 }
@@ -133,7 +156,9 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
     const size_t i = cur.i;
     const Eigen::Quaterniond q = QuatLerp(in.q, i, w);
     if (!q.coeffs().allFinite()) continue;
-    const magnetics::Currents cu = CurrentsAt(in, v, cur_i.i, wi);  // on the aligned time base
+    // The current on the aligned time base, split by the motor outputs when the field was measured.
+    const std::vector<double> shares = MotorShares(in, v.rotors.size(), i, w);
+    const magnetics::Currents cu = CurrentsAt(in, v, cur_i.i, wi, shares);
     const double i_logged = has_current ? Lerp(*in.current, i, w) : 0.0;
     const double i_member = has_current ? Lerp(*in.current, cur_m.i, wm) : 0.0;
     double thr = std::nan("");
@@ -151,6 +176,15 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
     constexpr double kMaxCurrentStep_A = 2.0;
     const size_t ic = cur_i.i;
     if (has_current && wi > 0 && std::fabs((*in.current)[ic + 1] - (*in.current)[ic]) > kMaxCurrentStep_A) continue;
+    // The same bound on each motor's share between the two rows around the sample (a manoeuvre
+    // that moves the split faster than the rows resolve it).
+    if (has_current && in.motor_A.empty() && !shares.empty() && w > 0) {
+      const std::vector<double> s0 = MotorShares(in, v.rotors.size(), i, 0.0), s1 = MotorShares(in, v.rotors.size(), i + 1, 0.0);
+      const double motors_A = std::max(0.0, cu.battery_A - v.avionics_current_A);
+      bool jump = s0.size() != s1.size();
+      for (size_t m = 0; !jump && m < s0.size(); ++m) jump = motors_A * std::fabs(s1[m] - s0[m]) > kMaxCurrentStep_A;
+      if (jump) continue;
+    }
     for (double a : cu.motor_A) ok = ok && std::isfinite(a);
     if (!ok) continue;
     const double dt = first ? 0.0 : std::max(0.0, s.t - prev_t);

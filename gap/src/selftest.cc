@@ -98,7 +98,7 @@ const std::vector<EffectRange>& RealInjectableEffects() {
 
 Result<Trial> MakeTrial(const SelftestOptions& o, uint64_t seed, const std::vector<Injection>& injections, RngStream* rng) {
   sim::RunRequest req;
-  req.mission = o.mission;
+  req.mission = o.mission.empty() ? "square" : o.mission;
   req.vehicle = o.vehicle;
   req.world = o.world;
   req.estimator = "truth";
@@ -249,6 +249,7 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
   if (options.profile != "real" && options.profile != "ideal") return Status::BadInput("--profile: expected real or ideal");
   const bool real = options.profile == "real";
   SelftestOptions o = options;
+  if (o.mission.empty()) o.mission = real ? "selftest_flight" : "square";
   // The ideal profile's configured vehicle is the calibrated truth: any significant nuisance term
   // is a finding; on real-profile logs the normal ranges apply.
   o.diagnose.nuisance_ranges = real ? "normal" : "exact";

@@ -139,10 +139,22 @@ Result<logs::FlightLog> DegradeToRealLog(const logs::FlightLog& in, const vehicl
       truth->scale = s;
     }
     const size_t cx = static_cast<size_t>(log.ColumnIndex(pre + "_x_uT"));
+    // A sample measured at τ is logged with the stamp τ + L: each row carries the newest sample
+    // whose delayed stamp has passed, with that stamp (exactly L late, as a real driver's queue;
+    // taking the row value at t − L instead would mix sample-and-hold jitter of a sensor period
+    // into the latency, a timing noise real logs do not have).
+    const std::vector<double>* mt = in.Has(pre + "_t_s") ? &in.Column(pre + "_t_s") : nullptr;
+    const size_t ct = mt ? static_cast<size_t>(log.ColumnIndex(pre + "_t_s")) : 0;
+    size_t j = 0;  // newest input row whose sample is due
     for (size_t i = 0; i < n; ++i) {
-      const size_t j = RowAt(t, t[i] - truth->latency_s);
+      if (mt) {
+        while (j + 1 < n && std::isfinite((*mt)[j + 1]) && (*mt)[j + 1] + truth->latency_s <= t[i]) ++j;
+      } else {
+        j = RowAt(t, t[i] - truth->latency_s);
+      }
       const Vec3 m(in.At(j, cx), in.At(j, cx + 1), in.At(j, cx + 2));
       for (int k = 0; k < 3; ++k) log.MutableColumn(cx + static_cast<size_t>(k))[i] = (1.0 + s) * m[k] + b[k];
+      if (mt) log.MutableColumn(ct)[i] = (*mt)[j] + truth->latency_s;
     }
   }
   // Current: stale and updated at 5 Hz; per-motor currents are not logged by real autopilots.

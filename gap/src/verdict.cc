@@ -50,6 +50,15 @@ bool Nests(const Candidate& a, const Candidate& b) {
 
 std::string Percent(double x) { return fmt::format("{:.0f} %", 100 * x); }
 
+// Fitted quantities of a candidate for the parsimony rules: its linear parameters, plus one for a
+// nonlinear parameter profiled over a grid on this log's compass (a throttle exponent other than
+// the linear default, a lag τ). Choosing the best of several grid values is a fit too: without
+// counting it, a profiled family wins ties against a linear one by its extra freedom alone.
+int Dof(const Candidate& c) {
+  const bool profiled = (c.grid_name == "exponent" && c.grid_value != 1.0) || c.grid_name == "tau_s";
+  return c.p() + (profiled ? 1 : 0);
+}
+
 }  // namespace
 
 ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
@@ -89,7 +98,10 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
       flex_gain_ms = std::max(0.0, an.baseline().full.sse - ef.full.sse) / an.total_n();
     }
   }
-  const Structure st = DetectStructure(ch.t, an.y(), an.baseline().cv_sse, o.materiality, flex_p, flex_gain_ms, o.alpha);
+  // Three tests decide that a gap exists, each at alpha/3 (Bonferroni): the library-free regressors
+  // and the spectral line (DetectStructure, at alpha/3 each), and, below, the best library candidate.
+  const Structure st =
+      DetectStructure(ch.t, an.y(), an.baseline().cv_sse, o.materiality, flex_p, flex_gain_ms, 2.0 * o.alpha / 3.0);
   res.noise_rms = std::sqrt(st.noise_var);
   res.noise_floor_ratio = st.power_ratio;
   res.ljung_box_p = st.whiteness_p;
@@ -133,7 +145,20 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
       const Evaluated& e = at.all[at.fam_best[f]];
       const FoldDiff d = Diff(e.fold_sse, eb.fold_sse);
       const Evaluated& ec = at.all[at.fam_best[chosen]];
-      if (d.sum <= d.se && (e.cand->p() < ec.cand->p() || (e.cand->p() == ec.cand->p() && e.cv_sse < ec.cv_sse))) chosen = f;
+      if (d.sum <= d.se && (Dof(*e.cand) < Dof(*ec.cand) || (Dof(*e.cand) == Dof(*ec.cand) && e.cv_sse < ec.cv_sse))) {
+        chosen = f;
+      }
+    }
+  }
+  // The third detection test: a library candidate is a structure of its own when its (family
+  // corrected) Wald test passes at alpha/3 and it removes, on held-out blocks, at least the
+  // materiality share of the noise floor's power (a lag of the wiring field or a thermal drift is
+  // neither linear in the current and throttle nor a spectral line).
+  if (!res.gap_detected && chosen < F) {
+    const double gain_ms = (cv0 - at.all[at.fam_best[chosen]].cv_sse) / an.total_n();
+    if (at.results[chosen].p_value < o.alpha / 3.0 && gain_ms >= o.materiality * st.noise_var) {
+      res.gap_detected = true;
+      res.p_value = std::min(res.p_value, std::min(1.0, 3.0 * at.results[chosen].p_value));
     }
   }
   // Timing term: the latency alignment competes on the share of the unaligned baseline residual.
@@ -198,7 +223,9 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
       if (!ej.full.ok) continue;
       const FoldDiff d = Diff(ej.fold_sse, model.fold_sse);
       const double p_partial = WaldP(ej.full.beta, ej.cov, Range(ej.off + e1.cand->p(), ej.p()), an.G()) * static_cast<double>(F);
-      if (d.sum < -d.se && p_partial < o.alpha && ej.cv_sse < model.cv_sse) {
+      // ... and removes at least the materiality share of the noise floor's power (held out).
+      const bool material = (model.cv_sse - ej.cv_sse) / an.total_n() >= o.materiality * st.noise_var;
+      if (d.sum < -d.se && p_partial < o.alpha && ej.cv_sse < model.cv_sse && material) {
         b2 = f;
         joint = std::move(j);
         model = std::move(ej);
@@ -219,7 +246,7 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
     for (size_t f = 0; f < F; ++f) {
       if (f == chosen || f == b2 || !at.results[f].plausible || at.results[f].p_value > o.alpha) continue;
       const Evaluated& e = at.all[at.fam_best[f]];
-      if (e.cand->p() > e1.cand->p()) continue;
+      if (Dof(*e.cand) > Dof(*e1.cand)) continue;
       const FoldDiff d = Diff(e.fold_sse, e1.fold_sse);
       if (d.sum > d.se || Nests(*e.cand, *e1.cand) || Nests(*e1.cand, *e.cand)) continue;
       res.verdict = "ambiguous";
@@ -233,11 +260,12 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
     // above the residual's own spectrum): a model that takes half of a form it cannot describe is
     // not the explanation. A right model leaves only the floor, so this never blocks it.
     const Structure left = DetectStructure(ch.t, after, cv_after, o.materiality, 1.0, 0.0, o.alpha);
-    if (left.present && res.verdict != "ambiguous") {
+    const std::string left_found = left.present ? left.found : std::string();
+    if (!left_found.empty() && res.verdict != "ambiguous") {
       res.verdict = "unexplained";
       res.explanation = fmt::format("{} explains {} of the held-out residual above the floor, but what it leaves still holds "
                                     "{}: structure no candidate describes",
-                                    top.effect, Percent(res.explained_share), left.found);
+                                    top.effect, Percent(res.explained_share), left_found);
       top.selected = false;
       if (b2 < F) at.results[b2].selected = false;
       res.chosen_regressor_name.clear();

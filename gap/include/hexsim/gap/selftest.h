@@ -67,7 +67,9 @@ struct SelftestOptions {
   int trials = 100;                 // per class
   uint64_t seed = 1;
   std::string vehicle = "quad_x";
-  std::string mission = "square";
+  // Empty: the profile's flight. Real: selftest_flight (climbs, descents, fast and slow legs in a
+  // gusty breeze: a battery current that swings like a real flight's); ideal: square.
+  std::string mission;
   std::string world = "default";
   double duration_s = 0.0;          // 0: the whole mission
   int threshold_trials = 20;        // per magnitude in the detection-threshold sweep
