@@ -82,6 +82,10 @@ const std::vector<PhysicalRange>& PlausibilityTable() {
              "RMS about its mean (a constant accelerometer bias drops out): a few degrees of attitude error "
              "(5 deg = 0.9 m/s^2) and vibration averaged over a second; 3 m/s^2 (0.3 g) means the velocity does not "
              "follow the aircraft (e.g. an EKF vertical velocity driven by a failing barometer)"),
+      Effect("flight_power_per_weight_W_per_N", "W/N", 2.0, 100.0,
+             "electrical power in flight per newton of weight: ideal induced power alone is sqrt(disc loading / 2 rho) "
+             "= 3-13 W/N for disc loadings of 20-400 N/m^2, and rotors and motors waste a third or more; far above "
+             "it no multirotor hovers (the weight is the base vehicle's where the log gives no mass)"),
       // Identified vehicle parameters (identify/, `hexsim identify`; names as in identify.json).
       // thrust_scale above is shared: the same k_T factor over the base vehicle.
       Effect("thrust_to_weight", "1", 1.2, 8.0,

@@ -410,7 +410,7 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
                                           res.motors, base.name, base.rotors.size()));
     }
   }
-  auto built = BuildSamples(log, res.spins, options);
+  auto built = BuildSamples(log, res.spins, options, (base.mass_kg + base.payload.mass_kg) * kGravity_mps2);
   if (!built.ok()) return built.status();
   const FlightSamples& s = *built;
   res.windows = s.windows;
@@ -541,10 +541,18 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
     res.param_order.emplace_back(sp.name);
   }
   if (s.batt_V.size() < 3) {
-    for (const char* k : {"battery_ocv_V", "battery_resistance_ohm", "battery_charge_slope_V_per_Ah"}) {
+    // The base battery's values: V_oc at its initial charge, R, and dV_oc/dQ over its first 10 %.
+    const vehicle::BatteryParams& bb = base.battery;
+    const double soc0 = bb.initial_soc, ocv0 = bb.OpenCircuitVoltage_V(soc0);
+    const std::map<std::string, double> base_batt = {
+        {"battery_ocv_V", ocv0},
+        {"battery_resistance_ohm", bb.internal_resistance_ohm},
+        {"battery_charge_slope_V_per_Ah", (ocv0 - bb.OpenCircuitVoltage_V(soc0 - 0.1)) / (0.1 * bb.capacity_Ah)}};
+    for (const auto& [k, v] : base_batt) {
+      res.params[k].value = res.params[k].ci95[0] = res.params[k].ci95[1] = v;
       res.params[k].source = "base";
       res.params[k].applied = false;
-      res.params[k].note += " (no voltage and current in flight: not identified)";
+      res.params[k].note += " (no usable voltage and current in flight: not identified)";
     }
   }
   if (!s.velocity_ok) {

@@ -90,7 +90,7 @@ std::vector<FrameRotor> FrameRotors(const std::string& frame) {
 }
 
 Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector<int>& spins,
-                                   const IdentifyOptions& options) {
+                                   const IdentifyOptions& options, double weight_N) {
   const std::string name = log.meta.value("source", std::string("log"));
   bool imu_from_table = false, rcou_from_table = false;
   const logs::FlightLog imu = logs::StreamAtOwnRate(log, "imu", &imu_from_table);
@@ -213,6 +213,25 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
                                       "motor outputs used without voltage scaling, battery kept from the base",
                                       out.V_ref, plausibility::RangeText("bus_voltage_V")));
       out.V_ref = 0.0;
+      out.batt_t_s.clear();
+      out.batt_V.clear();
+      out.batt_I.clear();
+      out.batt_Q_Ah.clear();
+      out.batt_Q_right_Ah.clear();
+      out.batt_block.clear();
+    }
+    // Electrical power in flight per newton of the base vehicle's weight (the log does not give the
+    // mass): a current below what the induced power needs is not a measurement (an uncalibrated
+    // current sensor), and the battery cannot be fitted from it.
+    std::vector<double> P_W;
+    for (size_t k = 0; k < out.batt_V.size(); ++k) P_W.push_back(out.batt_V[k] * out.batt_I[k]);
+    const double P_per_N = P_W.empty() || !(weight_N > 0) ? std::nan("") : Median(P_W) / weight_N;
+    if (std::isfinite(P_per_N) && !plausibility::IsPlausible("flight_power_per_weight_W_per_N", P_per_N)) {
+      out.notes.push_back(fmt::format("logged current_A gives {:.3g} W in flight (median V·I), {:.2g} W per newton of the "
+                                      "base vehicle's weight, outside {}: the current sensor is not calibrated (e.g. "
+                                      "BATT_AMP_PERVOLT); battery kept from the base, the voltage still scales the "
+                                      "motor outputs", Median(P_W), P_per_N,
+                                      plausibility::RangeText("flight_power_per_weight_W_per_N")));
       out.batt_t_s.clear();
       out.batt_V.clear();
       out.batt_I.clear();

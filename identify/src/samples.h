@@ -56,9 +56,10 @@ struct FlightSamples {
 };
 
 // Builds the samples. `spins` per motor (size = motors). Bad input when the log lacks accel, gyro,
-// motor outputs or attitude, or has less than options.min_flight_s of flight.
+// motor outputs or attitude, or has less than options.min_flight_s of flight. weight_N: the base
+// vehicle's weight (the flight power check of the logged current).
 Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector<int>& spins,
-                                   const IdentifyOptions& options);
+                                   const IdentifyOptions& options, double weight_N);
 
 // Frame table (ArduPilot AP_MotorsMatrix): rotor angle (deg, clockwise from the nose) and spin per
 // motor number. Empty for an unknown frame.

@@ -148,6 +148,30 @@ TEST(Identify, GivenAVelocityThatDoesNotFollowTheAccelerometer_WhenIdentified_Th
   EXPECT_NEAR(r->params.at("hover_output").value, clean->params.at("hover_output").value, 0.02);
 }
 
+// A current sensor left at a wrong scale (a public PXF log: 1.3 A in flight for a quad, 0.9 W per newton
+// of weight): the "resistance" it gives (0.63 ohm) kept the identified vehicle on the ground.
+TEST(Identify, GivenACurrentFarBelowTheFlightPower_WhenIdentified_ThenTheBatteryIsKeptFromTheBaseAndTheNoteSaysWhy) {
+  const Flight& f = QuadFlight();
+  auto base = vehicle::LoadVehicleFile(*ResolveWorldFile("vehicles", "quad_x"));
+  ASSERT_TRUE(base.ok());
+  logs::FlightLog log = f.log;
+  auto& I = log.MutableColumn(static_cast<size_t>(log.ColumnIndex("current_A")));
+  for (double& i : I) i *= 0.05;
+  auto r = Identify(log, *base, {});
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_EQ(r->params.at("battery_resistance_ohm").source, "base");
+  EXPECT_FALSE(r->params.at("battery_resistance_ohm").applied);
+  EXPECT_DOUBLE_EQ(r->params.at("battery_resistance_ohm").value, base->battery.internal_resistance_ohm);
+  bool said = false;
+  for (const auto& n : r->notes) said = said || n.find("current sensor is not calibrated") != std::string::npos;
+  EXPECT_TRUE(said);
+  // The voltage still scales the motor outputs: the thrust fit is the clean one's.
+  auto clean = Identify(f.log, *base, {});
+  ASSERT_TRUE(clean.ok());
+  EXPECT_NEAR(r->params.at("hover_output").value, clean->params.at("hover_output").value, 1e-9);
+  EXPECT_EQ(clean->params.at("battery_resistance_ohm").source, "fitted");
+}
+
 TEST(Identify, GivenFrameParameters_WhenTheFrameIsAsked_ThenClassAndTypeDecide) {
   logs::FlightLog log;
   log.meta["params"] = {{"FRAME_CLASS", 2}, {"FRAME_TYPE", 0}};

@@ -2,8 +2,12 @@
 // identified on the even time blocks of the flight windows is judged on the odd (held-out) blocks by
 // gap's dynamics channel, against the generic quad_x on the same rows. Neither side is told which log
 // it reads; the expectations are the issue's, not outputs of this code.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <utility>
+#include <vector>
 #include <stdexcept>
 #include <string>
 
@@ -20,6 +24,7 @@ namespace hexsim::identify {
 namespace {
 
 struct RealCase {
+  logs::FlightLog log;
   IdentifyResult identified;
   gap::GapReport vs_base, vs_identified;  // both on the held-out blocks
 };
@@ -44,7 +49,7 @@ const RealCase& Log171() {
     auto q = gap::Diagnose(held, *base, o);
     auto i = gap::Diagnose(held, ApplyIdentified(*base, *r), o);
     if (!q.ok() || !i.ok()) throw std::runtime_error("diagnosis failed");
-    return RealCase{*r, std::move(*q), std::move(*i)};
+    return RealCase{imp->log, *r, std::move(*q), std::move(*i)};
   }();
   return c;
 }
@@ -107,6 +112,64 @@ TEST(IdentifyRealLog, GivenLog171_WhenIdentified_ThenEveryAppliedParameterAndIts
         << name << " [" << p.ci95[0] << ", " << p.ci95[1] << "] outside " << plausibility::RangeText(name);
   }
   EXPECT_GE(applied, 3);
+}
+
+// The log's own steady hover (level, slow, measured vertical specific force within 0.5 m/s^2 of g),
+// each sample's motor output referred to V_ref (x = u·V/V_ref, the identification's thrust variable):
+// its median lies inside the identified hover output's interval.
+TEST(IdentifyRealLog, GivenLog171_WhenIdentified_ThenTheHoverOutputIntervalHoldsTheLogsSteadyHoverOutputs) {
+  const IdentifyResult& r = Log171().identified;
+  ASSERT_GE(r.hover_output.size(), 100u);
+  ASSERT_GT(r.v_ref_V, 0.0);
+  std::vector<double> x;
+  for (size_t k = 0; k < r.hover_output.size(); ++k) x.push_back(r.hover_output[k] * r.hover_voltage_V[k] / r.v_ref_V);
+  std::nth_element(x.begin(), x.begin() + static_cast<std::ptrdiff_t>(x.size() / 2), x.end());
+  const double median = x[x.size() / 2];
+  const Param& h = r.params.at("hover_output");
+  std::printf("log171 steady hover output %.4f (%zu samples), identified %.4f [%.4f, %.4f]\n", median, x.size(), h.value,
+              h.ci95[0], h.ci95[1]);
+  EXPECT_GE(median, h.ci95[0]);
+  EXPECT_LE(median, h.ci95[1]);
+}
+
+// The battery resistance against the plain slope of voltage on current: least squares within 5-s
+// segments of the flight windows, each with its own intercept (the open-circuit voltage barely moves
+// in 5 s; the current swings with every manoeuvre). That slope lies inside the identified interval.
+TEST(IdentifyRealLog, GivenLog171_WhenIdentified_ThenBatteryResistanceHoldsTheVoltageCurrentSlope) {
+  const RealCase& c = Log171();
+  const logs::FlightLog* batt = c.log.Stream("batt");
+  ASSERT_NE(batt, nullptr);
+  const auto& t = batt->Column("t_s");
+  const auto& I = batt->Column("current_A");
+  const auto& V = batt->Column("voltage_V");
+  constexpr double kSegment_s = 5.0;
+  std::map<long, std::vector<std::pair<double, double>>> seg;
+  for (size_t k = 0; k < t.size(); ++k) {
+    bool in = false;
+    for (const auto& w : c.identified.windows) in = in || (w.kind == "flight" && t[k] >= w.start_s && t[k] <= w.end_s);
+    if (in && std::isfinite(I[k]) && std::isfinite(V[k])) seg[std::lround(std::floor(t[k] / kSegment_s))].emplace_back(I[k], V[k]);
+  }
+  double sxy = 0, sxx = 0;
+  for (const auto& [id, pts] : seg) {
+    if (pts.size() < 3) continue;
+    double mi = 0, mv = 0;
+    for (const auto& [i, v] : pts) {
+      mi += i / static_cast<double>(pts.size());
+      mv += v / static_cast<double>(pts.size());
+    }
+    for (const auto& [i, v] : pts) {
+      sxy += (i - mi) * (v - mv);
+      sxx += (i - mi) * (i - mi);
+    }
+  }
+  ASSERT_GT(sxx, 0.0);
+  const double slope_ohm = -sxy / sxx;
+  const Param& R = c.identified.params.at("battery_resistance_ohm");
+  std::printf("log171 dV/dI within %.0f-s segments %.4f ohm, identified %.4f [%.4f, %.4f]\n", kSegment_s, slope_ohm,
+              R.value, R.ci95[0], R.ci95[1]);
+  EXPECT_EQ(R.source, "fitted");
+  EXPECT_GE(slope_ohm, R.ci95[0]);
+  EXPECT_LE(slope_ohm, R.ci95[1]);
 }
 
 }  // namespace
