@@ -91,8 +91,17 @@ nlohmann::json Px4MagCalibration(const ULog& u, double device_id, int instance, 
   for (int n = 0; n < kCalSlots && device_id > 0; ++n) {
     if (Param(u, fmt::format("CAL_MAG{}_ID", n), -1) == device_id) slot = n;
   }
+  // No device id (old topics): the first instance is the primary magnetometer PX4 selected, the one
+  // CAL_MAG_PRIME names (PX4 1.10 and older, sensor_combined magnetometer_ga).
+  const double prime = Param(u, "CAL_MAG_PRIME", 0);
+  for (int n = 0; n < kCalSlots && slot < 0 && device_id <= 0 && instance == 0 && prime > 0; ++n) {
+    if (Param(u, fmt::format("CAL_MAG{}_ID", n), -1) == prime) {
+      slot = n;
+      matched_by = "CAL_MAG_PRIME";
+    }
+  }
   if (slot < 0) {
-    // No device id to match (old topics), or no slot holds it: the slot of the same instance.
+    // No device id to match, or no slot holds it: the slot of the same instance.
     if (instance < 0 || instance >= kCalSlots || u.params.count(fmt::format("CAL_MAG{}_XOFF", instance)) == 0) {
       return nullptr;
     }

@@ -20,12 +20,13 @@ enum class MagFrame {
   kCalibrated,        // vehicle_magnetometer, or sensor_combined magnetometer_ga: R·S·(raw − off)
 };
 
-// The meta's `px4_calibration` of one compass: {index, matched_by ("device_id" | "instance"),
+// The meta's `px4_calibration` of one compass: {index, matched_by ("device_id" | "CAL_MAG_PRIME" | "instance"),
 // offsets_G, scales, offdiagonals, power_compensation (G per unit P), power_compensation_type
 // (CAL_MAG_COMP_TYP), rotation, rotation_known, rotation_matrix (row-major, sensor → body; identity
 // for kDriverCalibrated)}. A rotation is known when the log's release fixes its meaning (0..25
 // always; 26..47 from PX4 1.12 on; 26..34 in 1.10 and older; 100 custom with CAL_MAGn_ROLL/PITCH/YAW). Null when the log has no CAL_MAGn_*
-// parameters for it. device_id ≤ 0: matched by `instance`.
+// parameters for it. device_id ≤ 0: instance 0 (the primary) by CAL_MAG_PRIME when a slot holds that
+// id, else matched by `instance`.
 nlohmann::json Px4MagCalibration(const ULog& u, double device_id, int instance, MagFrame frame);
 
 }  // namespace hexsim::logs::internal

@@ -226,5 +226,43 @@ TEST(ULogPx4State, GivenCompensationButNoPowerSignal_WhenImported_ThenWarned) {
   EXPECT_FALSE(r->log.Has("px4_mag_power"));
 }
 
+TEST(ULogPx4State, GivenOldSensorCombinedMagnetometer_WhenRead_ThenTheCalMagPrimeSlotUndoesItNotSlot0) {
+  // PX4 1.10 and older: sensor_combined magnetometer_ga is the primary compass, calibrated with the
+  // slot whose CAL_MAGn_ID is CAL_MAG_PRIME (here slot 2); slot 0 belongs to another sensor.
+  const Eigen::Vector3d off(0.38, 0.46, 0.02), scale(1.11, 0.97, 0.95);
+  ULogWriter w;
+  w.Info("uint32_t ver_sw_release", Pack<uint32_t>(0x01060000));
+  w.ParamInt("CAL_MAG_PRIME", 73233);
+  w.ParamInt("CAL_MAG0_ID", 263178);
+  w.ParamInt("CAL_MAG2_ID", 73233);
+  w.ParamInt("CAL_MAG2_ROT", 0);
+  const char* axes[3] = {"X", "Y", "Z"};
+  for (int k = 0; k < 3; ++k) {
+    w.Param(std::string("CAL_MAG0_") + axes[k] + "OFF", 1.0f);
+    w.Param(std::string("CAL_MAG0_") + axes[k] + "SCALE", 0.2f);
+    w.Param(std::string("CAL_MAG2_") + axes[k] + "OFF", static_cast<float>(off(k)));
+    w.Param(std::string("CAL_MAG2_") + axes[k] + "SCALE", static_cast<float>(scale(k)));
+  }
+  Attitude(&w);
+  w.Format("sensor_combined:uint64_t timestamp;float[3] gyro_rad;float[3] magnetometer_ga;");
+  const uint16_t sc = w.Subscribe("sensor_combined", 0);
+  const Eigen::Vector3d raw(0.5, -0.7, 0.45);  // gauss
+  const Eigen::Vector3f cal = (scale.asDiagonal() * (raw - off)).cast<float>();
+  for (int k = 0; k < 20; ++k) {
+    w.Data(sc, Pack<uint64_t>(1050000 + 100000ull * static_cast<uint64_t>(k)) + Pack(0.0f) + Pack(0.0f) + Pack(0.0f) +
+                   Pack(cal(0)) + Pack(cal(1)) + Pack(cal(2)));
+  }
+  auto r = ImportULog(w.bytes(), "old.ulg");
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  const auto& c = r->log.meta["compasses"][0]["px4_calibration"];
+  EXPECT_EQ(c["index"], 2);
+  EXPECT_EQ(c["matched_by"], "CAL_MAG_PRIME");
+  auto in = ParseMagInput(w.bytes(), "old.ulg", "mag");
+  ASSERT_TRUE(in.ok()) << in.status().message();
+  ASSERT_FALSE(in->field.empty());
+  EXPECT_LT((in->field[0] - 100.0 * raw).norm(), 1e-3) << in->field[0].transpose();
+  EXPECT_EQ(in->px4_index, 2);
+}
+
 }  // namespace
 }  // namespace hexsim::logs
