@@ -182,9 +182,8 @@ CompCase WithCompensation(int type, bool calibrated) {
     const Eigen::Vector3d field = 0.5 * Eigen::Vector3d(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
     const Eigen::Vector3d raw = field + b - p * comp;  // the motors' field: −P·comp
     const Eigen::Vector3f logged = (calibrated ? Eigen::Vector3d(R * (raw + p * comp - off)) : raw).cast<float>();
-    if (calibrated) w.Data(mag, Pack(t + 1000) + Pack<uint32_t>(9) + Pack(logged(0)) + Pack(logged(1)) + Pack(logged(2)));
-    else w.Data(mag, Pack(t + 1000) + Pack<uint32_t>(9) + Pack(logged(0)) + Pack(logged(1)) + Pack(logged(2)));
-    out.truth_uT.push_back(100.0 * (field + b));
+    w.Data(mag, Pack(t + 1000) + Pack<uint32_t>(9) + Pack(logged(0)) + Pack(logged(1)) + Pack(logged(2)));
+    out.truth_uT.emplace_back(100.0 * (field + b));
   }
   auto in = ParseMagInput(w.bytes(), "c.ulg", "mag");
   EXPECT_TRUE(in.ok()) << in.status().message();
