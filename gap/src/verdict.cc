@@ -59,6 +59,40 @@ int Dof(const Candidate& c) {
   return c.p() + (profiled ? 1 : 0);
 }
 
+// Ramsey's RESET for the reported model: the model's own fitted field f_k = X_k·β (its candidate
+// part, the baseline excluded) enters once more as f_k·|f_k| / rms|f|, one coefficient. A right
+// form leaves nothing that grows with the square of what it predicts; a linear form fitted to a
+// power law or a saturation does (k·I over a·I^p leaves a part along d that follows I²). Significant
+// by its cluster-robust Wald test at alpha, and material: it removes at least the materiality share
+// of the noise floor's power. One coefficient along the model's own prediction, so manoeuvre
+// transients of a 10 Hz replay (spread over every direction) hardly load on it.
+std::string ResetFinding(const Analyzer& an, const Evaluated& model, double noise_var, const DiagnoseOptions& o) {
+  if (!model.cand || !model.full.ok) return "";
+  const Candidate& c = *model.cand;
+  const size_t n = c.X.size();
+  if (n == 0 || c.p() == 0) return "";
+  const Eigen::VectorXd beta = model.full.beta.segment(model.off, c.p());
+  std::vector<Vec3> f(n);
+  double ms = 0;
+  for (size_t k = 0; k < n; ++k) {
+    f[k] = c.X[k] * beta;
+    ms += f[k].squaredNorm() / static_cast<double>(n);
+  }
+  if (!(ms > 0)) return "";
+  const double rms = std::sqrt(ms);
+  Candidate reset = MakeCandidate("reset", {"f_abs_f"}, {1.0}, "");
+  for (size_t k = 0; k < n; ++k) reset.X.emplace_back(Mat3X(f[k] * (f[k].norm() / rms)));
+  const Evaluated ej = an.Evaluate(Join(c, reset));
+  if (!ej.full.ok || ej.cov.size() == 0) return "";
+  const int idx = ej.off + c.p();
+  const double p = WaldP(ej.full.beta, ej.cov, {idx}, an.G());
+  const double gain_ms = std::max(0.0, model.full.sse - ej.full.sse) / an.total_n();
+  if (p < o.alpha && gain_ms >= o.materiality * noise_var) {
+    return "a part that grows with the square of what the model predicts (a power law or a saturation, not its linear form)";
+  }
+  return "";
+}
+
 }  // namespace
 
 ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
@@ -260,7 +294,11 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
     // above the residual's own spectrum): a model that takes half of a form it cannot describe is
     // not the explanation. A right model leaves only the floor, so this never blocks it.
     const Structure left = DetectStructure(ch.t, after, cv_after, o.materiality, 1.0, 0.0, o.alpha);
-    const std::string left_found = left.present ? left.found : std::string();
+    std::string left_found = left.present ? left.found : std::string();
+    if (res.verdict != "ambiguous") {
+      const std::string reset = ResetFinding(an, model, st.noise_var, o);
+      if (!reset.empty()) left_found += (left_found.empty() ? "" : "; ") + reset;
+    }
     if (!left_found.empty() && res.verdict != "ambiguous") {
       res.verdict = "unexplained";
       res.explanation = fmt::format("{} explains {} of the held-out residual above the floor, but what it leaves still holds "

@@ -23,6 +23,16 @@ TEST(GapRealProfile, GivenADegradedTrial_WhenDiagnosed_ThenRowsAre10HzAndTimingR
   // The current updates at 5 Hz: about half of its 10 Hz samples repeat.
   std::set<double> updates(log->Column("batt_t_s").begin(), log->Column("batt_t_s").end());
   EXPECT_LT(updates.size(), log->rows() * 6 / 10);
+  // Each compass sample is logged exactly L after it was measured: its stamp minus L is one of the
+  // simulator's own sample stamps, and its value is that sample's (scale and offset applied).
+  std::set<double> source(f.log.Column("mag2_t_s").begin(), f.log.Column("mag2_t_s").end());
+  const auto& stamp = log->Column("mag2_t_s");
+  int exact = 0;
+  for (double s : stamp) {
+    const auto it = source.lower_bound(s - truth.latency_s - 1e-9);
+    exact += it != source.end() && std::fabs(*it - (s - truth.latency_s)) < 1e-9;
+  }
+  EXPECT_EQ(exact, static_cast<int>(stamp.size()));
 
   auto rep = Diagnose(*log, f.trial.configured);
   ASSERT_TRUE(rep.ok()) << rep.status().message();
