@@ -16,6 +16,7 @@
 #include "hexsim/reports/gap_report.h"
 #include "hexsim/gap/selftest.h"
 #include "hexsim/logs/flight_log.h"
+#include "hexsim/vehicle/vehicle_io.h"
 #include "hexsim/vehicle/vehicle_params.h"
 
 namespace hexsim::app {

@@ -10,6 +10,7 @@
 #include "hexsim/common/paths.h"
 #include "hexsim/identify/identify.h"
 #include "hexsim/logs/flight_log.h"
+#include "hexsim/vehicle/vehicle_io.h"
 #include "hexsim/vehicle/vehicle_params.h"
 
 namespace hexsim::app {

@@ -8,6 +8,7 @@
 
 #include "hexsim/common/paths.h"
 #include "hexsim/common/yaml_reader.h"
+#include "hexsim/vehicle/vehicle_io.h"
 
 namespace hexsim::app {
 

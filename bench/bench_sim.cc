@@ -22,6 +22,7 @@
 #include "hexsim/sim/run_config.h"
 #include "hexsim/sim/simulation.h"
 #include "hexsim/vehicle/powertrain.h"
+#include "hexsim/vehicle/vehicle_io.h"
 #include "hexsim/vehicle/vehicle_params.h"
 
 namespace {

@@ -8,6 +8,7 @@
 #include "hexsim/magnetics/compensator.h"
 #include "hexsim/magnetics/heading_error.h"
 #include "hexsim/sim/turntable.h"
+#include "hexsim/vehicle/vehicle_io.h"
 #include "hexsim/vehicle/vehicle_params.h"
 
 namespace hexsim {

@@ -5,8 +5,8 @@
 #include <limits>
 
 #include <Eigen/SVD>
-#include <fmt/format.h>
 
+#include "hexsim/common/format.h"
 #include "hexsim/common/rotation.h"
 
 namespace hexsim::control {
@@ -29,13 +29,13 @@ MatrixXd AllocationMatrix(const std::vector<RotorGeometry>& rotors) {
 }
 
 Result<Mixer> Mixer::Create(const std::vector<RotorGeometry>& rotors) {
-  if (rotors.size() < 4) return Status::BadInput(fmt::format("rotors: need at least 4 (got {})", rotors.size()));
+  if (rotors.size() < 4) return Status::BadInput(Format("rotors: need at least 4 (got %zu)", rotors.size()));
   for (size_t i = 0; i < rotors.size(); ++i) {
     if (!(rotors[i].thrust_axis_B.norm() > 1e-9) || !rotors[i].p_B_m.allFinite()) {
-      return Status::BadInput(fmt::format("rotors[{}].thrust_axis_B: must be a finite non-zero vector", i));
+      return Status::BadInput(Format("rotors[%zu].thrust_axis_B: must be a finite non-zero vector", i));
     }
     if (rotors[i].spin != 1 && rotors[i].spin != -1) {
-      return Status::BadInput(fmt::format("rotors[{}].spin: must be +1 or -1 (got {})", i, rotors[i].spin));
+      return Status::BadInput(Format("rotors[%zu].spin: must be +1 or -1 (got %d)", i, rotors[i].spin));
     }
   }
   MatrixXd A = AllocationMatrix(rotors);

@@ -9,6 +9,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include "hexsim/common/rotation.h"
+#include "hexsim/control/control_io.h"
 #include "hexsim/control/controller.h"
 #include "support/plant.h"
 

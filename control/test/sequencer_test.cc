@@ -1,3 +1,4 @@
+#include "hexsim/control/control_io.h"
 #include "hexsim/control/sequencer.h"
 
 #include <algorithm>

@@ -14,6 +14,7 @@
 #include "hexsim/common/rotation.h"
 #include "hexsim/gap/diagnose.h"
 #include "hexsim/gap/selftest.h"
+#include "hexsim/vehicle/vehicle_io.h"
 
 namespace hexsim::gap {
 namespace {

@@ -11,6 +11,7 @@
 #include "hexsim/gap/diagnose.h"
 #include "hexsim/logs/dataflash_import.h"
 #include "hexsim/common/plausibility.h"
+#include "hexsim/vehicle/vehicle_io.h"
 #include "hexsim/vehicle/vehicle_params.h"
 #include "support/gap_fixtures.h"
 

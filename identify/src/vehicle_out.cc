@@ -8,6 +8,7 @@
 #include "hexsim/common/plausibility.h"
 #include "hexsim/common/rotation.h"
 #include "hexsim/common/yaml_reader.h"
+#include "hexsim/control/control_io.h"
 #include "hexsim/control/controller.h"
 #include "hexsim/identify/identify.h"
 #include "hexsim/vehicle/powertrain.h"

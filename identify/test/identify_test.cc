@@ -15,6 +15,7 @@
 #include "hexsim/sim/run_config.h"
 #include "hexsim/sim/simulation.h"
 #include "hexsim/vehicle/powertrain.h"
+#include "hexsim/vehicle/vehicle_io.h"
 
 namespace hexsim::identify {
 namespace {

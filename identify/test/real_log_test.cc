@@ -18,6 +18,7 @@
 #include "hexsim/gap/diagnose.h"
 #include "hexsim/identify/identify.h"
 #include "hexsim/logs/dataflash_import.h"
+#include "hexsim/vehicle/vehicle_io.h"
 #include "hexsim/vehicle/vehicle_params.h"
 
 namespace hexsim::identify {

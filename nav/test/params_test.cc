@@ -7,6 +7,7 @@
 #include "hexsim/common/rotation.h"
 #include "hexsim/common/yaml_reader.h"
 #include "hexsim/nav/estimator.h"
+#include "hexsim/nav/nav_io.h"
 #include "support/synthetic.h"
 
 namespace hexsim::nav {

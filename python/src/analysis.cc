@@ -12,6 +12,7 @@
 #include "hexsim/magnetics/calib_io.h"
 #include "hexsim/magnetics/calibrate.h"
 #include "hexsim/magnetics/wmm.h"
+#include "hexsim/vehicle/vehicle_io.h"
 #include "hexsim/vehicle/vehicle_params.h"
 
 namespace hexsim::python {

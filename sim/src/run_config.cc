@@ -1,3 +1,5 @@
+#include "hexsim/control/control_io.h"
+#include "hexsim/nav/nav_io.h"
 #include "hexsim/sim/run_config.h"
 
 #include <fmt/format.h>
@@ -6,6 +8,7 @@
 #include "hexsim/common/yaml_reader.h"
 #include "hexsim/control/mission.h"
 #include "hexsim/nav/estimator.h"
+#include "hexsim/vehicle/vehicle_io.h"
 #include "hexsim/vehicle/vehicle_params.h"
 
 namespace hexsim::sim {

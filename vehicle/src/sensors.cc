@@ -4,8 +4,7 @@
 #include <cmath>
 #include <string>
 
-#include <fmt/format.h>
-
+#include "hexsim/common/format.h"
 #include "hexsim/magnetics/compass_model.h"
 
 namespace hexsim::vehicle {
@@ -75,12 +74,12 @@ Result<SensorSuite> SensorSuite::Create(const VehicleParams& params, uint64_t se
   suite.gps_latency_s_ = s.gps.latency_s;
   for (size_t i = 0; i < params.compasses.size(); ++i) {
     const CompassParams& c = params.compasses[i];
-    if (!(c.rate_hz > 0.0)) return Status::BadInput(fmt::format("{}: compasses[{}]: rate_hz must be > 0", params.name, i));
+    if (!(c.rate_hz > 0.0)) return Status::BadInput(Format("%s: compasses[%zu]: rate_hz must be > 0", params.name.c_str(), i));
     Compass m;
     m.params = c;
     m.wiring = params.wiring;
     if (c.current_lag_tau_s >= 0.0) m.wiring.lag_tau_s = c.current_lag_tau_s;
-    m.channel = MakeChannel(c.rate_hz, c.noise, c.noise, seed, fmt::format("mag{}", i + 1));
+    m.channel = MakeChannel(c.rate_hz, c.noise, c.noise, seed, "mag" + std::to_string(i + 1));
     suite.mags_.push_back(std::move(m));
   }
   suite.readings_.mag_uT.resize(params.compasses.size());

@@ -8,6 +8,7 @@
 
 #include "hexsim/common/rng.h"
 #include "hexsim/common/rotation.h"
+#include "hexsim/vehicle/vehicle_io.h"
 
 namespace hexsim::vehicle {
 namespace {

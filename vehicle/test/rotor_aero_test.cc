@@ -1,6 +1,7 @@
 // Rotor aerodynamics as a pure function: off by default, ground effect near the ground, rotor drag
 // against the air velocity.
 #include "hexsim/vehicle/rotor_aero.h"
+#include "hexsim/vehicle/vehicle_io.h"
 
 #include <string>
 

@@ -11,6 +11,7 @@
 #include "hexsim/magnetics/wmm.h"
 #include "hexsim/vehicle/powertrain.h"
 #include "hexsim/vehicle/sensors.h"
+#include "hexsim/vehicle/vehicle_io.h"
 
 namespace hexsim::vehicle {
 namespace {

@@ -1,3 +1,4 @@
+#include "hexsim/vehicle/vehicle_io.h"
 #include "hexsim/vehicle/vehicle_params.h"
 
 #include <cmath>

@@ -8,10 +8,12 @@
 // on its mass either.
 #pragma once
 
-#include <yaml-cpp/yaml.h>
+#include <limits>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "hexsim/common/status.h"
-#include "hexsim/common/yaml_reader.h"
 #include "hexsim/control/pid.h"
 #include "hexsim/control/types.h"
 
@@ -44,16 +46,6 @@ struct ControllerParams {
   // vehicle keeps attitude authority while descending.
   double min_thrust_fraction_of_weight = 0.1;
 };
-
-// Reads a `control:` map (the reader is on that map): pos {kp, z_kp}, vel {xy, z} {kp, ki, kd,
-// output_limit, integrator_limit, d_filter_hz}, att {roll, pitch, yaw} {kp}, rate {roll, pitch, yaw}
-// {kp, ki, kd, output_limit, integrator_limit, d_filter_hz}, limits {max_tilt_deg, max_speed_xy_mps,
-// max_speed_up_mps, max_speed_down_mps, max_rate_rp_dps, max_yaw_rate_dps,
-// min_thrust_fraction_of_weight}. Every key is optional (defaults above); unknown keys are errors.
-Status ParseControllerParams(YamlReader& reader, ControllerParams* params);
-// The full `control:` map with every key, so that a document can be completed with the defaults
-// before `--set control.rate.roll.kp=...` overrides (ApplyOverride needs existing keys).
-YAML::Node ControllerParamsToYaml(const ControllerParams& params);
 
 // What the controller needs to know of the vehicle.
 struct VehicleModelForControl {

@@ -13,6 +13,7 @@
 //     - {type: hold, duration_s: 5}
 //     - {type: payload, action: release, mass_kg: 2.0}
 //     - {type: land}
+// ParseMission (hexsim::control_io, hexsim/control/control_io.h) reads this document.
 #pragma once
 
 #include <optional>
@@ -20,7 +21,6 @@
 #include <vector>
 
 #include <Eigen/Core>
-#include <yaml-cpp/yaml.h>
 
 #include "hexsim/common/status.h"
 
@@ -80,8 +80,6 @@ struct Mission {
   bool resolved = false;  // every waypoint is in NED (ResolveMission)
 };
 
-// Parses a mission document; errors are "FILE:LINE: items[3].speed_mps: must be > 0 (got -2)".
-Result<Mission> ParseMission(const YAML::Node& node, const std::string& file);
 // Converts geodetic waypoints to NED from `home` (the world's home point). D = −alt_m (height above
 // home, flat-world vertical); N and E from LatLonToNed.
 Result<Mission> ResolveMission(const Mission& mission, const GeoPoint& home);

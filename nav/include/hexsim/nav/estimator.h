@@ -15,7 +15,6 @@
 #include <Eigen/Geometry>
 
 #include "hexsim/common/status.h"
-#include "hexsim/common/yaml_reader.h"
 
 namespace hexsim::nav {
 
@@ -149,10 +148,6 @@ Result<std::unique_ptr<Estimator>> MakeEstimator(const std::string& name, const 
 
 // Checks ranges and the Earth field (non-zero horizontal component); message names the field.
 Status ValidateNavParams(const NavParams& params);
-
-// Reads the keys of a `nav:` map (all optional, same names as the NavParams fields; mag_mode is
-// "heading" | "3axis"; earth_B_N_uT = [N, E, D]); unknown keys are rejected by the reader.
-Status ParseNavParams(YamlReader& reader, NavParams* params);
 
 // Tilt-compensated magnetic heading (NED/FRD): X_h = m_x cosθ + m_y sinφ sinθ + m_z cosφ sinθ,
 // Y_h = m_y cosφ − m_z sinφ, ψ_mag = atan2(−Y_h, X_h).

@@ -1,5 +1,6 @@
 // VehicleParams: everything about a multirotor that does not change during a run (MuJoCo's
-// "model"), read from worlds/vehicles/*.yaml by ParseVehicle. Units and frames are in the names.
+// "model"), read from worlds/vehicles/*.yaml by ParseVehicle (hexsim::vehicle_io,
+// hexsim/vehicle/vehicle_io.h). Units and frames are in the names.
 //
 // Frames: body B = Forward-Right-Down, Earth N = North-East-Down.
 // Rotor spin convention: `spin = +1` means the rotor's angular velocity points along its thrust
@@ -13,7 +14,6 @@
 #include <vector>
 
 #include <Eigen/Core>
-#include <yaml-cpp/yaml.h>
 
 #include "hexsim/common/status.h"
 #include "hexsim/magnetics/compass_model.h"
@@ -155,11 +155,5 @@ struct VehicleParams {
   // Spin-axis inertia of rotor i (its own value, or the motor's).
   double RotorInertia_kgm2(size_t i) const;
 };
-
-// Reads a vehicle document (already loaded, --set overrides applied). Every field is validated and
-// unknown keys are rejected; errors read "FILE:LINE: FIELD: what is wrong".
-Result<VehicleParams> ParseVehicle(const YAML::Node& root, const std::string& file);
-// Loads and parses a vehicle file.
-Result<VehicleParams> LoadVehicleFile(const std::string& path);
 
 }  // namespace hexsim::vehicle

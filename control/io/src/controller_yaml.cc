@@ -1,7 +1,7 @@
 // ControllerParams <-> the `control:` YAML map.
 #include <cmath>
 
-#include "hexsim/control/controller.h"
+#include "hexsim/control/control_io.h"
 
 namespace hexsim::control {
 namespace {
