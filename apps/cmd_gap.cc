@@ -10,113 +10,35 @@
 #include "commands.h"
 #include "hexsim/batch/pool.h"
 #include "hexsim/common/atomic_file.h"
-#include "hexsim/common/paths.h"
-#include "hexsim/gap/diagnose.h"
-#include "hexsim/identify/identify.h"
-#include "hexsim/reports/gap_report.h"
+#include "hexsim/experiments/log_diagnosis.h"
 #include "hexsim/gap/selftest.h"
 #include "hexsim/logs/flight_log.h"
-#include "hexsim/vehicle/vehicle_io.h"
-#include "hexsim/vehicle/vehicle_params.h"
+#include "hexsim/reports/gap_report.h"
 
 namespace hexsim::app {
 namespace {
 
 struct DiagnoseArgs {
-  std::string real, sim_config, out;
-  uint64_t seed = 1;
-  double from_s = 0.0, to_s = 0.0;
+  std::string real, out;
+  experiments::LogDiagnosisOptions options;
 };
-
-// The vehicle to diagnose against, and what the report says about it (CONTRACTS "Second wave":
-// --sim is optional). Without --sim the log's vehicle is identified on the even time blocks and the
-// diagnosis runs on the odd ones; with --sim the identified vehicle is compared with the given one.
-struct DiagnosisVehicle {
-  vehicle::VehicleParams params;
-  std::string yaml_text, stem;
-  logs::FlightLog log;  // the log the diagnosis reads (held-out blocks only without --sim)
-  nlohmann::json json = nlohmann::json::object();
-  std::vector<std::string> lines;
-};
-
-Result<DiagnosisVehicle> ChooseVehicle(const DiagnoseArgs& a, const logs::FlightLog& log) {
-  DiagnosisVehicle d;
-  d.log = log;
-  std::string base_name = a.sim_config;
-  if (a.sim_config.empty()) {
-    std::string source;
-    base_name = identify::DefaultBaseFor(identify::FrameOfLog(log, &source));
-    if (base_name.empty()) return Status::BadInput(a.real + ": frame: not determined (" + source + "); give --sim VEHICLE");
-  }
-  auto path = ResolveWorldFile("vehicles", base_name);
-  if (!path.ok()) return path.status();
-  auto text = ReadFile(*path);
-  if (!text.ok()) return text.status();
-  auto vehicle = vehicle::LoadVehicleFile(*path);
-  if (!vehicle.ok()) return vehicle.status();
-  if (!a.sim_config.empty()) {
-    d.params = *vehicle;
-    d.yaml_text = *text;
-    d.stem = FileStem(*path);
-    auto r = identify::Identify(log, *vehicle);
-    d.json["mode"] = "given (--sim)";
-    if (r.ok()) {
-      d.json["distance_from_identified"] = identify::DistanceFromVehicle(*r, *vehicle, &d.lines);
-    } else {
-      d.json["distance_from_identified"] = "not computed: " + r.status().message();
-    }
-    return d;
-  }
-  identify::IdentifyOptions io;
-  for (int b = 0; b < io.blocks; b += 2) io.fit_blocks.push_back(b);
-  auto r = identify::Identify(log, *vehicle, io);
-  if (!r.ok()) return r.status().WithContext("gap diagnose without --sim identifies the vehicle first");
-  d.params = identify::ApplyIdentified(*vehicle, *r);
-  auto yaml = identify::IdentifiedVehicleYaml(*text, *vehicle, *r);
-  if (!yaml.ok()) return yaml.status();
-  d.yaml_text = *yaml;
-  d.stem = "identified";
-  d.log = identify::HeldOutLog(log, *r);
-  d.json["mode"] = "identified (no --sim)";
-  d.json["how"] = "vehicle identified from this log (base " + vehicle->name +
-                  ") on the even time blocks of its flight windows; diagnosed on the odd (held-out) blocks only";
-  d.json["identify"] = identify::ToJson(*r);
-  d.lines.push_back("no --sim: the vehicle was identified from this log (base " + vehicle->name +
-                    ") on the even time blocks; this diagnosis uses the odd (held-out) blocks only");
-  return d;
-}
 
 Status DiagnoseCommand(const DiagnoseArgs& a) {
   auto log = logs::ReadFlightLog(a.real);
   if (!log.ok()) return log.status();
-  if (log->rows() == 0) return Status::BadInput(a.real + ": no data rows");
-  auto chosen = ChooseVehicle(a, *log);
-  if (!chosen.ok()) return chosen.status();
-  const vehicle::VehicleParams* vehicle = &chosen->params;
-  const std::string* text = &chosen->yaml_text;
-  gap::DiagnoseOptions opt;
-  opt.seed = a.seed;
-  if (a.from_s != 0.0 || a.to_s != 0.0) {
-    if (!(a.to_s > a.from_s)) return Status::BadInput("--from/--to: --to must be after --from");
-    opt.from_s = a.from_s;
-    opt.to_s = a.to_s;
-  }
-  auto report = gap::Diagnose(chosen->log, *vehicle, opt);
-  if (!report.ok()) return report.status().WithContext(a.real);
-  report->log_name = a.real;
-  auto updated = gap::UpdatedVehicleYaml(*text, *vehicle, *report);
-  if (!updated.ok()) return updated.status();
+  experiments::LogDiagnosisOptions options = a.options;
+  options.log_name = a.real;
+  auto d = experiments::DiagnoseLog(*log, options);
+  if (!d.ok()) return d.status();
   OutputDirectory out;
   HEXSIM_RETURN_IF_ERROR(out.Open(a.out));
-  nlohmann::json gap_json = gap::ToJson(*report);
-  gap_json["vehicle_source"] = chosen->json;
-  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out.File("gap.json"), gap_json.dump(2) + "\n"));
-  if (a.sim_config.empty()) HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out.File("identified.yaml"), *text));
-  HEXSIM_RETURN_IF_ERROR(reports::WriteGapHtml(*report, out.path()));
-  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out.File(chosen->stem + ".updated.yaml"), *updated));
+  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out.File("gap.json"), experiments::LogDiagnosisJson(*d).dump(2) + "\n"));
+  if (d->identified) HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out.File("identified.yaml"), d->vehicle_yaml));
+  HEXSIM_RETURN_IF_ERROR(reports::WriteGapHtml(d->report, out.path()));
+  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out.File(d->stem + ".updated.yaml"), d->updated_yaml));
   out.Commit();
-  for (const auto& line : chosen->lines) std::printf("vehicle: %s\n", line.c_str());
-  std::fputs(gap::Summary(*report).c_str(), stdout);
+  for (const auto& line : d->lines) std::printf("vehicle: %s\n", line.c_str());
+  std::fputs(gap::Summary(d->report).c_str(), stdout);
   return Status::Ok();
 }
 
@@ -160,12 +82,12 @@ void AddGapCommand(CLI::App& app, int* exit_code) {
   auto d = std::make_shared<DiagnoseArgs>();
   CLI::App* diag = gap->add_subcommand("diagnose", "Where the gap lies, which effect causes it, how much it shrinks");
   diag->add_option("--real", d->real, "FlightLog CSV (its .meta.json beside it)")->required();
-  diag->add_option("--sim", d->sim_config, "Vehicle name under worlds/vehicles or a vehicle YAML (default: the vehicle identified from the log on "
+  diag->add_option("--sim", d->options.vehicle, "Vehicle name under worlds/vehicles or a vehicle YAML (default: the vehicle identified from the log on "
                  "fitting blocks, diagnosed on held-out blocks)");
   diag->add_option("--out", d->out, "Output directory (gap.json, gap.html, <vehicle>.updated.yaml)")->required();
-  diag->add_option("--seed", d->seed, "Bootstrap seed")->capture_default_str();
-  diag->add_option("--from", d->from_s, "Diagnose only from this log time (s), overriding the flight windows");
-  diag->add_option("--to", d->to_s, "Diagnose only up to this log time (s)");
+  diag->add_option("--seed", d->options.seed, "Bootstrap seed")->capture_default_str();
+  diag->add_option("--from", d->options.from_s, "Diagnose only from this log time (s), overriding the flight windows");
+  diag->add_option("--to", d->options.to_s, "Diagnose only up to this log time (s)");
   diag->callback([d, exit_code] {
     const Status s = DiagnoseCommand(*d);
     *exit_code = s.ok() ? 0 : Report(s);

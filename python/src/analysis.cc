@@ -4,16 +4,11 @@
 #include <vector>
 
 #include "bindings.h"
-#include "hexsim/common/atomic_file.h"
-#include "hexsim/common/paths.h"
-#include "hexsim/gap/diagnose.h"
-#include "hexsim/identify/identify.h"
+#include "hexsim/experiments/log_diagnosis.h"
 #include "hexsim/magnetics/autopilot_params.h"
 #include "hexsim/magnetics/calib_io.h"
 #include "hexsim/magnetics/calibrate.h"
 #include "hexsim/magnetics/wmm.h"
-#include "hexsim/vehicle/vehicle_io.h"
-#include "hexsim/vehicle/vehicle_params.h"
 
 namespace hexsim::python {
 
@@ -101,46 +96,28 @@ py::dict Calibrate(const py::object& samples, const std::string& method, const s
   return d;
 }
 
-// `hexsim gap diagnose --real LOG --sim VEHICLE`: gap.json's content. `log` is a FlightLog CSV path
-// or {column: array} (with `meta`, the .meta.json content, when the log has one).
+// `hexsim gap diagnose --real LOG [--sim VEHICLE]`: gap.json's content (experiments::DiagnoseLog, the
+// CLI's call). `log` is a FlightLog CSV path or {column: array} (with `meta`, the .meta.json content,
+// when the log has one); vehicle "" identifies the vehicle from the log (held-out blocks diagnosed).
 py::dict Diagnose(const py::object& log_arg, const std::string& vehicle_name, uint64_t seed, double from_s,
                   double to_s, const py::object& meta) {
   logs::FlightLog log;
-  std::string log_name = "<dict>";
+  experiments::LogDiagnosisOptions o;
+  o.log_name = "<dict>";
   if (py::isinstance<py::dict>(log_arg)) {
     log = FlightLogFromDict(log_arg.cast<py::dict>(), meta);
   } else {
-    log_name = py::str(py::module_::import("os").attr("fspath")(log_arg)).cast<std::string>();
-    log = ValueOrRaise(logs::ReadFlightLog(log_name));
+    o.log_name = py::str(py::module_::import("os").attr("fspath")(log_arg)).cast<std::string>();
+    log = ValueOrRaise(logs::ReadFlightLog(o.log_name));
   }
-  if (log.rows() == 0) RaiseBadInput(log_name + ": no data rows");
-  const std::string path = ValueOrRaise(ResolveWorldFile("vehicles", vehicle_name));
-  const std::string text = ValueOrRaise(ReadFile(path));
-  const vehicle::VehicleParams vehicle = ValueOrRaise(vehicle::LoadVehicleFile(path));
-  gap::DiagnoseOptions opt;
-  opt.seed = seed;
-  if (from_s != 0.0 || to_s != 0.0) {
-    if (!(to_s > from_s)) RaiseBadInput("--from/--to: --to must be after --from");
-    opt.from_s = from_s;
-    opt.to_s = to_s;
-  }
-  gap::GapReport report;
-  {
-    auto r = gap::Diagnose(log, vehicle, opt);
-    if (!r.ok()) Raise(r.status().WithContext(log_name));
-    report = std::move(r).value();
-  }
-  report.log_name = log_name;
-  nlohmann::json source = {{"mode", "given (--sim)"}};
-  std::vector<std::string> lines;
-  auto identified = identify::Identify(log, vehicle);
-  source["distance_from_identified"] = identified.ok() ? identify::DistanceFromVehicle(*identified, vehicle, &lines)
-                                                       : nlohmann::json("not computed: " + identified.status().message());
-  nlohmann::json j = gap::ToJson(report);
-  j["vehicle_source"] = source;
-  py::dict d = JsonToPython(j);
-  d["summary_text"] = gap::Summary(report);
-  return d;
+  o.vehicle = vehicle_name;
+  o.seed = seed;
+  o.from_s = from_s;
+  o.to_s = to_s;
+  const experiments::LogDiagnosis d = ValueOrRaise(experiments::DiagnoseLog(log, o));
+  py::dict out = JsonToPython(experiments::LogDiagnosisJson(d));
+  out["summary_text"] = gap::Summary(d.report);
+  return out;
 }
 
 }  // namespace
@@ -155,7 +132,8 @@ void BindAnalysis(py::module_& m) {
         "Compass calibration of an (N, 3) array: calibrated = A·(raw − offset_uT); report = hexsim.calib/1.");
   m.def("gap_diagnose", &Diagnose, py::arg("log"), py::arg("vehicle"), py::kw_only(), py::arg("seed") = 1,
         py::arg("from_s") = 0.0, py::arg("to_s") = 0.0, py::arg("meta") = py::none(),
-        "Sim-to-real gap diagnosis of a FlightLog (path or {column: array}) against a vehicle: gap.json as a dict.");
+        "Sim-to-real gap diagnosis of a FlightLog (path or {column: array}) against a vehicle ('': identified "
+        "from the log, held-out blocks diagnosed): gap.json as a dict.");
 }
 
 }  // namespace hexsim::python

@@ -1,0 +1,89 @@
+#include "hexsim/experiments/log_diagnosis.h"
+
+#include "hexsim/common/atomic_file.h"
+#include "hexsim/common/paths.h"
+#include "hexsim/identify/identify.h"
+#include "hexsim/vehicle/vehicle_io.h"
+
+namespace hexsim::experiments {
+namespace {
+
+// Fills the vehicle part of `d`: as given (compared with the one identified from the whole log), or
+// identified on the even blocks with d->log reduced to the odd (held-out) blocks.
+Status ChooseVehicle(const LogDiagnosisOptions& o, logs::FlightLog* log, LogDiagnosis* d) {
+  std::string base_name = o.vehicle;
+  if (o.vehicle.empty()) {
+    std::string source;
+    base_name = identify::DefaultBaseFor(identify::FrameOfLog(*log, &source));
+    if (base_name.empty()) {
+      return Status::BadInput(o.log_name + ": frame: not determined (" + source + "); give --sim VEHICLE");
+    }
+  }
+  auto path = ResolveWorldFile("vehicles", base_name);
+  if (!path.ok()) return path.status();
+  auto text = ReadFile(*path);
+  if (!text.ok()) return text.status();
+  auto base = vehicle::LoadVehicleFile(*path);
+  if (!base.ok()) return base.status();
+  if (!o.vehicle.empty()) {
+    d->vehicle = *base;
+    d->vehicle_yaml = *text;
+    d->stem = FileStem(*path);
+    auto r = identify::Identify(*log, *base);
+    d->vehicle_source["mode"] = "given (--sim)";
+    d->vehicle_source["distance_from_identified"] =
+        r.ok() ? identify::DistanceFromVehicle(*r, *base, &d->lines)
+               : nlohmann::json("not computed: " + r.status().message());
+    return Status::Ok();
+  }
+  identify::IdentifyOptions io;
+  for (int b = 0; b < io.blocks; b += 2) io.fit_blocks.push_back(b);
+  auto r = identify::Identify(*log, *base, io);
+  if (!r.ok()) return r.status().WithContext("gap diagnose without --sim identifies the vehicle first");
+  d->vehicle = identify::ApplyIdentified(*base, *r);
+  auto yaml = identify::IdentifiedVehicleYaml(*text, *base, *r);
+  if (!yaml.ok()) return yaml.status();
+  d->vehicle_yaml = *yaml;
+  d->stem = "identified";
+  d->identified = true;
+  *log = identify::HeldOutLog(*log, *r);
+  d->vehicle_source["mode"] = "identified (no --sim)";
+  d->vehicle_source["how"] = "vehicle identified from this log (base " + base->name +
+                             ") on the even time blocks of its flight windows; diagnosed on the odd (held-out) blocks only";
+  d->vehicle_source["identify"] = identify::ToJson(*r);
+  d->lines.push_back("no --sim: the vehicle was identified from this log (base " + base->name +
+                     ") on the even time blocks; this diagnosis uses the odd (held-out) blocks only");
+  return Status::Ok();
+}
+
+}  // namespace
+
+Result<LogDiagnosis> DiagnoseLog(const logs::FlightLog& log, const LogDiagnosisOptions& o) {
+  if (log.rows() == 0) return Status::BadInput(o.log_name + ": no data rows");
+  LogDiagnosis d;
+  logs::FlightLog diagnosed = log;
+  HEXSIM_RETURN_IF_ERROR(ChooseVehicle(o, &diagnosed, &d));
+  gap::DiagnoseOptions opt;
+  opt.seed = o.seed;
+  if (o.from_s != 0.0 || o.to_s != 0.0) {
+    if (!(o.to_s > o.from_s)) return Status::BadInput("--from/--to: --to must be after --from");
+    opt.from_s = o.from_s;
+    opt.to_s = o.to_s;
+  }
+  auto report = gap::Diagnose(diagnosed, d.vehicle, opt);
+  if (!report.ok()) return report.status().WithContext(o.log_name);
+  d.report = std::move(report).value();
+  d.report.log_name = o.log_name;
+  auto updated = gap::UpdatedVehicleYaml(d.vehicle_yaml, d.vehicle, d.report);
+  if (!updated.ok()) return updated.status();
+  d.updated_yaml = *updated;
+  return d;
+}
+
+nlohmann::json LogDiagnosisJson(const LogDiagnosis& d) {
+  nlohmann::json j = gap::ToJson(d.report);
+  j["vehicle_source"] = d.vehicle_source;
+  return j;
+}
+
+}  // namespace hexsim::experiments
