@@ -1,29 +1,21 @@
 // hexsim batch BATCH.yaml [--jobs N] [--shard i/N] [--resume] [--run-timeout S] [--keep-logs] [--list] --out DIR
-// hexsim batch-report DIR [--json FILE] [--no-plots]   (table on stdout, report.json, report.png, report.html)
 // hexsim batch-merge OUT SHARD_DIR...
 #include <unistd.h>
 
 #include <algorithm>
-#include <filesystem>
+#include <cstdio>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "cli_util.h"
 #include "commands.h"
 #include "hexsim/batch/batch_spec.h"
-#include "hexsim/batch/report.h"
-#include "hexsim/batch/results_db.h"
-#include "hexsim/common/atomic_file.h"
-#include "hexsim/common/paths.h"
 #include "hexsim/experiments/batch_flow.h"
-#include "hexsim/reports/batch_report.h"
-#include "hexsim/reports/headline.h"
 
 namespace hexsim::app {
 
 namespace {
-
-namespace fs = std::filesystem;
 
 struct BatchArgs {
   std::string batch_file;
@@ -68,42 +60,6 @@ Status BatchCommand(const BatchArgs& args, int* exit_code) {
   return Status::Ok();
 }
 
-// ---- batch-report ----
-
-struct ReportArgs {
-  std::string dir;
-  std::string json_path;
-  bool plots = true;
-};
-
-Status ReportCommand(const ReportArgs& args, int* exit_code) {
-  const std::string db_path = fs::is_regular_file(args.dir) ? args.dir : args.dir + "/" + experiments::kResultsFile;
-  std::error_code ec;
-  if (!fs::is_regular_file(db_path, ec)) return Status::BadInput(db_path + ": no such results file");
-  auto db = batch::ResultsDb::Open(db_path, /*create=*/false);
-  if (!db.ok()) return db.status();
-  auto rows = db->ReadAll();
-  if (!rows.ok()) return rows.status();
-  if (rows->empty()) return Status::BadInput(db_path + ": holds no runs");
-  const auto groups = batch::AggregateRuns(*rows);
-  for (const std::string& sentence : reports::BatchHeadline(groups)) std::printf("%s\n", sentence.c_str());
-  std::fputs(reports::NumberedReportTable(groups).c_str(), stdout);
-  const std::string dir = fs::is_directory(args.dir) ? args.dir : DirName(db_path);
-  const std::string json_path = args.json_path.empty() ? dir + "/report.json" : args.json_path;
-  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(json_path, batch::ReportJson(groups).dump(2) + "\n"));
-  *exit_code = 0;
-  bool figure = false;
-  if (args.plots) {
-    const Status s = reports::WriteBatchReportFigure(groups, dir + "/report.png");
-    figure = s.ok();
-    if (!s.ok()) {
-      std::fprintf(stderr, "hexsim: batch-report: plots not written: %s\n", s.message().c_str());
-      *exit_code = 1;
-    }
-  }
-  return reports::WriteBatchReportHtml(groups, figure ? "report.png" : "", dir + "/report.html");
-}
-
 // ---- batch-merge ----
 
 struct MergeArgs {
@@ -141,15 +97,7 @@ void AddBatchCommands(CLI::App& app, int* exit_code) {
     if (!s.ok()) *exit_code = Report(s);
   });
 
-  auto rargs = std::make_shared<ReportArgs>();
-  CLI::App* rep = app.add_subcommand("batch-report", "Aggregate a batch's results per group: table, report.json, report.png, report.html");
-  rep->add_option("dir", rargs->dir, "Batch output directory (or a results.sqlite)")->required();
-  rep->add_option("--json", rargs->json_path, "Write the JSON here (default DIR/report.json)");
-  rep->add_flag("!--no-plots", rargs->plots, "Skip report.png");
-  rep->callback([rargs, exit_code] {
-    const Status s = ReportCommand(*rargs, exit_code);
-    if (!s.ok()) *exit_code = Report(s);
-  });
+  AddBatchReportCommand(app, exit_code);  // cmd_batch_report.cc; --help lists batch, batch-report, batch-merge
 
   auto margs = std::make_shared<MergeArgs>();
   CLI::App* mrg = app.add_subcommand("batch-merge", "Merge shards' results.sqlite into OUT/results.sqlite (dedupe on run_id)");

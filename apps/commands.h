@@ -10,7 +10,8 @@ void RegisterCommands(CLI::App& app, int* exit_code);
 void AddRunCommand(CLI::App& app, int* exit_code);
 void AddGapCommand(CLI::App& app, int* exit_code);
 void AddIdentifyCommand(CLI::App& app, int* exit_code);
-void AddBatchCommands(CLI::App& app, int* exit_code);
+void AddBatchCommands(CLI::App& app, int* exit_code);  // batch, batch-report, batch-merge
+void AddBatchReportCommand(CLI::App& app, int* exit_code);
 void AddCalibrationCommands(CLI::App& app, int* exit_code);
 void AddCalibrateCommand(CLI::App& app, int* exit_code);
 void AddFieldCommand(CLI::App& app, int* exit_code);
