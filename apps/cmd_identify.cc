@@ -10,6 +10,7 @@
 #include "hexsim/common/paths.h"
 #include "hexsim/identify/identify.h"
 #include "hexsim/logs/flight_log.h"
+#include "hexsim/reports/identify_report.h"
 #include "hexsim/vehicle/vehicle_io.h"
 #include "hexsim/vehicle/vehicle_params.h"
 
@@ -53,7 +54,7 @@ Status IdentifyCommand(const IdentifyArgs& a) {
   const std::string dir = DirOf(a.out);
   HEXSIM_RETURN_IF_ERROR(EnsureDirectory(dir));
   HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(dir + "/identify.json", identify::ToJson(*r).dump(2) + "\n"));
-  HEXSIM_RETURN_IF_ERROR(identify::WriteIdentifyHtml(*r, dir));
+  HEXSIM_RETURN_IF_ERROR(reports::WriteIdentifyHtml(*r, dir));
   HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(a.out, *yaml));  // last: the vehicle file means "done"
   std::fputs(identify::Summary(*r).c_str(), stdout);
   return Status::Ok();

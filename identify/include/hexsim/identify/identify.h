@@ -138,8 +138,6 @@ nlohmann::json DistanceFromVehicle(const IdentifyResult& result, const vehicle::
 
 // identify.json (hexsim.identify/1).
 nlohmann::json ToJson(const IdentifyResult& result);
-// identify.html and its PNG plots into `dir`.
-Status WriteIdentifyHtml(const IdentifyResult& result, const std::string& dir);
 // A plain-text summary (one line per parameter).
 std::string Summary(const IdentifyResult& result);
 

@@ -1,0 +1,96 @@
+// identify.html with its PNG plots (moved from identify/, which no longer depends on render/).
+#include "hexsim/reports/identify_report.h"
+
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "hexsim/common/atomic_file.h"
+#include "hexsim/render/html.h"
+#include "hexsim/render/image.h"
+#include "hexsim/render/plot.h"
+
+namespace hexsim::reports {
+namespace {
+
+render::Series MakeSeries(std::string label, std::vector<double> x, std::vector<double> y, size_t colour) {
+  render::Series s;
+  s.label = std::move(label);
+  s.x = std::move(x);
+  s.y = std::move(y);
+  s.colour = render::PaletteColour(colour);
+  return s;
+}
+
+Status Png(const render::Plot2D& p, const std::string& path) {
+  constexpr int kWidth_px = 1100, kHeight_px = 420;
+  auto img = render::Render(p, kWidth_px, kHeight_px);
+  if (!img.ok()) return img.status();
+  auto png = render::EncodePng(*img);
+  if (!png.ok()) return png.status();
+  return WriteFileAtomic(path, *png);
+}
+
+}  // namespace
+
+Status WriteIdentifyHtml(const identify::IdentifyResult& r, const std::string& dir) {
+  using render::HtmlEscape;
+  std::string html = "<!doctype html><html><head><meta charset=\"utf-8\"><title>hexsim identify</title>"
+                     "<style>body{font-family:sans-serif;max-width:1150px;margin:auto}table{border-collapse:collapse}"
+                     "td,th{border:1px solid #ccc;padding:3px 6px}img{max-width:100%}</style></head><body>";
+  html += "<h1>Vehicle identification</h1><p>Frame " + HtmlEscape(r.frame) + " (" + HtmlEscape(r.frame_source) +
+          "), base vehicle " + HtmlEscape(r.base_name) + ".<br>" + HtmlEscape(r.data_source) + ".</p>";
+  html += "<table><tr><th>parameter</th><th>value</th><th>95 % interval</th><th>unit</th><th>source</th><th>physical "
+          "range</th><th>definition</th></tr>";
+  for (const auto& k : r.param_order) {
+    const identify::Param& p = r.params.at(k);
+    html += fmt::format("<tr><td>{}</td><td>{:.5g}</td><td>[{:.5g}, {:.5g}]</td><td>{}</td><td>{}</td><td title=\"{}\">"
+                        "[{:.4g}, {:.4g}]</td><td>{}</td></tr>",
+                        k, p.value, p.ci95[0], p.ci95[1], HtmlEscape(p.unit), HtmlEscape(p.source),
+                        HtmlEscape(p.range_reason), p.range[0], p.range[1], HtmlEscape(p.note));
+  }
+  html += "</table><h2>Held-out fit (fitted on even time blocks, scored on odd ones)</h2><table><tr><th>output</th>"
+          "<th>RMS measured</th><th>RMS residual</th><th>R²</th><th>samples</th></tr>";
+  for (const auto& h : r.heldout) {
+    html += fmt::format("<tr><td>{}</td><td>{:.4g} {}</td><td>{:.4g}</td><td>{:.3f}</td><td>{}</td></tr>", h.output,
+                        h.rms_measured, HtmlEscape(h.unit), h.rms_residual, h.r2, h.samples);
+  }
+  html += "</table>";
+  for (size_t i = 0; i < r.traces.size(); ++i) {
+    const identify::Trace& tr = r.traces[i];
+    render::Plot2D p;
+    p.title = tr.output + ": measured and predicted on held-out blocks";
+    p.x_label = "t (s)";
+    p.y_label = tr.unit;
+    p.series.push_back(MakeSeries("measured", tr.t_s, tr.measured, 0));
+    p.series.push_back(MakeSeries("predicted", tr.t_s, tr.predicted, 1));
+    const std::string f = fmt::format("identify_{}.png", i == 0 ? "vertical" : "yaw");
+    HEXSIM_RETURN_IF_ERROR(Png(p, fmt::format("{}/{}", dir, f)));
+    html += fmt::format("<p><img src=\"{}\"></p>", f);
+  }
+  if (!r.hover_output.empty()) {
+    render::Plot2D p;
+    p.title = "Steady hover: mean motor output against bus voltage";
+    p.x_label = "bus voltage (V)";
+    p.y_label = "mean motor output";
+    render::Series s = MakeSeries("steady-hover samples", r.hover_voltage_V, r.hover_output, 0);
+    s.style = render::SeriesStyle::kScatter;
+    s.marker_px = 2.0f;
+    p.series.push_back(s);
+    const auto it = r.params.find("hover_output");
+    if (it != r.params.end() && std::isfinite(it->second.value)) {
+      p.ref_lines.push_back({render::RefLine::Axis::kHorizontal, it->second.value, "identified hover output at V_ref"});
+    }
+    HEXSIM_RETURN_IF_ERROR(Png(p, dir + "/identify_hover.png"));
+    html += "<p><img src=\"identify_hover.png\"></p>";
+  }
+  html += "<h2>Windows</h2><ul>";
+  for (const auto& w : r.windows) {
+    html += fmt::format("<li>{:.1f}–{:.1f} s: {} ({})</li>", w.start_s, w.end_s, w.kind, HtmlEscape(w.why));
+  }
+  html += "</ul></body></html>\n";
+  return WriteFileAtomic(dir + "/identify.html", html);
+}
+
+}  // namespace hexsim::reports
