@@ -1,6 +1,7 @@
 // The observers of a run: the FlightLog recorder and the scorer (step_record.h).
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include <fmt/format.h>
 
@@ -200,7 +201,12 @@ void RunScorer::OnStep(const StepRecord& r) {
   // Yaw error is scored like cross-track, on the mission legs (the paper's in-flight figure);
   // yaw_error_all_deg also covers take-off and landing, where the rotor spin-up transient lives.
   if (r.estimated && r.mode != control::FlightMode::kIdle && !r.landed) {
-    const double e = WrapDeg180Fast(YawDegFast(r.estimate->q_NB) - YawDegFast(r.truth->q_NB));
+    // The estimate changes only when the autopilot runs (at the IMU rate): its yaw is kept until then.
+    if (std::memcmp(r.estimate->q_NB.coeffs().data(), est_q_.coeffs().data(), 4 * sizeof(double)) != 0) {
+      est_q_ = r.estimate->q_NB;
+      est_yaw_deg_ = YawDegFast(est_q_);
+    }
+    const double e = WrapDeg180Fast(est_yaw_deg_ - YawDegFast(r.truth->q_NB));
     yaw_err_all_.Add(e);
     if (airborne) yaw_err_.Add(e);
   }

@@ -4,6 +4,8 @@
 // below, or a caller's own) read nothing else. Plain data: an observer is testable without ODE.
 #pragma once
 
+#include <cmath>
+
 #include <array>
 #include <cstdint>
 #include <optional>
@@ -121,6 +123,9 @@ class RunScorer {
   RunningStats cross_track_, yaw_err_, yaw_err_all_, current_;
   double energy_J_ = 0.0, distance_m_ = 0.0;
   std::vector<WaypointArrival> arrivals_;
+  // YawDegFast(est_q_): the yaw of the last estimate seen (bitwise compared; NaN: none yet).
+  Eigen::Quaterniond est_q_{std::nan(""), 0.0, 0.0, 0.0};
+  double est_yaw_deg_ = 0.0;
 };
 
 // YawDeg(q) bit for bit (common/rotation), without the roll and pitch EulerFromQuat also evaluates.
