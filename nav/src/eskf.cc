@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <string>
 
 #include <Eigen/Core>
@@ -27,6 +28,15 @@ constexpr double kMaxHeadingCosPitch2 = 1e-4;
 // accuracy the compass is fused as a heading (as EKF2 aligns yaw before 3-axis fusion).
 constexpr double kThreeAxisMaxYawStd_rad = 5.0 * kDegToRad;
 
+// P·hᵀ from the non-zero entries of the measurement row h (rows have one to three).
+Vec15 SparseTimes(const Mat15& P, const Row15& h) {
+  Vec15 out = Vec15::Zero();
+  for (int j = 0; j < 15; ++j) {
+    if (h(j) != 0.0) out += P.col(j) * h(j);
+  }
+  return out;
+}
+
 class Eskf final : public Estimator, private internal::Filter {
  public:
   explicit Eskf(const NavParams& params) : prm_(params) { Reset(NavEstimate()); }
@@ -42,6 +52,7 @@ class Eskf final : public Estimator, private internal::Filter {
     w_B_ = Eigen::Vector3d::Zero();
     front_.Reset(initial);
     cov_dt_ = 0;
+    cov_dv_N_.setZero();
     cov_count_ = 0;
     last_gps_fused_t_ = front_.time();
     last_mag_fused_t_ = front_.time();
@@ -71,12 +82,15 @@ class Eskf final : public Estimator, private internal::Filter {
     q_ = q_new;
     w_B_ = w;
     front_.Advance(s.t_s);
+    // The covariance runs at the filter rate on the accumulated interval: Δt = Σ dt and the
+    // delta velocity Δv_N = Σ R·f·dt (as EKF2 and EKF3 down-sample delta angles and velocities).
     cov_dt_ += dt;
-    if (++cov_count_ >= prm_.cov_predict_every_n) {
-      PredictCovariance(R, f_N, cov_dt_);
-      cov_dt_ = 0;
-      cov_count_ = 0;
-    }
+    cov_dv_N_ += f_N * dt;
+    ++cov_count_;
+    // Due once the interval reaches the filter period, less half this sample's dt (EKF3's test, so a
+    // 400 Hz IMU gives exactly every 4th sample at 100 Hz), and at least every_n samples.
+    const bool rate_due = prm_.cov_predict_rate_hz <= 0 || cov_dt_ >= 1.0 / prm_.cov_predict_rate_hz - 0.5 * dt;
+    if (rate_due && cov_count_ >= prm_.cov_predict_every_n) FlushCovariance(R);
     front_.Record(p_, v_);
   }
 
@@ -259,14 +273,24 @@ class Eskf final : public Estimator, private internal::Filter {
     front_.FinishAlignment(p_, v_);
   }
 
-  // P ← F P Fᵀ + Q; F = I + A dt (A as in the header), Q from the noise densities.
-  void PredictCovariance(const Eigen::Matrix3d& R, const Eigen::Vector3d& f_N, double dt) {
-    // F = I except F_θ,bg = −R·dt (A), F_v,θ = −[f_N]×·dt (B), F_v,ba = −R·dt (A), F_p,v = I·dt.
+  // Propagates the covariance over the accumulated interval, R the attitude at its end.
+  void FlushCovariance(const Eigen::Matrix3d& R) {
+    if (cov_count_ == 0) return;
+    PredictCovariance(R, cov_dv_N_, cov_dt_);
+    cov_dt_ = 0;
+    cov_dv_N_.setZero();
+    cov_count_ = 0;
+  }
+
+  // P ← F P Fᵀ + Q over dt; F = I + A dt (A as in the header) with f_N·dt = dv_N, Q from the noise
+  // densities.
+  void PredictCovariance(const Eigen::Matrix3d& R, const Eigen::Vector3d& dv_N, double dt) {
+    // F = I except F_θ,bg = −R·dt (A), F_v,θ = −[Δv_N]× (B), F_v,ba = −R·dt (A), F_p,v = I·dt.
     // F·P·Fᵀ is written blockwise (3×3 by 3×15 products, no general 15×15 GEMM at 1 kHz), only
     // its upper block triangle, then mirrored: P stays exactly symmetric.
     using Rows3 = Eigen::Matrix<double, 3, 15>;
     const Eigen::Matrix3d A = -R * dt;
-    const Eigen::Matrix3d B = -Skew(f_N) * dt;
+    const Eigen::Matrix3d B = -Skew(dv_N);
     // Row blocks of M = F·P (the bias rows of M are those of P).
     Rows3 M_th = P_.middleRows<3>(kTh);
     M_th.noalias() += A * P_.middleRows<3>(kBg);
@@ -311,8 +335,11 @@ class Eskf final : public Estimator, private internal::Filter {
   bool FuseGroup(int n, const Row15* H, const double* y, const double* r, double gate_sigma, double t_s,
                  const char* what, double* test_ratio) {
     double worst = 0;
+    Vec15 PHt[3];  // P·Hᵢᵀ from the few non-zero entries of Hᵢ (groups have at most three rows)
+    HEXSIM_CHECK(n >= 1 && n <= 3);
     for (int i = 0; i < n; ++i) {
-      const double S = (H[i] * P_ * H[i].transpose())(0, 0) + r[i];
+      PHt[i] = SparseTimes(P_, H[i]);
+      const double S = H[i].dot(PHt[i]) + r[i];
       worst = std::max(worst, std::abs(y[i]) / (gate_sigma * std::sqrt(S)));
     }
     *test_ratio = worst;
@@ -320,25 +347,27 @@ class Eskf final : public Estimator, private internal::Filter {
     Vec15 dx = Vec15::Zero();
     Mat15 P = P_;
     for (int i = 0; i < n; ++i) {
-      const Vec15 PHt = P * H[i].transpose();
-      const double S = H[i].dot(PHt) + r[i];
-      const Vec15 K = PHt / S;
+      const Vec15 Pht = i == 0 ? PHt[0] : SparseTimes(P, H[i]);
+      const double S = H[i].dot(Pht) + r[i];
+      const Vec15 K = Pht / S;
       dx += K * (y[i] - H[i].dot(dx));
-      // Joseph form (I−KH)·P·(I−KH)ᵀ + K·r·Kᵀ, evaluated as rank-1 updates (O(n²), no 15×15 GEMM):
-      // X = (I−KH)·P = P − K·(H·P);  X·(I−KH)ᵀ = X − (X·Hᵀ)·Kᵀ.
-      const Row15 HP = H[i] * P;
-      Mat15 X = P;
-      X.noalias() -= K * HP;
-      const Vec15 XHt = X * H[i].transpose();
-      P = X;
-      P.noalias() -= XHt * K.transpose();
-      P.noalias() += (K * r[i]) * K.transpose();
+      // Joseph form (I−KH)·P·(I−KH)ᵀ + K·r·Kᵀ; with P symmetric and HP = (PHᵀ)ᵀ it expands to
+      //   P − K·(PHᵀ)ᵀ − (PHᵀ)·Kᵀ + (HPHᵀ + r)·K·Kᵀ,
+      // evaluated on the upper triangle and mirrored (O(n²), P stays exactly symmetric).
+      for (int c = 0; c < 15; ++c) {
+        for (int row = 0; row <= c; ++row) {
+          P(row, c) += S * K(row) * K(c) - K(row) * Pht(c) - Pht(row) * K(c);
+        }
+      }
+      for (int c = 0; c < 15; ++c) {
+        for (int row = c + 1; row < 15; ++row) P(row, c) = P(c, row);
+      }
     }
-    P = 0.5 * (P + P.transpose());
-    const std::string where = std::string(what) + " update";
-    if (!front_.CheckFinite(dx, "error state", t_s, where.c_str()) ||
-        !CheckCovariance(P, t_s, where.c_str()) ||
-        !front_.CheckSpeed(v_ + dx.segment<3>(kV), t_s, where.c_str())) {
+    char where[48];
+    std::snprintf(where, sizeof where, "%s update", what);  // no heap allocation per fusion
+    if (!front_.CheckFinite(dx, "error state", t_s, where) ||
+        !CheckCovariance(P, t_s, where) ||
+        !front_.CheckSpeed(v_ + dx.segment<3>(kV), t_s, where)) {
       return false;
     }
     // Injection: q ← exp(δθ)⊗q (δθ in N), additive for the rest. Reset of a *global* (N-frame)
@@ -402,7 +431,8 @@ class Eskf final : public Estimator, private internal::Filter {
   Eigen::Vector3d w_B_ = Eigen::Vector3d::Zero();
   Mat15 P_ = Mat15::Identity();
   internal::FrontEnd front_{"eskf"};
-  double cov_dt_ = 0;
+  double cov_dt_ = 0;                                    // accumulated since the last covariance predict
+  Eigen::Vector3d cov_dv_N_ = Eigen::Vector3d::Zero();  // Σ R·f·dt over the same interval
   int cov_count_ = 0;
   double last_gps_fused_t_ = 0;  // time of validity of the last fused horizontal GPS position
   double last_mag_fused_t_ = 0;

@@ -77,6 +77,9 @@ Status ValidateNavParams(const NavParams& p) {
     }
   }
   if (p.cov_predict_every_n < 1) return Status::BadInput("nav.cov_predict_every_n: must be >= 1");
+  if (!(p.cov_predict_rate_hz >= 0 && p.cov_predict_rate_hz <= 10000)) {
+    return Status::BadInput("nav.cov_predict_rate_hz: must be in [0, 10000] (0 = every IMU sample)");
+  }
   if (p.comp_reset_after_rejections < 1) {
     return Status::BadInput("nav.comp_reset_after_rejections: must be >= 1");
   }

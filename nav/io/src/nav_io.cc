@@ -33,6 +33,7 @@ Status ParseNavParams(YamlReader& r, NavParams* p) {
   r.Opt("init_accel_bias_std_mps2", &p->init_accel_bias_std_mps2, Positive());
   r.Opt("align_time_s", &p->align_time_s, Positive());
   r.Opt("cov_predict_every_n", &p->cov_predict_every_n, InRange(1, 100));
+  r.Opt("cov_predict_rate_hz", &p->cov_predict_rate_hz, InRange(0, 10000));
   r.Opt("comp_tilt_gain_radps", &p->comp_tilt_gain_radps, NonNegative());
   r.Opt("comp_yaw_gain_radps", &p->comp_yaw_gain_radps, NonNegative());
   r.Opt("comp_bias_gain_rad", &p->comp_bias_gain_rad, NonNegative());

@@ -3,11 +3,15 @@
 // Nominal state: q_NB, v_N, p_N, gyro bias b_g, accel bias b_a. Error state (15): δθ (rotation
 // error in N: R_true = (I + [δθ]×)·R), δv, δp, δb_g, δb_a.
 //   δθ' = −R δb_g,  δv' = −[R(f−b_a)]× δθ − R δb_a,  δp' = δv,  δb' = white noise.
-// Covariance prediction P ← F P Fᵀ + Q with F = I + A·dt, every `cov_predict_every_n`-th IMU sample
-// with the summed dt (1 = every sample; fixed-size 15×15, no heap in the loop).
-// Updates are sequential scalar updates in Joseph form with symmetry enforcement; each measurement
-// group is gated first: every component must satisfy |y_i| ≤ gate_sigma·√S_ii, else the whole group
-// is rejected and counted. GPS horizontal position, GPS height and GPS velocity are separate groups.
+// Covariance prediction P ← F P Fᵀ + Q with F = I + A·Δt at the filter rate `cov_predict_rate_hz`
+// (default 100 Hz, EKF2's and EKF3's prediction rate) on the accumulated interval Δt = Σdt and delta
+// velocity Δv_N = ΣR·f·dt (f_N·dt → Δv_N in A); the nominal state integrates every IMU sample
+// (fixed-size 15×15, no heap in the loop). Measurements are fused on arrival against the covariance
+// of the last filter step (at most one filter period old, as EKF2 fuses at its filter step).
+// Updates are sequential scalar updates in Joseph form (expanded for a symmetric P, evaluated on
+// the upper triangle and mirrored); each measurement group is gated first: every component must
+// satisfy |y_i| ≤ gate_sigma·√S_ii, else the whole group is rejected and counted. GPS horizontal
+// position, GPS height and GPS velocity are separate groups.
 // Recovery (EKF2-style): no horizontal GPS fused for gps_reset_timeout_s → horizontal position and
 // velocity reset to GPS; no compass fused for mag_yaw_reset_timeout_s → yaw reset to the compass
 // (both counted in SensorStats::resets).

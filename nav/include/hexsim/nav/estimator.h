@@ -110,7 +110,13 @@ struct NavParams {
   double init_accel_bias_std_mps2 = 0.3;
   // Static alignment: averaging time after Reset(healthy=false).
   double align_time_s = 1.0;
-  // ESKF: propagate the covariance every n-th IMU sample (with the summed dt). 1 = every sample.
+  // ESKF: the covariance is propagated at the filter rate on the accumulated IMU interval (summed
+  // dt and delta velocity), as PX4's EKF2 predicts at EKF2_PREDICT_US = 10 ms (100 Hz) and
+  // ArduPilot's EKF3 at EKF_TARGET_DT_MS = 12 ms on down-sampled delta angles and velocities; the
+  // nominal state (what the controller reads) still integrates every IMU sample, as their output
+  // predictors do. Physical range 50–1000 Hz (at or below the IMU rate; 0 = every sample); a
+  // propagation also waits for at least cov_predict_every_n samples (1 = no such floor).
+  double cov_predict_rate_hz = 100.0;
   int cov_predict_every_n = 1;
   // Complementary filter gains.
   double comp_tilt_gain_radps = 1.0;      // Kp on the gravity-direction error (1/s)
