@@ -9,7 +9,8 @@
 //   BM_FullStack         the square's first 20 s from the ground (take-off included), as before.
 //   BM_PhysicsStep       one physics step with the powertrain and rotor wrench (no autopilot).
 // After the run, one line per full-stack case gives its speed as a fraction of BM_BareOdeInAir's
-// (bare time per step / full-stack time per step; 1 = as fast as bare physics).
+// (bare time per step / full-stack time per step; 1 = as fast as bare physics), in wall time and in
+// CPU time (on a shared machine only the CPU ratio is stable).
 #include <benchmark/benchmark.h>
 
 #include <cstdio>
@@ -182,26 +183,31 @@ class RatioReporter : public benchmark::ConsoleReporter {
       const bool single = r.run_type == Run::RT_Iteration && r.repetitions <= 1;
       const bool median = r.run_type == Run::RT_Aggregate && r.aggregate_name == "median";
       if (!single && !median) continue;
-      const double s_per_iter = r.GetAdjustedRealTime() / benchmark::GetTimeUnitMultiplier(r.time_unit);
-      per_step_s_[r.run_name.function_name + "/" + r.run_name.args] = s_per_iter / steps->second.value;
-      labels_[r.run_name.function_name + "/" + r.run_name.args] = r.report_label;
+      const double unit = benchmark::GetTimeUnitMultiplier(r.time_unit);
+      const std::string key = r.run_name.function_name + "/" + r.run_name.args;
+      per_step_s_[key] = r.GetAdjustedRealTime() / unit / steps->second.value;
+      cpu_per_step_s_[key] = r.GetAdjustedCPUTime() / unit / steps->second.value;
+      labels_[key] = r.report_label;
     }
     ConsoleReporter::ReportRuns(runs);
   }
   void PrintRatios() const {
     const auto bare = per_step_s_.find("BM_BareOdeInAir/");
     if (bare == per_step_s_.end()) return;
-    std::printf("\nspeed as a fraction of bare ODE in the air (%.3f us per step), same process run:\n",
-                bare->second * 1e6);
+    const double bare_cpu = cpu_per_step_s_.at("BM_BareOdeInAir/");
+    std::printf("\nspeed as a fraction of bare ODE in the air (%.3f us per step wall, %.3f CPU), same process run:\n",
+                bare->second * 1e6, bare_cpu * 1e6);
     for (const auto& [name, per_step] : per_step_s_) {
       if (name.rfind("BM_FullStack", 0) != 0) continue;
-      std::printf("  %-32s %-22s %.3f us per step  ratio %.2f\n", name.c_str(), labels_.at(name).c_str(),
-                  per_step * 1e6, bare->second / per_step);
+      const double cpu = cpu_per_step_s_.at(name);
+      std::printf("  %-32s %-22s %.3f us per step  ratio %.2f (wall)  %.3f us CPU  ratio %.2f (CPU)\n", name.c_str(),
+                  labels_.at(name).c_str(), per_step * 1e6, bare->second / per_step, cpu * 1e6, bare_cpu / cpu);
     }
   }
 
  private:
-  std::map<std::string, double> per_step_s_;
+  std::map<std::string, double> per_step_s_;  // wall time per physics step
+  std::map<std::string, double> cpu_per_step_s_;
   std::map<std::string, std::string> labels_;
 };
 
