@@ -1,6 +1,7 @@
 // The observers of a run: the FlightLog recorder and the scorer (step_record.h).
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 
 #include <fmt/format.h>
@@ -21,6 +22,17 @@ double WrapPiFast(double a) {
 double WrapDeg180Fast(double a) {
   const double x = a + 180.0;
   return x > 0.0 && x < 360.0 ? x - 180.0 : WrapDeg180(a);
+}
+
+// Bitwise equality (NaN equals NaN of the same bits, 0 differs from -0): the same input to YawDegFast.
+bool SameBits(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b) {
+  for (int i = 0; i < 4; ++i) {
+    std::uint64_t x = 0, y = 0;
+    std::memcpy(&x, &a.coeffs()[i], sizeof x);
+    std::memcpy(&y, &b.coeffs()[i], sizeof y);
+    if (x != y) return false;
+  }
+  return true;
 }
 
 }  // namespace
@@ -202,7 +214,7 @@ void RunScorer::OnStep(const StepRecord& r) {
   // yaw_error_all_deg also covers take-off and landing, where the rotor spin-up transient lives.
   if (r.estimated && r.mode != control::FlightMode::kIdle && !r.landed) {
     // The estimate changes only when the autopilot runs (at the IMU rate): its yaw is kept until then.
-    if (std::memcmp(r.estimate->q_NB.coeffs().data(), est_q_.coeffs().data(), 4 * sizeof(double)) != 0) {
+    if (!SameBits(r.estimate->q_NB, est_q_)) {
       est_q_ = r.estimate->q_NB;
       est_yaw_deg_ = YawDegFast(est_q_);
     }
