@@ -178,8 +178,8 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
     const ChannelData ground = internal::ReplayCompass(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro);
     r.ground_vs_flight = internal::GroundVsFlight(ch, ground, r.nuisance);
     if (ro.calibrated_log) {
-      r.findings.emplace_back("logged values are the autopilot's calibrated ones: the configured hard and soft iron are not "
-                           "applied, the configured wiring field is");
+      r.findings.emplace_back("logged values are the autopilot's calibrated ones: the vehicle file's hard and soft iron are "
+                           "not applied to them; its wiring (current) field still is");
     }
     finish(std::move(r), ch);
   }
