@@ -67,7 +67,10 @@ void AddIdentifyCommand(CLI::App& app, int* exit_code) {
   CLI::App* c = app.add_subcommand("identify", "Identify the log's vehicle (thrust curve, hover output, motor lag, "
                                                "drag, yaw torque, battery, IMU noise) and write a vehicle file");
   c->add_option("log", a->log, "FlightLog CSV (its .meta.json and stream files beside it)")->required();
-  c->add_option("--frame", a->options.frame, "auto|quad-x|quad-plus|hex-x|hex-plus|octo-x")->capture_default_str();
+  c->add_option("--frame", a->options.frame,
+                "auto, or an ArduPilot motor table: quad-x|quad-plus|quad-v|quad-h|quad-plus-rev|quad-bf-x|quad-dji-x|"
+                "quad-cw-x|quad-bf-x-rev|hex-x|hex-plus|hex-h|hex-dji-x|hex-cw-x|octo-x")
+      ->capture_default_str();
   c->add_option("--base", a->base, "Vehicle for what the log cannot tell (default: the shipped one of the frame class)");
   c->add_option("--out", a->out, "Vehicle YAML to write (identify.json and identify.html go beside it)")->required();
   c->add_option("--seed", a->options.seed, "Bootstrap seed")->capture_default_str();

@@ -218,11 +218,12 @@ const ParamSpec kSpecs[] = {
 
 double ExpoOf(const logs::FlightLog& log, std::string* source) {
   const auto& m = log.meta;
-  if (m.contains("params") && m["params"].is_object() && m["params"].contains("MOT_THST_EXPO") &&
-      m["params"]["MOT_THST_EXPO"].is_number()) {
-    const double e = m["params"]["MOT_THST_EXPO"].get<double>();
+  // ArduPilot's MOT_THST_EXPO and PX4's THR_MDL_FAC are the same model: thrust ∝ (1−e)·x + e·x².
+  for (const char* name : {"MOT_THST_EXPO", "THR_MDL_FAC"}) {
+    if (!m.contains("params") || !m["params"].is_object() || !m["params"].contains(name) || !m["params"][name].is_number()) continue;
+    const double e = m["params"][name].get<double>();
     if (e >= -1.0 && e <= 1.0) {
-      *source = "MOT_THST_EXPO (log)";
+      *source = std::string(name) + " (log)";
       return e;
     }
   }
@@ -369,9 +370,11 @@ void DynamicsComparison(const FlightSamples& s, const vehicle::VehicleParams& ba
 }  // namespace
 
 std::string IdentifyOptions::IsValid() const {
-  static const char* kFrames[] = {"auto", "quad-x", "quad-plus", "hex-x", "hex-plus", "octo-x"};
-  if (std::find(std::begin(kFrames), std::end(kFrames), frame) == std::end(kFrames)) {
-    return "frame: expected auto, quad-x, quad-plus, hex-x, hex-plus or octo-x (got '" + frame + "')";
+  const std::vector<std::string> names = FrameNames();
+  if (frame != "auto" && std::find(names.begin(), names.end(), frame) == names.end()) {
+    std::string list = "auto";
+    for (const auto& n : names) list += ", " + n;
+    return "frame: expected one of " + list + " (got '" + frame + "')";
   }
   if (blocks < 4) return "blocks: at least 4";
   if (bootstrap_samples < 20) return "bootstrap_samples: at least 20";
@@ -397,20 +400,12 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
   }
   const std::vector<FrameRotor> table = FrameRotors(res.frame);
   res.motors = !table.empty() ? table.size() : base.rotors.size();
-  // Spins in motor-number order: an autopilot log numbers motors as its frame table does; a hexsim
-  // log numbers them as its vehicle file, whose frame class the base shares.
-  const bool autopilot = log.meta.value("format", std::string()) == "ardupilot-dataflash";
-  for (size_t m = 0; m < res.motors; ++m) {
-    if (autopilot && !table.empty()) {
-      res.spins.push_back(table[m].spin);
-    } else if (m < base.rotors.size()) {
-      res.spins.push_back(base.rotors[m].spin);
-    } else {
-      return Status::BadInput(fmt::format("{}: frame '{}' has {} motors, the base vehicle '{}' {}", name, res.frame,
-                                          res.motors, base.name, base.rotors.size()));
-    }
-  }
+  HEXSIM_RETURN_IF_ERROR(internal::ChooseLayout(log, base, table, &res));
   auto built = BuildSamples(log, res.spins, options, (base.mass_kg + base.payload.mass_kg) * kGravity_mps2);
+  if (res.layout_from_log) {
+    res.notes.push_back(fmt::format("motor layout from {} differs from the base vehicle '{}': the vehicle written takes "
+                                    "the log's", res.layout_source, base.name));
+  }
   if (!built.ok()) return built.status();
   const FlightSamples& s = *built;
   res.windows = s.windows;

@@ -1,10 +1,13 @@
 // Frame of a log and the default base vehicle of a frame class.
+#include <algorithm>
 #include <cmath>
 #include <string>
 
 #include <fmt/format.h>
 
+#include "hexsim/common/rotation.h"
 #include "hexsim/identify/identify.h"
+#include "samples.h"
 
 namespace hexsim::identify {
 namespace {
@@ -43,15 +46,69 @@ int ActiveMotorOutputs(const logs::FlightLog& log) {
 
 }  // namespace
 
+namespace internal {
+
+// Spins and positions in motor-number order. A PX4 log with the control allocator's geometry
+// (CA_ROTORn_PX/PY/KM) gives its own; an autopilot log otherwise numbers its motors as its frame's
+// table (ArduPilot AP_MotorsMatrix; PX4's quad and hex X mixers number them the same way); a hexsim
+// log numbers them as its vehicle file, whose frame class the base shares.
+Status ChooseLayout(const logs::FlightLog& log, const vehicle::VehicleParams& base,
+                    const std::vector<FrameRotor>& table, IdentifyResult* res) {
+  const std::string name = log.meta.value("source", std::string("log"));
+  const std::string format = log.meta.value("format", std::string());
+  const bool autopilot = format == "ardupilot-dataflash" || format == "px4-ulog";
+  double arm_m = 0.0;  // the base's mean arm: the table gives angles only
+  for (const auto& r : base.rotors) arm_m += r.position_B_m.head<2>().norm() / static_cast<double>(base.rotors.size());
+  const nlohmann::json* params = log.meta.contains("params") && log.meta["params"].is_object() ? &log.meta["params"] : nullptr;
+  auto param = [&](const std::string& k) {
+    return params && params->contains(k) && (*params)[k].is_number() ? (*params)[k].get<double>() : std::nan("");
+  };
+  res->spins.clear();
+  res->rotor_xy_m.clear();
+  bool px4_geometry = format == "px4-ulog";
+  for (size_t m = 0; px4_geometry && m < res->motors; ++m) {
+    px4_geometry = std::isfinite(param(fmt::format("CA_ROTOR{}_PX", m))) && std::isfinite(param(fmt::format("CA_ROTOR{}_PY", m))) &&
+                   param(fmt::format("CA_ROTOR{}_KM", m)) != 0.0 && std::isfinite(param(fmt::format("CA_ROTOR{}_KM", m)));
+  }
+  for (size_t m = 0; m < res->motors; ++m) {
+    if (px4_geometry) {
+      res->spins.push_back(param(fmt::format("CA_ROTOR{}_KM", m)) > 0 ? 1 : -1);
+      res->rotor_xy_m.push_back({param(fmt::format("CA_ROTOR{}_PX", m)), param(fmt::format("CA_ROTOR{}_PY", m))});
+    } else if (autopilot && !table.empty()) {
+      const double a = table[m].angle_deg * kPi / 180.0;  // clockwise from the nose: +y is right
+      res->spins.push_back(table[m].spin);
+      res->rotor_xy_m.push_back({arm_m * std::cos(a), arm_m * std::sin(a)});
+    } else if (m < base.rotors.size()) {
+      res->spins.push_back(base.rotors[m].spin);
+      res->rotor_xy_m.push_back({base.rotors[m].position_B_m.x(), base.rotors[m].position_B_m.y()});
+    } else {
+      return Status::BadInput(fmt::format("{}: frame '{}' has {} motors, the base vehicle '{}' {}", name, res->frame,
+                                          res->motors, base.name, base.rotors.size()));
+    }
+  }
+  res->layout_source = px4_geometry ? "the log's CA_ROTORn_PX/PY/KM (PX4 control allocation)"
+                       : autopilot && !table.empty()
+                           ? fmt::format("the {} motor table (ArduPilot AP_MotorsMatrix order) at the base's arm {:.3g} m", res->frame, arm_m)
+                           : "the base vehicle's rotors";
+  // Differs from the base: another count, a spin, or a rotor more than 10 % of the arm (or 5 cm) away.
+  res->layout_from_log = res->motors != base.rotors.size();
+  for (size_t m = 0; !res->layout_from_log && m < res->motors; ++m) {
+    const auto& r = base.rotors[m];
+    const double d = std::hypot(res->rotor_xy_m[m][0] - r.position_B_m.x(), res->rotor_xy_m[m][1] - r.position_B_m.y());
+    res->layout_from_log = res->spins[m] != r.spin || d > std::max(0.05, 0.1 * arm_m);
+  }
+  return Status::Ok();
+}
+
+}  // namespace internal
+
 std::string FrameOfLog(const logs::FlightLog& log, std::string* source) {
   const double fc = ParamOr(log, "FRAME_CLASS", NAN), ft = ParamOr(log, "FRAME_TYPE", NAN);
-  if (std::isfinite(fc)) {
-    static const int kMotors[] = {0, 4, 6, 8};  // FRAME_CLASS 1 quad, 2 hexa, 3 octa
-    const int c = static_cast<int>(fc);
-    const std::string cls = c >= 1 && c <= 3 ? ClassName(kMotors[c]) : "";
-    if (!cls.empty() && std::isfinite(ft) && (ft == 0 || ft == 1)) {
-      *source = fmt::format("FRAME_CLASS {} / FRAME_TYPE {}", c, static_cast<int>(ft));
-      return cls + (ft == 0 ? "-plus" : "-x");
+  if (std::isfinite(fc) && std::isfinite(ft)) {
+    const std::string name = internal::FrameNameFor(static_cast<int>(fc), static_cast<int>(ft));
+    if (!name.empty()) {
+      *source = fmt::format("FRAME_CLASS {} / FRAME_TYPE {}", static_cast<int>(fc), static_cast<int>(ft));
+      return name;
     }
   }
   const double frame = ParamOr(log, "FRAME", NAN);  // 3.3: 0 plus, 1 X
@@ -68,6 +125,11 @@ std::string FrameOfLog(const logs::FlightLog& log, std::string* source) {
   }
   *source = "not determined";
   return "";
+}
+
+std::vector<std::string> FrameNames() {
+  return {"quad-x",  "quad-plus", "quad-v",   "quad-h",    "quad-plus-rev", "quad-bf-x", "quad-dji-x", "quad-cw-x",
+          "quad-bf-x-rev", "hex-x", "hex-plus", "hex-h", "hex-dji-x", "hex-cw-x", "octo-x"};
 }
 
 std::string DefaultBaseFor(const std::string& frame) {

@@ -27,6 +27,9 @@ nlohmann::json ToJson(const IdentifyResult& r) {
   j["motors"] = r.motors;
   j["base"] = r.base_name;
   j["spins"] = r.spins;
+  j["rotor_xy_m"] = r.rotor_xy_m;
+  j["layout_source"] = r.layout_source;
+  j["layout_from_log"] = r.layout_from_log;
   j["data_source"] = r.data_source;
   j["v_ref_V"] = r.v_ref_V;
   j["thrust_expo"] = {{"value", Num(r.thrust_expo)}, {"source", r.thrust_expo_source}};

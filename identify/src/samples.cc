@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <map>
 
 #include <Eigen/Geometry>
 #include <fmt/format.h>
@@ -78,15 +79,39 @@ struct BlockMap {
 }  // namespace
 
 std::vector<FrameRotor> FrameRotors(const std::string& frame) {
-  // AP_MotorsMatrix::setup_*: add_motor(number, angle, yaw factor); CCW yaw factor = spin +1.
-  if (frame == "quad-x") return {{45, 1}, {-135, 1}, {-45, -1}, {135, -1}};
-  if (frame == "quad-plus") return {{90, 1}, {-90, 1}, {0, -1}, {180, -1}};
-  if (frame == "hex-x") return {{90, -1}, {-90, 1}, {-30, -1}, {150, 1}, {30, 1}, {-150, -1}};
-  if (frame == "hex-plus") return {{0, -1}, {180, 1}, {-120, -1}, {60, 1}, {-60, 1}, {120, -1}};
-  if (frame == "octo-x") {
-    return {{22.5, -1}, {-157.5, -1}, {67.5, 1}, {157.5, 1}, {-22.5, 1}, {-112.5, 1}, {-67.5, -1}, {112.5, -1}};
-  }
-  return {};
+  // AP_MotorsMatrix::setup_*_matrix: motor i is the i-th entry {angle, yaw factor}; a CCW yaw factor
+  // (> 0) is spin +1. Raw-factor frames (hex H) give the angle as atan2(−roll factor, pitch factor).
+  using F = std::vector<FrameRotor>;
+  static const std::map<std::string, F> kTables = {
+      {"quad-plus", F{{90, 1}, {-90, 1}, {0, -1}, {180, -1}}},             // FRAME_TYPE 0
+      {"quad-x", F{{45, 1}, {-135, 1}, {-45, -1}, {135, -1}}},             // 1
+      {"quad-v", F{{45, 1}, {-135, 1}, {-45, -1}, {135, -1}}},             // 2 (yaw factors ±0.80/±1)
+      {"quad-h", F{{45, -1}, {-135, -1}, {-45, 1}, {135, 1}}},             // 3: X with the spins reversed
+      {"quad-plus-rev", F{{90, -1}, {-90, -1}, {0, 1}, {180, 1}}},         // 6
+      {"quad-bf-x", F{{135, -1}, {45, 1}, {-135, 1}, {-45, -1}}},          // 12 (Betaflight order)
+      {"quad-dji-x", F{{45, 1}, {-45, -1}, {-135, 1}, {135, -1}}},         // 13
+      {"quad-cw-x", F{{45, 1}, {135, -1}, {-135, 1}, {-45, -1}}},          // 14
+      {"quad-bf-x-rev", F{{135, 1}, {45, -1}, {-135, -1}, {-45, 1}}},      // 18
+      {"hex-plus", F{{0, -1}, {180, 1}, {-120, -1}, {60, 1}, {-60, 1}, {120, -1}}},     // 0
+      {"hex-x", F{{90, -1}, {-90, 1}, {-30, -1}, {150, 1}, {30, 1}, {-150, -1}}},       // 1
+      {"hex-h", F{{90, -1}, {-90, 1}, {-45, -1}, {135, 1}, {45, 1}, {-135, -1}}},       // 3
+      {"hex-dji-x", F{{30, 1}, {-30, -1}, {-90, 1}, {-150, -1}, {150, 1}, {90, -1}}},   // 13
+      {"hex-cw-x", F{{30, 1}, {90, -1}, {150, 1}, {-150, -1}, {-90, 1}, {-30, -1}}},    // 14
+      {"octo-x", F{{22.5, -1}, {-157.5, -1}, {67.5, 1}, {157.5, 1}, {-22.5, 1}, {-112.5, 1}, {-67.5, -1}, {112.5, -1}}},
+  };
+  const auto it = kTables.find(frame);
+  return it != kTables.end() ? it->second : F{};
+}
+
+std::string FrameNameFor(int frame_class, int frame_type) {
+  static const std::map<std::pair<int, int>, const char*> kNames = {
+      {{1, 0}, "quad-plus"}, {{1, 1}, "quad-x"},     {{1, 2}, "quad-v"},        {{1, 3}, "quad-h"},
+      {{1, 6}, "quad-plus-rev"}, {{1, 12}, "quad-bf-x"}, {{1, 13}, "quad-dji-x"}, {{1, 14}, "quad-cw-x"},
+      {{1, 18}, "quad-bf-x-rev"}, {{2, 0}, "hex-plus"},  {{2, 1}, "hex-x"},       {{2, 3}, "hex-h"},
+      {{2, 13}, "hex-dji-x"},    {{2, 14}, "hex-cw-x"},  {{3, 1}, "octo-x"},
+  };
+  const auto it = kNames.find({frame_class, frame_type});
+  return it != kNames.end() ? it->second : "";
 }
 
 Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector<int>& spins,

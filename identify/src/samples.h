@@ -68,5 +68,12 @@ struct FrameRotor {
   int spin = 1;  // +1 CCW seen from above
 };
 std::vector<FrameRotor> FrameRotors(const std::string& frame);
+// The frame name of ArduPilot's FRAME_CLASS (1 quad, 2 hexa, 3 octa) and FRAME_TYPE, "" when the table
+// has no entry for it.
+std::string FrameNameFor(int frame_class, int frame_type);
+// Fills result->spins, rotor_xy_m, layout_source and layout_from_log for result->motors motors (frame.cc).
+// Bad input when the base vehicle has fewer rotors than the frame where its layout is needed.
+Status ChooseLayout(const logs::FlightLog& log, const vehicle::VehicleParams& base, const std::vector<FrameRotor>& table,
+                    IdentifyResult* result);
 
 }  // namespace hexsim::identify::internal

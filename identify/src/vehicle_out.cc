@@ -80,6 +80,18 @@ control::ControllerParams RescaledControl(const control::ControllerParams& c, do
 vehicle::VehicleParams ApplyIdentified(const vehicle::VehicleParams& base, const IdentifyResult& r) {
   vehicle::VehicleParams v = base;
   const double m = base.mass_kg + base.payload.mass_kg;
+  if (r.layout_from_log && !base.rotors.empty() && r.rotor_xy_m.size() == r.spins.size() && !r.spins.empty()) {
+    // The log's motor order, spins and positions (each rotor otherwise as the base's, height kept).
+    std::vector<vehicle::RotorParams> rotors;
+    for (size_t i = 0; i < r.spins.size(); ++i) {
+      vehicle::RotorParams rot = base.rotors[std::min(i, base.rotors.size() - 1)];
+      rot.position_B_m.x() = r.rotor_xy_m[i][0];
+      rot.position_B_m.y() = r.rotor_xy_m[i][1];
+      rot.spin = r.spins[i];
+      rotors.push_back(rot);
+    }
+    v.rotors = rotors;
+  }
   if (auto s = Fitted(r, "thrust_scale")) {
     for (auto& rot : v.rotors) rot.k_T_Nprps2 *= *s;
   }
@@ -146,6 +158,17 @@ Result<std::string> IdentifiedVehicleYaml(const std::string& base_yaml_text, con
   YAML::Node rd = doc["rotor_defaults"];
   rd["k_T_Nprps2"] = v.rotors.front().k_T_Nprps2;
   rd["k_Q_Nmprps2"] = v.rotors.front().k_Q_Nmprps2;
+  if (r.layout_from_log) {
+    YAML::Node rotors(YAML::NodeType::Sequence);
+    for (size_t i = 0; i < v.rotors.size(); ++i) {
+      YAML::Node rot = i < doc["rotors"].size() ? YAML::Clone(doc["rotors"][i]) : YAML::Clone(doc["rotors"][0]);
+      rot["position_B_m"] = vec3(v.rotors[i].position_B_m);
+      rot["spin"] = v.rotors[i].spin;
+      rot.SetStyle(YAML::EmitterStyle::Flow);
+      rotors.push_back(rot);
+    }
+    doc["rotors"] = rotors;
+  }
   for (size_t i = 0; i < doc["rotors"].size() && i < v.rotors.size(); ++i) {
     YAML::Node rot = doc["rotors"][i];
     if (rot["k_T_Nprps2"]) rot["k_T_Nprps2"] = v.rotors[i].k_T_Nprps2;
@@ -183,7 +206,7 @@ Result<std::string> IdentifiedVehicleYaml(const std::string& base_yaml_text, con
     head += fmt::format("#   {:<32} {:>12.5g} [{:.5g}, {:.5g}] {} ({}{})\n", k, p.value, p.ci95[0], p.ci95[1], p.unit,
                         p.source, p.source == "fitted" ? (p.applied ? ", applied" : ", not applied: interval leaves the range") : "");
   }
-  head += "# Control: " + control_note + ".\n";
+  head += "# Control: " + control_note + ".\n";  head += "# Rotors: " + (r.layout_from_log ? "the log's layout, from " + r.layout_source : "the base's") + ".\n";
   head += "# Applied: k_T (thrust_scale), k_Q (yaw_torque_coefficient_m), motor inertia (motor_time_constant_s),\n"
           "# drag, battery resistance/cells/initial SoC (IMU noise is reported only); only values whose interval lies inside the physical range are applied.\n"
           "# The controller's gains act on accelerations and its model of thrust and inertia comes from this\n"

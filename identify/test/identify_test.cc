@@ -186,6 +186,92 @@ TEST(Identify, GivenFrameParameters_WhenTheFrameIsAsked_ThenClassAndTypeDecide) 
   EXPECT_EQ(DefaultBaseFor("hex-plus"), "default_hex");
 }
 
+TEST(Identify, GivenFrameTypesBeyondPlusAndX_WhenTheFrameIsAsked_ThenTheMotorTableNamesThem) {
+  logs::FlightLog log;
+  std::string source;
+  const std::pair<std::pair<int, int>, const char*> cases[] = {
+      {{1, 3}, "quad-h"}, {{1, 12}, "quad-bf-x"}, {{1, 13}, "quad-dji-x"}, {{1, 14}, "quad-cw-x"},
+      {{1, 18}, "quad-bf-x-rev"}, {{2, 3}, "hex-h"}, {{2, 14}, "hex-cw-x"}, {{3, 1}, "octo-x"}};
+  for (const auto& [ct, name] : cases) {
+    log.meta["params"] = {{"FRAME_CLASS", ct.first}, {"FRAME_TYPE", ct.second}};
+    EXPECT_EQ(FrameOfLog(log, &source), name) << ct.first << "/" << ct.second;
+  }
+  log.meta["params"] = {{"FRAME_CLASS", 1}, {"FRAME_TYPE", 99}};  // not in the table: not from the parameters
+  EXPECT_NE(FrameOfLog(log, &source), "quad-x");
+  EXPECT_EQ(DefaultBaseFor("quad-bf-x"), "quad_x");
+  IdentifyOptions o;
+  o.frame = "quad-bf-x";
+  EXPECT_EQ(o.IsValid(), "");
+  o.frame = "quad-y";
+  EXPECT_NE(o.IsValid().find("quad-bf-x"), std::string::npos);
+}
+
+// The simulated quad's motors renumbered as another autopilot order: motor k of the new log is the
+// quad_x motor perm[k] (1-based).
+logs::FlightLog Renumbered(const logs::FlightLog& in, const std::vector<int>& perm) {
+  logs::FlightLog log = in;
+  std::vector<std::vector<double>> cols;
+  for (int p : perm) cols.push_back(in.Column(fmt::format("motor_{}_u", p)));
+  for (size_t k = 0; k < perm.size(); ++k) {
+    log.MutableColumn(static_cast<size_t>(log.ColumnIndex(fmt::format("motor_{}_u", k + 1)))) = cols[k];
+  }
+  return log;
+}
+
+// Spins from the log's own frame table: a Betaflight-ordered ArduPilot quad (FRAME_TYPE 12) and a PX4
+// log whose control allocation lists the rotors (CA_ROTORn_PX/PY/KM) give the yaw coefficient of the
+// same flight in hexsim's order; the H frame's table (spins reversed) makes it negative, a mismatch.
+TEST(Identify, GivenAnotherMotorOrder_WhenIdentified_ThenSpinsComeFromTheLogsFrameTableOrGeometry) {
+  const Flight& f = QuadFlight();
+  const vehicle::VehicleParams& base = f.setup.vehicle;
+  auto ref = Identify(f.log, base);
+  ASSERT_TRUE(ref.ok()) << ref.status().message();
+  EXPECT_FALSE(ref->layout_from_log);
+  const double k_ref = ref->params.at("yaw_torque_coefficient_m").value;
+  ASSERT_GT(k_ref, 0.0);
+
+  logs::FlightLog bf = Renumbered(f.log, {4, 1, 2, 3});  // BF_X: 135 CW, 45 CCW, -135 CCW, -45 CW
+  bf.meta["format"] = "ardupilot-dataflash";
+  bf.meta["params"] = {{"FRAME_CLASS", 1}, {"FRAME_TYPE", 12}};
+  auto r = Identify(bf, base);
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_EQ(r->frame, "quad-bf-x");
+  EXPECT_EQ(r->spins, (std::vector<int>{-1, 1, 1, -1}));
+  EXPECT_TRUE(r->layout_from_log);
+  EXPECT_NEAR(r->params.at("yaw_torque_coefficient_m").value, k_ref, 0.02 * k_ref);
+  // The vehicle takes the log's order: its motor 1 is the rear-right CW rotor.
+  const vehicle::VehicleParams v = ApplyIdentified(base, *r);
+  ASSERT_EQ(v.rotors.size(), 4u);
+  EXPECT_EQ(v.rotors[0].spin, -1);
+  EXPECT_NEAR(v.rotors[0].position_B_m.x(), base.rotors[3].position_B_m.x(), 1e-3);
+  EXPECT_NEAR(v.rotors[0].position_B_m.y(), base.rotors[3].position_B_m.y(), 1e-3);
+
+  logs::FlightLog h = f.log;  // the same motors read as an H frame: every spin reversed
+  h.meta["format"] = "ardupilot-dataflash";
+  h.meta["params"] = {{"FRAME_CLASS", 1}, {"FRAME_TYPE", 3}};
+  auto rh = Identify(h, base);
+  ASSERT_TRUE(rh.ok()) << rh.status().message();
+  EXPECT_LT(rh->params.at("yaw_torque_coefficient_m").value, 0.0);
+  EXPECT_EQ(rh->params.at("yaw_torque_coefficient_m").source, "model mismatch");
+
+  logs::FlightLog px4 = Renumbered(f.log, {3, 1, 4, 2});  // any order, told by the geometry
+  px4.meta["format"] = "px4-ulog";
+  nlohmann::json params = nlohmann::json::object();
+  const int perm[] = {3, 1, 4, 2};
+  for (int k = 0; k < 4; ++k) {
+    const auto& rot = base.rotors[static_cast<size_t>(perm[k] - 1)];
+    params[fmt::format("CA_ROTOR{}_PX", k)] = rot.position_B_m.x();
+    params[fmt::format("CA_ROTOR{}_PY", k)] = rot.position_B_m.y();
+    params[fmt::format("CA_ROTOR{}_KM", k)] = 0.05 * rot.spin;
+  }
+  px4.meta["params"] = params;
+  auto rp = Identify(px4, base);
+  ASSERT_TRUE(rp.ok()) << rp.status().message();
+  EXPECT_EQ(rp->spins, (std::vector<int>{-1, 1, -1, 1}));
+  EXPECT_NE(rp->layout_source.find("CA_ROTOR"), std::string::npos);
+  EXPECT_NEAR(rp->params.at("yaw_torque_coefficient_m").value, k_ref, 0.02 * k_ref);
+}
+
 TEST(Identify, GivenALogWithoutFlight_WhenIdentified_ThenItIsBadInputNamingTheFlightTime) {
   logs::FlightLog log = QuadFlight().log;
   logs::FlightLog ground;

@@ -403,6 +403,15 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
   meta["vehicle_type"] = "px4";
   meta["motor_count"] = motors;
   meta["motor_count_source"] = rotors_it != u.params.end() ? "CA_ROTOR_COUNT" : "default (4)";
+  // The parameters identification reads: the control allocator's rotor geometry (CA_ROTORn_PX/PY/KM,
+  // KM > 0 for a counter-clockwise rotor), the airframe, the PWM range and the thrust model factor.
+  nlohmann::json params = nlohmann::json::object();
+  for (const auto& [k, v] : u.params) {
+    for (const char* prefix : {"CA_ROTOR", "CA_AIRFRAME", "SYS_AUTOSTART", "PWM_MAIN_MIN", "PWM_MAIN_MAX", "THR_MDL_FAC"}) {
+      if (k.rfind(prefix, 0) == 0) params[k] = v;
+    }
+  }
+  meta["params"] = params;
   meta["rows"] = log.rows();
   meta["row_source"] = "vehicle_attitude";
   meta["time"] = {{"start_s", row_t.front()}, {"end_s", row_t.back()}, {"duration_s", row_t.back() - row_t.front()},

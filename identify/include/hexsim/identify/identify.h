@@ -15,6 +15,7 @@
 // physical range; a value outside its range is a model mismatch and is not used in the vehicle.
 #pragma once
 
+#include <array>
 #include <map>
 #include <string>
 #include <vector>
@@ -102,7 +103,15 @@ struct IdentifyResult {
   double v_ref_V = 0.0;       // reference bus voltage (median in flight; 0 when not logged)
   double thrust_expo = 0.0;
   std::string thrust_expo_source;
-  std::vector<int> spins;     // rotor spins used for the yaw fit
+  std::vector<int> spins;     // rotor spins used for the yaw fit (+1 counter-clockwise seen from above)
+  // Each motor's position in the body x-y plane (m) and where spins and positions came from: the log's
+  // own geometry (PX4 CA_ROTORn_PX/PY/KM), its frame's motor table (ArduPilot AP_MotorsMatrix, at the
+  // base's arm length), or the base vehicle's rotors (a hexsim log numbers motors as its vehicle file).
+  std::vector<std::array<double, 2>> rotor_xy_m;
+  std::string layout_source;
+  // The layout differs from the base vehicle's (another motor order, spin or position): the vehicle
+  // written takes the log's layout.
+  bool layout_from_log = false;
   std::string data_source;    // which streams or columns fed the fit
   std::vector<std::string> notes;
 };
@@ -115,6 +124,9 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
 // Frame from the log: FRAME_CLASS/FRAME_TYPE (3.5+), FRAME (3.3: 0 plus, 1 X), else the motor outputs.
 // Returns e.g. "quad-x"; `source` says from what. Empty when not determined.
 std::string FrameOfLog(const logs::FlightLog& log, std::string* source);
+// Every frame name identify knows (the --frame values besides auto): ArduPilot's motor tables
+// (quad plus/x/v/h/plus-rev/bf-x/dji-x/cw-x/bf-x-rev, hex x/plus/h/dji-x/cw-x, octo x).
+std::vector<std::string> FrameNames();
 // The shipped vehicle of a frame class: quad_* -> quad_x, hex_* -> default_hex, else empty.
 std::string DefaultBaseFor(const std::string& frame);
 
