@@ -105,7 +105,7 @@ Status ChooseLayout(const logs::FlightLog& log, const vehicle::VehicleParams& ba
 std::string FrameOfLog(const logs::FlightLog& log, std::string* source) {
   const double fc = ParamOr(log, "FRAME_CLASS", NAN), ft = ParamOr(log, "FRAME_TYPE", NAN);
   if (std::isfinite(fc) && std::isfinite(ft)) {
-    const std::string name = internal::FrameNameFor(static_cast<int>(fc), static_cast<int>(ft));
+    std::string name = internal::FrameNameFor(static_cast<int>(fc), static_cast<int>(ft));
     if (!name.empty()) {
       *source = fmt::format("FRAME_CLASS {} / FRAME_TYPE {}", static_cast<int>(fc), static_cast<int>(ft));
       return name;

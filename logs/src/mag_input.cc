@@ -344,6 +344,14 @@ Result<MagInput> FromFlightLog(const FlightLog& log, const std::string& name, co
   return FromHeaderTable(t, name, compass, log.meta);
 }
 
+// A binary log is read through its import: its first note says so instead of "FlightLog CSV".
+void NameTheFormat(const std::string& format, MagInput* in) {
+  if (in->notes.empty()) return;
+  const std::string from = "(FlightLog CSV";
+  const size_t at = in->notes.front().find(from);
+  if (at != std::string::npos) in->notes.front().replace(at, from.size(), "(" + format);
+}
+
 }  // namespace
 
 int CompassIndex(const std::string& compass) {
@@ -364,6 +372,7 @@ Result<MagInput> ParseMagInput(const std::string& bytes, const std::string& name
     auto in = FromFlightLog(imp->log, name, compass);
     if (!in.ok()) return in.status();
     in->format = "dataflash";
+    NameTheFormat("ArduPilot DataFlash log, imported", &*in);
     return in;
   }
   if (IsULog(bytes)) {
@@ -372,6 +381,7 @@ Result<MagInput> ParseMagInput(const std::string& bytes, const std::string& name
     auto in = FromFlightLog(imp->log, name, compass);
     if (!in.ok()) return in.status();
     in->format = "ulog";
+    NameTheFormat("PX4 ULog, imported", &*in);
     for (const auto& w : imp->warnings) in->notes.push_back("warning: " + w);
     return in;
   }
