@@ -39,6 +39,18 @@ Status ChooseVehicle(const LogDiagnosisOptions& o, logs::FlightLog* log, LogDiag
   identify::IdentifyOptions io;
   for (int b = 0; b < io.blocks; b += 2) io.fit_blocks.push_back(b);
   auto r = identify::Identify(*log, *base, io);
+  if (!r.ok() && r.status().code() == StatusCode::kBadInput) {
+    // A log too short (or without the streams) for identification is not bad input for the diagnosis
+    // (CONTRACTS: diagnose what can be diagnosed): the whole log against the base vehicle, said so.
+    d->vehicle = *base;
+    d->vehicle_yaml = *text;
+    d->stem = FileStem(*path);
+    d->vehicle_source["mode"] = "base (identification not possible)";
+    d->vehicle_source["why"] = r.status().message();
+    d->lines.push_back("no --sim, and the vehicle could not be identified from this log (" + r.status().message() +
+                       "): diagnosed against the shipped " + base->name + " on the whole log");
+    return Status::Ok();
+  }
   if (!r.ok()) return r.status().WithContext("gap diagnose without --sim identifies the vehicle first");
   d->vehicle = identify::ApplyIdentified(*base, *r);
   auto yaml = identify::IdentifiedVehicleYaml(*text, *base, *r);

@@ -46,6 +46,26 @@ TEST(DiagnoseLog, GivenAVehicleAndAToBeforeTheFromThenItIsBadInput) {
   EXPECT_EQ(d.status().message(), "--from/--to: --to must be after --from");
 }
 
+// A quad's log with too little flight to identify the vehicle: not bad input (CONTRACTS: diagnose what
+// can be diagnosed); the base vehicle of the frame class is used on the whole log, and the output says
+// why.
+TEST(DiagnoseLog, GivenNoVehicleAndALogTooShortToIdentifyThenTheBaseVehicleIsUsedAndSaidSo) {
+  LogDiagnosisOptions o;
+  o.log_name = "flight.csv";
+  logs::FlightLog log = FramelessLog();
+  log.meta["params"] = {{"FRAME", 1}};
+  log.meta["motor_count"] = 4;
+  auto d = DiagnoseLog(log, o);
+  ASSERT_TRUE(d.ok()) << d.status().message();
+  EXPECT_FALSE(d->identified);
+  EXPECT_EQ(d->stem, "quad_x");
+  EXPECT_EQ(d->vehicle_source["mode"], "base (identification not possible)");
+  EXPECT_NE(d->vehicle_source["why"].get<std::string>().find("identification needs"), std::string::npos)
+      << d->vehicle_source.dump();
+  ASSERT_FALSE(d->lines.empty());
+  EXPECT_NE(d->lines.back().find("could not be identified"), std::string::npos);
+}
+
 TEST(DiagnoseLog, GivenAVehicleThatDoesNotExistThenItIsBadInputNamingIt) {
   LogDiagnosisOptions o;
   o.vehicle = "no_such_vehicle";
