@@ -111,11 +111,13 @@ Normal YawReduced(const Normal& z, const Eigen::Vector3d& curve) {
   return r;
 }
 
-Coeffs FitWeighted(const BlockStats& st, const std::vector<double>& w, double expo) {
+// fixed_tau >= 0: the lag at that grid index instead of the profiled one.
+Coeffs FitWeighted(const BlockStats& st, const std::vector<double>& w, double expo, int fixed_tau = -1) {
   Coeffs c;
   double best = INFINITY;
   const int pv = ExpoFixed(expo) ? 2 : 4;
   for (size_t g = 0; g < kTauCount; ++g) {
+    if (fixed_tau >= 0 && g != static_cast<size_t>(fixed_tau)) continue;
     Normal v(pv);
     for (size_t b = 0; b < w.size(); ++b) {
       if (w[b] > 0) v.AddScaled(st.vertical[g][b], w[b]);
@@ -499,6 +501,34 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
     }
     shift_by(right);
   }
+  // (3) the motor lag is known only within its interval, and the parameters fitted at the profiled lag
+  // move with it (the yaw coefficient, fitted beside the yaw damping, by ~2 % per millisecond: a 10-ms
+  // grid step moved it by 20 %, while the resamples of the bootstrap, on the same grid, mostly kept the
+  // same lag). Each parameter is refitted with the lag at the ends of the lag's own interval (half-way
+  // to the next grid value, as that interval states: the mean of the fits at the two grid values).
+  std::map<std::string, double> lag_shift;
+  {
+    const std::vector<double>& bt = boot["motor_time_constant_s"];
+    const double tau0 = value.at("motor_time_constant_s");
+    const double db = bias_shift["motor_time_constant_s"];
+    const double t_lo = tau0 - std::hypot(tau0 - Percentile(bt, 0.025), db);
+    const double t_hi = tau0 + std::hypot(Percentile(bt, 0.975) - tau0, db);
+    const double* g0 = std::begin(kTauGrid_s);
+    const double* g1 = std::end(kTauGrid_s);
+    const double* lo = std::lower_bound(g0, g1, t_lo - 1e-12);
+    const double* hi = std::lower_bound(g0, g1, t_hi - 1e-12);
+    auto fit_at = [&](const double* g) { return Derive(FitWeighted(st, w_fit, expo, static_cast<int>(g - g0)), s, base, expo); };
+    auto end_shift = [&](const double* a, const double* b) {  // the fit half-way between grid values a and b
+      const auto fa = fit_at(a), fb = fit_at(b);
+      for (const auto& [k, v] : fa) {
+        const double d = 0.5 * (v + fb.at(k)) - value.at(k);
+        if (std::isfinite(d) && k != "motor_time_constant_s") lag_shift[k] = std::max(lag_shift[k], std::fabs(d));
+      }
+    };
+    if (lo != g1) end_shift(lo != g0 ? lo - 1 : lo, lo);
+    if (hi != g1) end_shift(hi, hi + 1 != g1 ? hi + 1 : hi);
+  }
+  for (auto& [k, v] : lag_shift) bias_shift[k] = std::max(bias_shift[k], v);
   const double m_kg = base.mass_kg + base.payload.mass_kg;
   for (const ParamSpec& sp : kSpecs) {
     Param p;
