@@ -1,5 +1,6 @@
 // hexsim calibrate: compass calibration from plain x,y,z, a FlightLog, an ArduPilot .bin or turntable
 // samples. Flags only: reading is logs/mag_input, fitting magnetics/calibrate.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -7,10 +8,15 @@
 #include "cli_util.h"
 #include "commands.h"
 #include "hexsim/common/atomic_file.h"
+#include "hexsim/common/format.h"
 #include "hexsim/common/paths.h"
+#include "hexsim/logs/dataflash_import.h"
+#include "hexsim/logs/flight_log.h"
 #include "hexsim/logs/mag_input.h"
+#include "hexsim/logs/ulog_import.h"
 #include "hexsim/magnetics/calib_io.h"
 #include "hexsim/magnetics/calibrate.h"
+#include "hexsim/realdata/windows.h"
 #include "hexsim/render/figures.h"
 #include "hexsim/render/image.h"
 
@@ -46,6 +52,37 @@ Status WriteBeforeAfterPng(const magnetics::CalibrateOutcome& o, const std::stri
   return render::WritePng(*image, path);
 }
 
+// The log's flight windows (realdata), as a flag per compass sample (by the sample's time).
+Status MarkFlightSamples(const std::string& path, const std::string& format, magnetics::FlightContext* fc) {
+  Result<logs::FlightLog> log = Status::BadInput("no log");
+  if (format == "dataflash") {
+    auto imp = logs::ImportDataFlashFile(path);
+    if (!imp.ok()) return imp.status();
+    log = std::move(imp->log);
+  } else if (format == "ulog") {
+    auto bytes = ReadFile(path);
+    if (!bytes.ok()) return bytes.status();
+    auto imp = logs::ImportULog(*bytes, path);
+    if (!imp.ok()) return imp.status();
+    log = std::move(imp->log);
+  } else {
+    log = logs::ReadFlightLog(path);
+    if (!log.ok()) return log.status();
+  }
+  const realdata::FlightWindows w = realdata::FindFlightWindows(*log);
+  fc->in_flight.assign(fc->t_s.size(), 0);
+  std::string spans;
+  for (const auto& win : w.windows) {
+    if (win.kind != "flight") continue;
+    spans += (spans.empty() ? "" : ", ") + Format("%.1f-%.1f s", win.start_s, win.end_s);
+    for (size_t i = 0; i < fc->t_s.size(); ++i) {
+      if (fc->t_s[i] >= win.start_s && fc->t_s[i] <= win.end_s) fc->in_flight[i] = 1;
+    }
+  }
+  fc->windows_note = (spans.empty() ? std::string("no flight window") : "flight " + spans) + "; armed state from " + w.armed_source;
+  return Status::Ok();
+}
+
 Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
   auto input = logs::ReadMagInput(a.samples, a.compass);
   if (!input.ok()) return input.status();
@@ -63,10 +100,28 @@ Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
     if (!input->current_A.empty()) samples[i].current_A = input->current_A[i];
     if (!input->angle_deg.empty()) samples[i].angle_deg = input->angle_deg[i];
     if (!input->plane.empty()) samples[i].plane = input->plane[i];
+    if (!input->q_wxyz.empty()) {
+      const Eigen::Vector4d& q = input->q_wxyz[i];
+      samples[i].q_NB = Eigen::Quaterniond(q(0), q(1), q(2), q(3));
+    }
   }
+  magnetics::FlightContext& fc = rq.flight;
+  fc.has_attitude = !input->q_wxyz.empty() && input->t_s.size() == input->field.size();
+  fc.has_current = !input->current_A.empty() &&
+                   std::all_of(input->current_A.begin(), input->current_A.end(), [](double v) { return std::isfinite(v); });
+  fc.t_s = input->t_s;
+  fc.body_from_raw = input->body_from_raw;
+  fc.soft_iron_in_force = input->soft_iron_in_force;
+  fc.has_place = input->has_place;
+  fc.where = {input->lat_deg, input->lon_deg, input->alt_m};
+  fc.decimal_year = input->decimal_year;
+  fc.px4_comp_type = input->px4_comp_type;
+  fc.px4_comp_G = input->px4_comp_G;
+  if (fc.has_attitude) HEXSIM_RETURN_IF_ERROR(MarkFlightSamples(a.samples, input->format, &fc));
   auto o = magnetics::Calibrate(std::move(samples), rq);
   if (!o.ok()) return o.status().WithContext(a.samples);
   o->report["input"] = {{"file", a.samples}, {"format", input->format}, {"compass", a.compass}, {"notes", input->notes}};
+  HEXSIM_RETURN_IF_ERROR(EnsureDirectory(DirName(a.out)));
   const std::string base = DirName(a.out) + "/" + FileStem(a.out);
   HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(base + ".report.json", o->report.dump(2) + "\n"));
   HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(base + ".parm", magnetics::ArduPilotParmText(o->ardupilot)));
@@ -80,6 +135,19 @@ Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
               f.coverage.eigenvalues(0), f.coverage.eigenvalues(1), f.coverage.eigenvalues(2),
               100 * f.norm_spread_before, 100 * f.norm_spread_after, f.fitness_uT);
   std::printf("offset %.3f %.3f %.3f uT\n", f.offset_uT(0), f.offset_uT(1), f.offset_uT(2));
+  if (o->report.contains("flight_fit")) {
+    const auto& ff = o->report["flight_fit"];
+    const auto& cur = ff["current"];
+    std::printf("flight fit: %s; %d samples in %d blocks; residual %.2f -> %.2f uT RMS per axis; Earth field %+.1f %% vs WMM\n",
+                ff["windows"].get<std::string>().c_str(), ff["samples_used"].get<int>(), ff["blocks"].get<int>(),
+                ff["residual_rms_before_uT"].get<double>(), ff["residual_rms_after_uT"].get<double>(),
+                100 * ff["field_norm_vs_wmm"].get<double>());
+    if (cur["fitted"].get<bool>()) {
+      std::printf("current field: %.1f mG/A [%.1f, %.1f] (95 %%, %s)\n", cur["norm_mG_per_A"].get<double>(),
+                  cur["norm_ci95_mG_per_A"][0].get<double>(), cur["norm_ci95_mG_per_A"][1].get<double>(),
+                  cur["applied"].get<bool>() ? "written as the autopilots' current compensation" : "not applied");
+    }
+  }
   for (const auto& w : f.warnings) std::printf("warning: %s\n", w.c_str());
   std::printf("calibrate: %s -> %s (+ .report.json .parm .params .png)\n",
               o->exit_code == 0 ? "accepted" : "REJECTED by its gate", a.out.c_str());
@@ -95,7 +163,7 @@ void AddCalibrateCommand(CLI::App& app, int* exit_code) {
   c->add_option("samples", a->samples, "x,y,z text, FlightLog CSV, samples.csv, ArduPilot .bin or PX4 .ulg (detected from content)")
       ->required();
   c->add_option("--method", a->method,
-                "auto|sphere|ellipsoid|robust|robust-sphere|robust-ellipsoid|none|traditional|adaptive|adaptive-current|"
+                "auto|sphere|ellipsoid|robust|robust-sphere|robust-ellipsoid|flight|none|traditional|adaptive|adaptive-current|"
                 "compassmot|px4-ls")
       ->capture_default_str();
   c->add_option("--compass", a->compass, "Which compass: mag, mag2, mag3")->capture_default_str();

@@ -151,6 +151,8 @@ void UndoArduPilot(const nlohmann::json& meta, const std::string& compass, const
     double scale = c.contains("scale") && c["scale"].is_number() ? c["scale"].get<double>() : 1.0;
     if (!(scale > 0.0)) scale = 1.0;
     const Matrix3d Minv = (M * scale).inverse();
+    in->body_from_raw = M * scale;
+    in->soft_iron_in_force = M;
     for (size_t i = 0; i < in->field.size(); ++i) {
       const Vector3d mot = i < mot_uT.size() ? mot_uT[i] : Vector3d::Zero();
       in->field[i] = Minv * (in->field[i] - mot) - ofs_uT;
@@ -188,6 +190,10 @@ void UndoPx4(const nlohmann::json& meta, const std::string& compass, const std::
     for (int k = 0; k < 9; ++k) R(k / 3, k % 3) = p["rotation_matrix"][static_cast<size_t>(k)].get<double>();
     const int slot = p["index"].get<int>();
     in->px4_index = slot;
+    in->px4_comp_type = comp_type;
+    in->px4_comp_G = comp_uT / 100.0;
+    in->body_from_raw = R * S;
+    in->soft_iron_in_force = S;
     in->prior_offset = off_uT;
     const bool comp_on = comp_type != 0 && !comp_uT.isZero();
     std::string comp_note;
@@ -244,6 +250,10 @@ Result<MagInput> FromHeaderTable(const Table& t, const std::string& name, const 
                                           name, compass, compass, compass));
     }
   }
+  const int iq[4] = {Find(h, "q_w"), Find(h, "q_x"), Find(h, "q_y"), Find(h, "q_z")};
+  const bool has_q = flightlog && iq[0] >= 0 && iq[1] >= 0 && iq[2] >= 0 && iq[3] >= 0;
+  const int irow_t = flightlog ? Find(h, "t_s") : -1;
+  bool q_complete = has_q;
   const int it = Find(h, compass + "_t_s"), ic = Find(h, "control_u"), ii = Find(h, "current_A"),
             ia = Find(h, "angle_deg"), ip = Find(h, "plane"), ipw = Find(h, "px4_mag_power");
   const int im[3] = {Find(h, compass + "_mot_x_uT"), Find(h, compass + "_mot_y_uT"), Find(h, compass + "_mot_z_uT")};
@@ -266,12 +276,25 @@ Result<MagInput> FromHeaderTable(const Table& t, const std::string& name, const 
     };
     // A FlightLog row before the compass's first sample has empty cells; later rows repeat a held sample.
     if (flightlog && f[static_cast<size_t>(ix)].empty()) continue;
+    double sample_t = std::nan("");
     if (it >= 0) {
       double ts = 0.0;
       if (!ParseNumber(f[static_cast<size_t>(it)], &ts)) continue;
       if (ts == last_t) continue;
       last_t = ts;
+      sample_t = ts;
+    } else if (irow_t >= 0) {
+      ParseNumber(f[static_cast<size_t>(irow_t)], &sample_t);
     }
+    if (has_q) {
+      Eigen::Vector4d q(std::nan(""), 0, 0, 0);
+      for (int k = 0; k < 4; ++k) {
+        if (!ParseNumber(f[static_cast<size_t>(iq[k])], &q(k))) q(k) = std::nan("");
+      }
+      q_complete = q_complete && q.allFinite() && q.norm() > 0.5;
+      in.q_wxyz.push_back(q);
+    }
+    if (std::isfinite(sample_t)) in.t_s.push_back(sample_t);
     Vector3d b;
     HEXSIM_RETURN_IF_ERROR(num(ix, &b(0)));
     HEXSIM_RETURN_IF_ERROR(num(iy, &b(1)));
@@ -299,6 +322,19 @@ Result<MagInput> FromHeaderTable(const Table& t, const std::string& name, const 
     }
   }
   if (in.field.empty()) return Status::BadInput(fmt::format("{}: {}: no samples (the column is empty)", name, compass + "_x_uT"));
+  if (!q_complete) in.q_wxyz.clear();
+  if (in.t_s.size() != in.field.size()) in.t_s.clear();
+  if (meta.is_object() && meta.contains("location") && meta["location"].is_object() && meta.contains("date_decimal_year") &&
+      meta["date_decimal_year"].is_number()) {
+    const auto& loc = meta["location"];
+    if (loc.contains("lat_deg") && loc["lat_deg"].is_number() && loc.contains("lon_deg") && loc["lon_deg"].is_number()) {
+      in.has_place = true;
+      in.lat_deg = loc["lat_deg"].get<double>();
+      in.lon_deg = loc["lon_deg"].get<double>();
+      in.alt_m = loc.contains("alt_m") && loc["alt_m"].is_number() ? loc["alt_m"].get<double>() : 0.0;
+      in.decimal_year = meta["date_decimal_year"].get<double>();
+    }
+  }
   in.notes.push_back(fmt::format("{}: {} {} samples ({}{})", name, in.field.size(), flightlog ? compass : "x,y,z",
                                  flightlog ? "FlightLog CSV" : "plain columns with a header",
                                  it >= 0 ? ", one per new " + compass + "_t_s" : ""));

@@ -110,12 +110,13 @@ Result<CalibrateOutcome> Calibrate(std::vector<MagSample> samples, const Calibra
   const auto learn_names = CompensatorNames();
   const bool turntable_method =
       std::find(learn_names.begin(), learn_names.end(), rq.method) != learn_names.end() && rq.method != "none";
-  if (!IsFieldMethod(rq.method) && !turntable_method) {
+  if (!IsFieldMethod(rq.method) && !turntable_method && rq.method != "flight") {
     std::string all;
     for (const auto& n : FieldMethodNames()) all += n + ", ";
     for (const auto& n : learn_names) {
-      if (n != "none") all += n + (n == learn_names.back() ? "" : ", ");
+      if (n != "none") all += n + ", ";
     }
+    all += "flight";
     return Status::BadInput(fmt::format("--method: unknown method '{}' (one of: {})", rq.method, all));
   }
   if (samples.empty()) return Status::BadInput("no samples");
@@ -126,15 +127,21 @@ Result<CalibrateOutcome> Calibrate(std::vector<MagSample> samples, const Calibra
   out.units = *units;
   for (auto& b : out.raw_uT) b *= out.units.to_uT;
   for (size_t i = 0; i < samples.size(); ++i) samples[i].mag_B_uT = out.raw_uT[i];
-  const std::string method = rq.method == "auto" && HasTurntableColumns(samples) ? "adaptive" : rq.method;
+  std::string method = rq.method;
+  if (method == "auto" && HasTurntableColumns(samples)) method = "adaptive";
+  if (method == "auto" && UsesFlightPath(samples, rq)) method = "flight";
   out.report = nlohmann::json::object();
-  Result<CalibrateOutcome> done = IsFieldMethod(method) ? FieldPath(std::move(out), method, rq)
-                                                        : TurntablePath(std::move(out), samples, method, rq);
+  Result<CalibrateOutcome> done = method == "flight"      ? FlightPath(std::move(out), samples, rq)
+                                  : IsFieldMethod(method) ? FieldPath(std::move(out), method, rq)
+                                                          : TurntablePath(std::move(out), samples, method, rq);
   if (!done.ok()) return done.status();
   CalibrateOutcome& o = *done;
   const FieldCalibration& f = o.field;
-  o.ardupilot = ArduPilotCompassParams(f.offset_uT, f.A, rq.compass_index);
-  o.px4 = Px4CompassParams(f.offset_uT, f.A, rq.px4_index >= 0 ? rq.px4_index : rq.compass_index);
+  const Matrix3d params_A = o.params_keep_soft_iron ? o.params_A : f.A;
+  o.ardupilot = ArduPilotCompassParams(f.offset_uT, params_A, rq.compass_index);
+  o.px4 = Px4CompassParams(f.offset_uT, params_A, rq.px4_index >= 0 ? rq.px4_index : rq.compass_index);
+  o.ardupilot.insert(o.ardupilot.end(), o.ardupilot_extra.begin(), o.ardupilot_extra.end());
+  o.px4.insert(o.px4.end(), o.px4_extra.begin(), o.px4_extra.end());
   nlohmann::json& r = o.report;
   r["schema"] = "hexsim.calib/1";
   r["method"] = rq.method;

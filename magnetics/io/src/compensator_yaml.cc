@@ -172,7 +172,7 @@ Result<std::unique_ptr<Compensator>> CompensatorFromYaml(const YAML::Node& node,
         },
         /*required=*/true);
     if (r.ok()) out = std::make_unique<LineCompensator>(method, K, line, index);
-  } else if (method == "compassmot" || method == "px4-ls") {
+  } else if (method == "compassmot" || method == "px4-ls" || method == "flight") {
     ReadSoftIron(r, &K);
     Eigen::Vector3d c = Eigen::Vector3d::Zero();
     double ref_A = 0.0;
@@ -181,7 +181,7 @@ Result<std::unique_ptr<Compensator>> CompensatorFromYaml(const YAML::Node& node,
     r.Req("current_ref_A", &ref_A);
     if (r.ok()) {
       out = std::make_unique<CurrentSlopeCompensator>(method, K, beta, c, ref_A,
-                                                      method == "compassmot" ? CurrentFrame::kCorrected : CurrentFrame::kRaw);
+                                                      method == "px4-ls" ? CurrentFrame::kRaw : CurrentFrame::kCorrected);
     }
   } else {
     std::string all;

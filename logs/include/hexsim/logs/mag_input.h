@@ -40,6 +40,21 @@ struct MagInput {
   // PX4's calibration slot n (CAL_MAGn_*) of this compass, matched by device id; -1 = unknown
   // (the parameters then take the compass's own index).
   int px4_index = -1;
+  // A flight log's attitude and timing, for calibrate's attitude-aided fit (magnetics/calibrate.h
+  // FlightContext). q_wxyz: the row's attitude (q_w, q_x, q_y, q_z) at each sample, empty without
+  // one; t_s: the sample's own time (<compass>_t_s, else t_s), empty without one.
+  std::vector<Eigen::Vector4d> q_wxyz;
+  std::vector<double> t_s;
+  // y = body_from_raw·raw is the body-frame field the autopilot's offsets act on (ArduPilot: its
+  // COMPASS_DIA/ODI matrix times COMPASS_SCALE; PX4: its rotation times CAL_MAGn scales);
+  // soft_iron_in_force is the matrix its parameters hold (DIA/ODI; PX4 scales). Identity otherwise.
+  Eigen::Matrix3d body_from_raw = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d soft_iron_in_force = Eigen::Matrix3d::Identity();
+  // The log's place and date (meta `location`, `date_decimal_year`), for the Earth field.
+  bool has_place = false;
+  double lat_deg = 0.0, lon_deg = 0.0, alt_m = 0.0, decimal_year = 0.0;
+  int px4_comp_type = -1;                                   // CAL_MAG_COMP_TYP (-1: not a PX4 log)
+  Eigen::Vector3d px4_comp_G = Eigen::Vector3d::Zero();     // its CAL_MAGn_X/Y/ZCOMP
 };
 
 // compass: "mag", "mag2", "mag3" (the FlightLog prefix). Bad input names FILE[:LINE] and the field.

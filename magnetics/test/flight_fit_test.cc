@@ -1,0 +1,132 @@
+// The attitude-aided flight fit (flight_fit.h) on synthetic flights with a known offset, current
+// field and Earth field, and serially correlated noise as real logs have.
+#include <cmath>
+
+#include <gtest/gtest.h>
+#include <Eigen/Geometry>
+
+#include "hexsim/common/rng.h"
+#include "hexsim/magnetics/flight_fit.h"
+
+namespace hexsim::magnetics {
+namespace {
+
+using Eigen::Vector3d;
+
+struct SynthFlight {
+  Vector3d field_N_uT{20.0, 5.0, -50.0};  // a southern-hemisphere field (up is negative D)
+  Vector3d offset_uT{8.0, -3.0, 25.0};
+  Vector3d d_uT_per_A{-0.05, -0.35, 0.18};  // |d| = 4 mG/A
+  double noise_uT = 0.8;                     // AR(1) at 10 Hz with a 2 s correlation time
+  double duration_s = 160.0;
+};
+
+// 10 Hz samples: a slow yaw sweep with ±15° roll/pitch manoeuvres and a current that follows
+// the manoeuvres (8–20 A).
+std::vector<FlightFitSample> Fly(const SynthFlight& f, uint64_t seed, bool with_current = true) {
+  RngStream rng(seed, "flight_fit_test");
+  std::vector<FlightFitSample> out;
+  Vector3d e = Vector3d::Zero();
+  const double a = std::exp(-0.1 / 2.0);
+  for (double t = 0.0; t < f.duration_s; t += 0.1) {
+    const double yaw = 2.0 * M_PI * t / 40.0, roll = 0.26 * std::sin(t / 3.0), pitch = 0.26 * std::cos(t / 5.0);
+    const Eigen::Matrix3d R = (Eigen::AngleAxisd(yaw, Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Vector3d::UnitY()) *
+                               Eigen::AngleAxisd(roll, Vector3d::UnitX()))
+                                  .toRotationMatrix();
+    const double I = 14.0 + 6.0 * std::sin(t / 7.0) * std::cos(t / 2.3);
+    e = a * e + std::sqrt(1.0 - a * a) * rng.Normal3(f.noise_uT);
+    FlightFitSample s;
+    s.R_NB = R;
+    s.t_s = t;
+    s.current_A = with_current ? I : std::nan("");
+    s.y_uT = R.transpose() * f.field_N_uT + f.offset_uT + f.d_uT_per_A * I + e;
+    out.push_back(s);
+  }
+  return out;
+}
+
+FlightFitOptions Options(const SynthFlight& f) {
+  FlightFitOptions o;
+  // The WMM prior a little off, as a real site's field is.
+  o.prior_field_N_uT = f.field_N_uT + Vector3d(0.6, -0.4, 0.5);
+  return o;
+}
+
+TEST(FlightFit, GivenAFlightWithKnownOffsetAndCurrentField_WhenFitted_ThenEachIsInsideItsInterval) {
+  const SynthFlight f;
+  int covered = 0, resolved = 0;
+  const int seeds = 20;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    auto fit = FitFlightCompass(Fly(f, static_cast<uint64_t>(seed)), Options(f));
+    ASSERT_TRUE(fit.ok()) << fit.status().message();
+    ASSERT_TRUE(fit->current_fitted);
+    resolved += fit->current_resolved;
+    bool all = true;
+    for (int k = 0; k < 3; ++k) {
+      all = all && std::fabs(fit->offset_y_uT(k) - f.offset_uT(k)) <= fit->offset_ci_half_uT(k);
+      all = all && std::fabs(fit->current_uT_per_A(k) - f.d_uT_per_A(k)) <= fit->current_ci_half_uT_per_A(k);
+    }
+    covered += all;
+    EXPECT_LT(fit->rms_after_uT, 1.2 * f.noise_uT);
+    EXPECT_GT(fit->rms_prior_uT, 10.0 * fit->rms_after_uT);
+    EXPECT_GE(fit->blocks, 15);
+  }
+  EXPECT_EQ(resolved, seeds);
+  // Six intervals at 95 % each, jointly: most flights cover all six.
+  EXPECT_GE(covered, seeds * 6 / 10);
+}
+
+TEST(FlightFit, GivenNoCurrentField_WhenFitted_ThenTheCurrentTermIsRarelyResolved) {
+  SynthFlight f;
+  f.d_uT_per_A.setZero();
+  int resolved = 0;
+  const int seeds = 20;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    auto fit = FitFlightCompass(Fly(f, 100 + static_cast<uint64_t>(seed)), Options(f));
+    ASSERT_TRUE(fit.ok()) << fit.status().message();
+    resolved += fit->current_resolved;
+  }
+  EXPECT_LE(resolved, 3);  // a 5 % test: 1 expected in 20
+}
+
+TEST(FlightFit, GivenAConstantCurrentOrNone_WhenFitted_ThenTheOffsetAloneIsFittedAndTheNoteSaysWhy) {
+  const SynthFlight f;
+  auto samples = Fly(f, 7, /*with_current=*/false);
+  auto fit = FitFlightCompass(samples, Options(f));
+  ASSERT_TRUE(fit.ok());
+  EXPECT_FALSE(fit->current_fitted);
+  EXPECT_NE(fit->current_note.find("no current"), std::string::npos);
+  for (auto& s : samples) s.current_A = 12.0;
+  fit = FitFlightCompass(samples, Options(f));
+  ASSERT_TRUE(fit.ok());
+  EXPECT_FALSE(fit->current_fitted);
+  EXPECT_NE(fit->current_note.find("needs 3.0 A"), std::string::npos) << fit->current_note;
+}
+
+TEST(FlightFit, GivenTooFewSamplesOrANonFiniteOne_WhenFitted_ThenBadInputNamesTheMinimum) {
+  const SynthFlight f;
+  auto samples = Fly(f, 3);
+  samples.resize(20);
+  auto fit = FitFlightCompass(samples, Options(f));
+  ASSERT_FALSE(fit.ok());
+  EXPECT_EQ(fit.status().code(), StatusCode::kBadInput);
+  EXPECT_NE(fit.status().message().find("needs at least 60"), std::string::npos) << fit.status().message();
+  samples = Fly(f, 3);
+  samples[5].y_uT(1) = std::nan("");
+  fit = FitFlightCompass(samples, Options(f));
+  ASSERT_FALSE(fit.ok());
+  EXPECT_EQ(fit.status().code(), StatusCode::kBadInput);
+}
+
+TEST(FlightFit, GivenAFewWildSamples_WhenFitted_ThenTheyAreDroppedAndTheOffsetHolds) {
+  const SynthFlight f;
+  auto samples = Fly(f, 11);
+  for (size_t i = 100; i < samples.size(); i += 150) samples[i].y_uT += Vector3d(40.0, -30.0, 25.0);
+  auto fit = FitFlightCompass(samples, Options(f));
+  ASSERT_TRUE(fit.ok());
+  EXPECT_GE(fit->outliers, 9);
+  EXPECT_LT((fit->offset_y_uT - f.offset_uT).norm(), 1.0);
+}
+
+}  // namespace
+}  // namespace hexsim::magnetics
