@@ -123,7 +123,6 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
   rep.field_model = rr.field_model;
   rep.earth_field_N_uT = rr.earth_field_N_uT;
   rep.not_diagnosed = rr.not_diagnosed;
-  RngStream rng(options.seed, "gap_bootstrap");
   const bool sim_truth = log.meta.value("source", std::string()) == "hexsim";
   const realdata::LagEstimate stale = internal::CurrentStaleness(log, fw.row_kind, options);
   // The logged current trails the throttle by its logging staleness (plus the motors' own response,
@@ -169,6 +168,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
       rep.not_diagnosed.emplace_back(name, fmt::format("too few flight samples: {}, needs {}", ch.t.size(), options.min_samples));
       continue;
     }
+    RngStream rng(options.seed, "gap_bootstrap/" + name);
     ChannelResult r = internal::AnalyzeCompass(ch, log, phases, options, timing, &rng);
     for (CandidateResult& k : r.candidates) {
       if (k.effect == "throttle_hard_iron") AddCurrentEquivalent(ch, &k);
@@ -192,6 +192,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
       rep.not_diagnosed.emplace_back(ch.name, fmt::format("too few samples: {}, needs {}", ch.t.size(), options.min_samples));
       continue;
     }
+    RngStream rng(options.seed, "gap_bootstrap/" + ch.name);
     finish(internal::AnalyzeFirstWave(ch, log, phases, options, &rng), ch);
   }
   for (ChannelResult& r : rep.channels) r.headline = Headline(r);

@@ -245,8 +245,23 @@ ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& v,
       }
     }
   }
-  ReplayInertial(log, v, in, row_kind, &out);
-  ReplayDynamics(log, v, options, row_kind, &out);
+  const auto wanted = [&](const std::string& name) {
+    return options.channels.empty() ||
+           std::find(options.channels.begin(), options.channels.end(), name) != options.channels.end();
+  };
+  out.compasses.erase(std::remove_if(out.compasses.begin(), out.compasses.end(),
+                                     [&](size_t c) { return !wanted(MagPrefix(c)); }),
+                      out.compasses.end());
+  if (wanted("gyro") || wanted("accel")) {
+    ReplayInertial(log, v, in, row_kind, &out);
+    out.channels.erase(std::remove_if(out.channels.begin(), out.channels.end(),
+                                      [&](const ChannelData& ch) { return !wanted(ch.name); }),
+                       out.channels.end());
+  }
+  if (wanted("dynamics")) ReplayDynamics(log, v, options, row_kind, &out);
+  out.not_diagnosed.erase(std::remove_if(out.not_diagnosed.begin(), out.not_diagnosed.end(),
+                                         [&](const auto& nd) { return !wanted(nd.first); }),
+                          out.not_diagnosed.end());
   out.inputs = in;
   return out;
 }

@@ -11,6 +11,7 @@
 
 #include "hexsim/common/rotation.h"
 #include "hexsim/magnetics/current_field.h"
+#include "hexsim/magnetics/wmm.h"
 #include "hexsim/sim/run_config.h"
 #include "selftest_real.h"
 
@@ -253,6 +254,15 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
   // The ideal profile's configured vehicle is the calibrated truth: any significant nuisance term
   // is a finding; on real-profile logs the normal ranges apply.
   o.diagnose.nuisance_ranges = real ? "normal" : "exact";
+  // The real profile reads the selftest compass only (the dynamics channel needs the simulator's row
+  // rate; gyro and accel have no targets), except on clean logs, where every compass is diagnosed
+  // for the any-compass false-alarm figure. The ideal profile diagnoses every channel.
+  DiagnoseOptions selftest_only = o.diagnose, every_compass = o.diagnose;
+  if (real) {
+    selftest_only.channels = {fmt::format("mag{}", kSelftestCompass + 1)};
+    every_compass.channels = {"mag"};
+    for (size_t c = 1; c < 8; ++c) every_compass.channels.push_back(fmt::format("mag{}", c + 1));
+  }
   const auto& effects = real ? RealInjectableEffects() : InjectableEffects();
   const std::string ch_name = fmt::format("mag{}", kSelftestCompass + 1);
   const auto& dyn_effects = InjectableDynamicsEffects();
@@ -272,12 +282,25 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
     if (!deg.ok()) return deg.status();
     const auto& ct = trial->truth.vehicle.compasses[kSelftestCompass].error;
     const auto& cc = trial->configured.compasses[kSelftestCompass].error;
+    // The logged compass is (1 + s)·(sensor reading) + b: every effect the sensor reads reaches the
+    // log through its field-norm error s too (no diagnosis can tell a sensor's scale from the size
+    // of a field it reads), so the truth of each effect is what the log holds.
+    const auto& w = trial->truth.world;
+    auto wmm = magnetics::EvaluateWmm({w.home_lat_deg, w.home_lon_deg, w.home_alt_m}, w.date_decimal_year, true);
+    if (!wmm.ok()) return wmm.status();
     for (size_t i = 0; i < trial->injections.size(); ++i) {
       const std::string& e = trial->injections[i].effect;
+      double& tm = trial->true_magnitude[i];
       if (e == "hard_iron_offset") {
-        trial->true_magnitude[i] = ((1 + lt.scale) * (ct.hard_iron_uT - cc.hard_iron_uT) + lt.scale * cc.hard_iron_uT + lt.offset_uT).norm();
+        tm = ((1 + lt.scale) * (ct.hard_iron_uT - cc.hard_iron_uT) + lt.scale * cc.hard_iron_uT + lt.offset_uT).norm();
       } else if (e == "scale_error") {
-        trial->true_magnitude[i] = (1 + trial->injections[i].magnitude) * (1 + lt.scale) - 1;
+        tm = (1 + trial->injections[i].magnitude) * (1 + lt.scale) - 1;
+      } else if (e == "local_anomaly") {
+        // The fitted field's difference from WMM: (1 + s)·(B + a) − B.
+        tm = ((1 + lt.scale) * (wmm->B_N_uT + w.anomaly_N_uT) - wmm->B_N_uT).norm();
+      } else if (e == "current_hard_iron" || e == "current_soft_iron" || e == "throttle_hard_iron" ||
+                 e == "temperature_drift") {
+        tm *= 1 + lt.scale;
       }
     }
     return deg;
@@ -299,10 +322,11 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
       if (!trial.ok()) return trial.status();
       auto log = fly(&*trial, "", &rng);
       if (!log.ok()) return log.status();
-      auto rep = Diagnose(*log, trial->configured, o.diagnose);
+      auto rep = Diagnose(*log, trial->configured, selftest_only);
       if (!rep.ok()) return rep.status();
       const ChannelResult* r = Find(*rep, ch_name);
-      return nlohmann::json{{"flagged", r && r->gap_detected}};
+      return nlohmann::json{{"flagged", r && r->gap_detected}, {"magnitude", trial->true_magnitude[0]},
+                            {"verdict", r ? r->verdict : std::string("not diagnosed")}};
     }
     const std::string c = classes[static_cast<size_t>(i / o.trials)];
     const int k = i % o.trials;
@@ -337,7 +361,7 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
     if (!trial.ok()) return trial.status();
     auto log = fly(&*trial, family, &rng);
     if (!log.ok()) return log.status();
-    auto rep = Diagnose(*log, trial->configured, o.diagnose);
+    auto rep = Diagnose(*log, trial->configured, c == "clean" ? every_compass : selftest_only);
     if (!rep.ok()) return rep.status();
     const bool dyn_class = c == "dynamics_one_effect";
     const std::string cls_channel = dyn_class ? "dynamics" : ch_name;
@@ -349,6 +373,21 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
                           {"any_compass_alarm", false},  {"effects", nlohmann::json::array()},
                           {"covered", nlohmann::json::array()}};
     for (const Injection& x : inj) out["effects"].push_back(x.effect);
+    // The trial as it came out (reported under "trials"): the truth beside what was reported of it.
+    out["true_magnitude"] = trial->true_magnitude;
+    out["explained_share"] = r->explained_share;
+    nlohmann::json reported = nlohmann::json::object();
+    for (const auto& cand : r->candidates) {
+      if (std::find_if(inj.begin(), inj.end(), [&](const Injection& x) { return x.effect == cand.effect; }) == inj.end()) continue;
+      reported[cand.effect] = {{"magnitude", cand.magnitude}, {"ci95", {cand.magnitude_ci95[0], cand.magnitude_ci95[1]}},
+                               {"explained_share", cand.explained_share}, {"selected", cand.selected}};
+    }
+    out["reported"] = reported;
+    std::string sel;
+    for (const auto& cand : r->candidates) {
+      if (cand.selected) sel += (sel.empty() ? "" : "+") + cand.effect;
+    }
+    out["selected"] = sel;
     if (c == "clean") {
       if (const ChannelResult* d = Find(*rep, "dynamics")) out["dynamics_detected"] = d->gap_detected;
     }
@@ -550,6 +589,14 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
                                 {"grid_uT_per_A", threshold_grid},
                                 {"flagged_rate", flagged_rate},
                                 {"trials_per_magnitude", o.threshold_trials}}}};
+  // Every trial's outcome (class-major, then the threshold sweep), to read a failure from.
+  j["trials"] = nlohmann::json::array();
+  for (size_t i = 0; i < outcomes->size(); ++i) {
+    nlohmann::json tj = (*outcomes)[i];
+    const int ii = static_cast<int>(i);
+    tj["class"] = ii < kClasses * o.trials ? classes[static_cast<size_t>(ii / o.trials)] : "threshold";
+    j["trials"].push_back(std::move(tj));
+  }
   j["targets"] = targets;
   j["targets_met"] = met && dyn_met;
   j["compass_targets_met"] = met;

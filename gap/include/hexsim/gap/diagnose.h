@@ -58,6 +58,10 @@ struct DiagnoseOptions {
   // below a tenth of the noise power a structured part moves no heading by more than the noise does.
   double materiality = 0.1;
   bool timing_scan = true;  // compass latency and current staleness before fitting
+  // The channels to diagnose, by name (mag, mag2, …, gyro, accel, dynamics); empty: every channel.
+  // Each channel's bootstrap draws its own random stream (seed, channel name), so a channel's
+  // result does not depend on which others are diagnosed.
+  std::vector<std::string> channels;
 };
 
 struct CandidateResult {
