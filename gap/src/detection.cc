@@ -241,6 +241,32 @@ std::pair<std::vector<double>, std::vector<double>> Periodogram(const std::vecto
 
 }  // namespace
 
+int CountSpikes(const std::vector<Vec3>& r) {
+  const size_t n = r.size();
+  if (n < 20) return 0;
+  int count = 0;
+  for (int a = 0; a < 3; ++a) {
+    // Departure of each sample from the mean of its neighbours, and its robust spread.
+    std::vector<double> e(n, 0.0), abs_e;
+    abs_e.reserve(n);
+    for (size_t k = 1; k + 1 < n; ++k) {
+      e[k] = r[k][a] - 0.5 * (r[k - 1][a] + r[k + 1][a]);
+      abs_e.push_back(std::fabs(e[k]));
+    }
+    std::nth_element(abs_e.begin(), abs_e.begin() + static_cast<std::ptrdiff_t>(abs_e.size() / 2), abs_e.end());
+    const double sigma = 1.4826 * abs_e[abs_e.size() / 2];
+    if (!(sigma > 0)) continue;
+    for (size_t k = 1; k + 1 < n; ++k) {
+      // A spike leaves both neighbours (a step leaves one): its own departure is the largest.
+      if (std::fabs(e[k]) > kSpikeSigma * sigma && std::fabs(e[k]) >= std::fabs(e[k - 1]) &&
+          std::fabs(e[k]) >= std::fabs(e[k + 1])) {
+        ++count;
+      }
+    }
+  }
+  return count;
+}
+
 Structure DetectStructure(const std::vector<double>& t, const std::vector<Vec3>& r, double heldout_sse, double materiality,
                           double flex_p, double flex_gain_ms, double alpha) {
   Structure s;
@@ -288,8 +314,15 @@ Structure DetectStructure(const std::vector<double>& t, const std::vector<Vec3>&
       }
     }
   }
+  s.spikes = CountSpikes(r);
+  if (s.spikes >= kMinSpikes) {
+    s.found += std::string(s.found.empty() ? "" : "; ") +
+               fmt::format("{} isolated spikes beyond {:.0f} robust sigma (an intermittent disturbance)", s.spikes, kSpikeSigma);
+  }
   s.present = !s.found.empty();
   s.p_value = std::min(1.0, 2.0 * std::min(s.flex_p, s.line_p));
+  // Spikes: a Gaussian floor's chance of one departure beyond kSpikeSigma over the 3n values.
+  if (s.spikes >= kMinSpikes) s.p_value = std::min(s.p_value, std::min(1.0, 6.0 * static_cast<double>(n) * NormalSf(kSpikeSigma)));
   constexpr int kLjungBoxLags = 20;
   double p_lb = 1.0;
   for (int axis = 0; axis < 3; ++axis) {
@@ -356,6 +389,7 @@ nlohmann::json ResidualLeft(const std::vector<double>& t, const std::vector<Vec3
     if (stt > 0) trend_ss = sty.squaredNorm() / stt;
   }
   j["trend"] = total_ss > 0 ? trend_ss / total_ss : 0.0;
+  j["spikes"] = CountSpikes(after);
   std::string conc = where_after.value("phase", nlohmann::json::object()).value("concentrated", std::string());
   const std::string regime = where_after.value("regime", nlohmann::json::object()).value("concentrated", std::string());
   if (!regime.empty() && regime != "uniform") conc += (conc.empty() ? "" : ", ") + regime;

@@ -11,8 +11,14 @@
 //   (2) a spectral line stands above the residual's own smoothed spectrum (a periodic disturbance,
 //       a drift: both far above the coloured background around them) and holds more than the
 //       materiality share of the noise floor's power.
-// Each test at alpha/2. Intermittent spikes are not detected (see README). The power ratio and
-// Ljung–Box whiteness are reported; they do not decide.
+//   (3) isolated spikes: at least kMinSpikes samples that leave the mean of their two neighbours by
+//       more than kSpikeSigma robust standard deviations of that departure (median absolute
+//       deviation). No noise makes a 25σ departure; what does in a clean replay are manoeuvre
+//       transients of the 10 Hz rows (attitude and current interpolated across a fast change), which
+//       reach about 15σ in the selftest's clean logs and 17σ in log171's external compass, and stay
+//       below this bound. An intermittent disturbance (a glitching sensor or bus) lands far above it.
+// Tests (1) and (2) at alpha/2. The power ratio and Ljung–Box whiteness are reported; they do not
+// decide.
 #pragma once
 
 #include <string>
@@ -33,6 +39,12 @@ double MeanSquare(const std::vector<Vec3>& e);
 nlohmann::json Where(const ChannelData& ch, const std::vector<Vec3>& y, const logs::FlightLog& log,
                      const std::vector<std::string>& phases);
 
+inline constexpr double kSpikeSigma = 25.0;
+inline constexpr int kMinSpikes = 3;
+
+// The number of isolated spikes in r (see (3) above).
+int CountSpikes(const std::vector<Vec3>& r);
+
 struct Structure {
   bool present = false;
   double power_ratio = 0.0;  // held-out mean square / first-difference noise floor (reported)
@@ -44,6 +56,8 @@ struct Structure {
   double flex_gain_ms = 0.0, flex_p = 1.0;
   // (2) A spectral line above the residual's own (coloured) spectrum: frequency and p-value.
   double line_freq_Hz = 0.0, line_p = 1.0, line_share = 0.0;
+  // (3) Isolated spikes: samples that leave both neighbours by more than kSpikeSigma robust σ.
+  int spikes = 0;
   std::string found;  // which test(s) found it
 };
 // r: residual after the baseline; heldout_sse: the baseline's held-out SSE over all CV folds;

@@ -3,6 +3,7 @@
 // first-wave rule for the inertial and dynamics channels (verdict_first_wave.cc).
 #include "hexsim/gap/diagnose.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/Core>
@@ -126,9 +127,14 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
   const bool sim_truth = log.meta.value("source", std::string()) == "hexsim";
   const realdata::LagEstimate stale = internal::CurrentStaleness(log, fw.row_kind, options);
   // The logged current trails the throttle by its logging staleness (plus the motors' own response,
-  // tens of ms, which the scan cannot separate): a staleness whose interval clears zero is aligned.
-  const double shift_s = stale.ok() && stale.ci95_s[0] > 0 && plausibility::IsPlausible("current_staleness", stale.value_s)
-                             ? stale.value_s
+  // tens of ms, which the scan cannot separate). The prediction's current is aligned by the scan's
+  // point estimate, the least-squares alignment (a logged channel is never early: at least zero),
+  // whenever the scan resolved it inside its plausible range: leaving a stale current unaligned
+  // because its interval still touches zero is an estimate too (zero), and a worse one on average:
+  // a wiring-field lag of the compass would then be read against a current already late by the
+  // staleness, and the two would cancel.
+  const double shift_s = stale.ok() && !stale.at_grid_edge && plausibility::IsPlausible("current_staleness", stale.value_s)
+                             ? std::max(0.0, stale.value_s)
                              : 0.0;
   double flight_s = 0;
   for (const auto& w : fw.windows) flight_s += w.kind == "flight" ? w.end_s - w.start_s : 0.0;

@@ -317,7 +317,8 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
       after = an.After(at.all[at.fam_best[chosen]]);
       cv_after = at.all[at.fam_best[chosen]].cv_sse;
     }
-    res.explanation = "structure above the noise floor that no plausible candidate explains to half (" + best_txt + ")";
+    const std::string what = st.found.empty() ? "found by a library candidate's test" : st.found;
+    res.explanation = "structure above the noise floor (" + what + ") that no plausible candidate explains to half (" + best_txt + ")";
   }
   for (const CandidateResult& r : at.results) {
     if (!r.plausible) {
