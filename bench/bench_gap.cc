@@ -124,8 +124,11 @@ void BM_GapDiagnose10min(benchmark::State& state) {
     }
     channels = rep->channels.size();
     names.clear();
-    for (const auto& c : rep->channels) names += (names.empty() ? "" : ",") + c.channel;
-    for (const auto& [c, why] : rep->not_diagnosed) names += " (not " + c + ": " + why + ")";
+    for (const auto& c : rep->channels) {
+      if (!names.empty()) names += ",";
+      names += c.channel;
+    }
+    for (const auto& [c, why] : rep->not_diagnosed) names.append(" (not ").append(c).append(": ").append(why).append(")");
     benchmark::DoNotOptimize(hexsim::gap::ToJson(*rep));
   }
   Describe(state, b);

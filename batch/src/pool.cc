@@ -185,7 +185,7 @@ Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, co
   auto reaped = [&](size_t i, int wait_status, double wall_s, bool timed_out) {
     json summary;
     const RunRow row = Collect(Running{runs[i], dirs[i], 0.0, timed_out}, wait_status, wall_s, &summary);
-    const Status s = record(row, summary);
+    Status s = record(row, summary);
     ++stats.finished;
     if (IsFailure(row.status)) ++stats.failed;
     progress.RunFinished(row);
