@@ -23,6 +23,7 @@
 #include "hexsim/sim/run_config.h"
 #include "hexsim/sim/simulation.h"
 #include "hexsim/vehicle/powertrain.h"
+#include "hexsim/vehicle/rotor_wrench.h"
 #include "hexsim/vehicle/vehicle_io.h"
 #include "hexsim/vehicle/vehicle_params.h"
 
@@ -155,13 +156,14 @@ void BM_PhysicsStep(benchmark::State& state) {
   start.p_N_m = Eigen::Vector3d(0, 0, -10);
   const bool ground = state.range(0) == 1;
   hexsim::sim::RigidBodyWorld body(bp, start, ground);
+  const hexsim::vehicle::RotorWrenchTable rotor_wrench(vp);
   auto pt = hexsim::vehicle::InitialPowertrainState(vp);
   hexsim::vehicle::PowertrainOutput power;
   const std::vector<double> commands(vp.rotors.size(), 0.55);
   for (auto _ : state) {
     const auto s = body.State();
     hexsim::vehicle::StepPowertrain(vp, commands, kPhysicsDt_s, &pt, &power);
-    const auto w = hexsim::vehicle::RotorWrench(vp, pt.omega_radps, s.w_B_radps);
+    const auto w = rotor_wrench(pt.omega_radps, s.w_B_radps);
     body.AddForce_B(w.force_B_N);
     body.AddTorque_B(w.torque_B_Nm);
     body.Step(kPhysicsDt_s);

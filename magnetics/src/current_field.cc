@@ -94,6 +94,25 @@ Eigen::Vector3d CurrentDrivenField_uT(const CurrentFieldParams& p, const Eigen::
   return B_uT;
 }
 
+FixedPointCurrentField::FixedPointCurrentField(const CurrentFieldParams& p, const Eigen::Vector3d& sensor_p_B_m)
+    : exponent_(p.exponent) {
+  terms_.reserve(p.segments.size() + p.dipoles.size());
+  for (const WireSegment& s : p.segments) {
+    terms_.push_back({SegmentField_uT(s.a_B_m, s.b_B_m, 1.0, sensor_p_B_m), s.source, s.motor_index, s.share});
+  }
+  for (const MotorDipole& d : p.dipoles) {
+    terms_.push_back({DipoleField_uT(d.moment_per_A_Am2, d.p_B_m, sensor_p_B_m), CurrentSource::kMotor, d.motor_index, 1.0});
+  }
+}
+
+Eigen::Vector3d FixedPointCurrentField::operator()(const Currents& currents) const {
+  Eigen::Vector3d B_uT = Eigen::Vector3d::Zero();
+  for (const Term& t : terms_) {
+    B_uT += Effective(t.share * SourceCurrent(t.source, t.motor_index, currents), exponent_) * t.B_per_A_uT;
+  }
+  return B_uT;
+}
+
 const Currents& StepCurrentLag(const CurrentFieldParams& p, const Currents& in, double dt_s,
                                CurrentLagState* state) {
   HEXSIM_CHECK(state != nullptr);

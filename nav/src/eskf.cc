@@ -37,6 +37,17 @@ Vec15 SparseTimes(const Mat15& P, const Row15& h) {
   return out;
 }
 
+// The same from P's upper triangle (P symmetric, its lower triangle not yet mirrored): the same
+// products summed in the same order as SparseTimes on the mirrored P.
+Vec15 SparseTimesUpper(const Mat15& P, const Row15& h) {
+  Vec15 out = Vec15::Zero();
+  for (int j = 0; j < 15; ++j) {
+    if (h(j) == 0.0) continue;
+    for (int r = 0; r < 15; ++r) out(r) += (r <= j ? P(r, j) : P(j, r)) * h(j);
+  }
+  return out;
+}
+
 class Eskf final : public Estimator, private internal::Filter {
  public:
   explicit Eskf(const NavParams& params) : prm_(params) { Reset(NavEstimate()); }
@@ -347,21 +358,21 @@ class Eskf final : public Estimator, private internal::Filter {
     Vec15 dx = Vec15::Zero();
     Mat15 P = P_;
     for (int i = 0; i < n; ++i) {
-      const Vec15 Pht = i == 0 ? PHt[0] : SparseTimes(P, H[i]);
+      const Vec15 Pht = i == 0 ? PHt[0] : SparseTimesUpper(P, H[i]);
       const double S = H[i].dot(Pht) + r[i];
       const Vec15 K = Pht / S;
       dx += K * (y[i] - H[i].dot(dx));
       // Joseph form (I−KH)·P·(I−KH)ᵀ + K·r·Kᵀ; with P symmetric and HP = (PHᵀ)ᵀ it expands to
       //   P − K·(PHᵀ)ᵀ − (PHᵀ)·Kᵀ + (HPHᵀ + r)·K·Kᵀ,
-      // evaluated on the upper triangle and mirrored (O(n²), P stays exactly symmetric).
+      // evaluated on the upper triangle (O(n²)), mirrored once after the group: P stays exactly symmetric.
       for (int c = 0; c < 15; ++c) {
         for (int row = 0; row <= c; ++row) {
           P(row, c) += S * K(row) * K(c) - K(row) * Pht(c) - Pht(row) * K(c);
         }
       }
-      for (int c = 0; c < 15; ++c) {
-        for (int row = c + 1; row < 15; ++row) P(row, c) = P(c, row);
-      }
+    }
+    for (int c = 0; c < 15; ++c) {
+      for (int row = c + 1; row < 15; ++row) P(row, c) = P(c, row);
     }
     char where[48];
     std::snprintf(where, sizeof where, "%s update", what);  // no heap allocation per fusion

@@ -4,6 +4,7 @@
 
 #include "stages.h"
 #include "hexsim/vehicle/rotor_aero.h"
+#include "hexsim/vehicle/rotor_wrench.h"
 
 namespace hexsim::sim {
 
@@ -69,7 +70,8 @@ const vehicle::SensorReadings& SensorStage::Sample(double t, const BodyState& s,
 
 // --- PhysicsStage --------------------------------------------------------------------------------
 
-PhysicsStage::PhysicsStage(const RunSetup& setup, uint64_t seed) : vp_(setup.vehicle), world_(setup.world) {
+PhysicsStage::PhysicsStage(const RunSetup& setup, uint64_t seed)
+    : vp_(setup.vehicle), world_(setup.world), rotor_wrench_(setup.vehicle) {
   WindParams wind_params = setup.world.wind;
   if (setup.mission.wind) {
     wind_params.mean_N_mps = setup.mission.wind->mean_N_mps;
@@ -97,22 +99,23 @@ void PhysicsStage::SetPayload_kg(double payload_kg) {
 
 std::string PhysicsStage::Advance(const std::vector<double>& commands, double t, double dt) {
   vehicle::StepPowertrain(vp_, commands, dt, &power_, &pt_);
-  const vehicle::Wrench rotors = vehicle::RotorWrench(vp_, power_.omega_radps, s_.w_B_radps);
-  body_->AddForce_B(rotors.force_B_N);
-  body_->AddTorque_B(rotors.torque_B_Nm);
+  // Every body-frame force and torque is summed here and handed to ODE once.
+  vehicle::Wrench w_B = rotor_wrench_(power_.omega_radps, s_.w_B_radps);
   const Eigen::Vector3d wind_N = wind_->Step(dt);
   const Eigen::Vector3d v_air_B = s_.q_NB.conjugate() * (s_.v_N_mps - wind_N);
   const auto& d = vp_.drag;
-  body_->AddForce_B(-(d.linear_Nspm.cwiseProduct(v_air_B) +
-                      d.quadratic_Ns2pm2.cwiseProduct(v_air_B.cwiseAbs().cwiseProduct(v_air_B))));
-  body_->AddTorque_B(-(d.rotational_Nmsprad.cwiseProduct(s_.w_B_radps) +
-                       d.rotational_quad_Nms2prad2.cwiseProduct(s_.w_B_radps.cwiseAbs().cwiseProduct(s_.w_B_radps))));
+  w_B.force_B_N -= d.linear_Nspm.cwiseProduct(v_air_B) +
+                   d.quadratic_Ns2pm2.cwiseProduct(v_air_B.cwiseAbs().cwiseProduct(v_air_B));
+  w_B.torque_B_Nm -= d.rotational_Nmsprad.cwiseProduct(s_.w_B_radps) +
+                     d.rotational_quad_Nms2prad2.cwiseProduct(s_.w_B_radps.cwiseAbs().cwiseProduct(s_.w_B_radps));
   // Optional rotor aerodynamics (vehicle `aero:`; off by default, and then nothing is added).
   if (vehicle::RotorAeroEnabled(vp_.aero)) {
     const vehicle::Wrench aero = vehicle::RotorAeroWrench(vp_, power_.omega_radps, v_air_B, s_.p_N_m.z(), s_.q_NB);
-    body_->AddForce_B(aero.force_B_N);
-    body_->AddTorque_B(aero.torque_B_Nm);
+    w_B.force_B_N += aero.force_B_N;
+    w_B.torque_B_Nm += aero.torque_B_Nm;
   }
+  body_->AddForce_B(w_B.force_B_N);
+  body_->AddTorque_B(w_B.torque_B_Nm);
   if (!external_force_N_N_.isZero()) body_->AddForce_N(external_force_N_N_);
   body_->Step(dt);
   const BodyState next = body_->State();

@@ -38,6 +38,9 @@ struct RigidBodyWorld::Impl {
   bool explicit_gyro = true;
   Eigen::Matrix3d inertia = Eigen::Matrix3d::Identity();
   Eigen::Matrix3d inertia_inv = Eigen::Matrix3d::Identity();
+  // Body-frame force and torque added since the last step, handed to ODE once in Step().
+  Eigen::Vector3d force_B_N = Eigen::Vector3d::Zero();
+  Eigen::Vector3d torque_B_Nm = Eigen::Vector3d::Zero();
 };
 
 namespace {
@@ -119,9 +122,9 @@ BodyState RigidBodyWorld::State() const {
   return s;
 }
 
-void RigidBodyWorld::AddForce_B(const Eigen::Vector3d& f) { dBodyAddRelForce(impl_->body, f.x(), f.y(), f.z()); }
+void RigidBodyWorld::AddForce_B(const Eigen::Vector3d& f) { impl_->force_B_N += f; }
 void RigidBodyWorld::AddForce_N(const Eigen::Vector3d& f) { dBodyAddForce(impl_->body, f.x(), f.y(), f.z()); }
-void RigidBodyWorld::AddTorque_B(const Eigen::Vector3d& t) { dBodyAddRelTorque(impl_->body, t.x(), t.y(), t.z()); }
+void RigidBodyWorld::AddTorque_B(const Eigen::Vector3d& t) { impl_->torque_B_Nm += t; }
 
 void RigidBodyWorld::Step(double dt_s) {
   Impl& w = *impl_;
@@ -162,9 +165,13 @@ void RigidBodyWorld::Step(double dt_s) {
     const Eigen::Vector3d w0 = s.w_B_radps;
     const Eigen::Vector3d wdot = -w.inertia_inv * w0.cross(w.inertia * w0);
     const Eigen::Vector3d wm = w0 + 0.5 * dt_s * wdot;
-    const Eigen::Vector3d gyro_B = -wm.cross(w.inertia * wm);
-    dBodyAddRelTorque(w.body, gyro_B.x(), gyro_B.y(), gyro_B.z());
+    w.torque_B_Nm -= wm.cross(w.inertia * wm);
   }
+  // The body-frame sums, rotated into N by ODE once each.
+  dBodyAddRelForce(w.body, w.force_B_N.x(), w.force_B_N.y(), w.force_B_N.z());
+  dBodyAddRelTorque(w.body, w.torque_B_Nm.x(), w.torque_B_Nm.y(), w.torque_B_Nm.z());
+  w.force_B_N.setZero();
+  w.torque_B_Nm.setZero();
   w.state_cache_valid = false;
   dWorldStep(w.world, dt_s);
   dJointGroupEmpty(w.contacts);

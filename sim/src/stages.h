@@ -16,6 +16,7 @@
 #include "hexsim/magnetics/wmm.h"
 #include "hexsim/sim/simulation.h"
 #include "hexsim/vehicle/powertrain.h"
+#include "hexsim/vehicle/rotor_wrench.h"
 #include "hexsim/vehicle/sensors.h"
 
 namespace hexsim::sim {
@@ -126,6 +127,7 @@ class PhysicsStage {
  private:
   const vehicle::VehicleParams& vp_;
   const WorldParams& world_;
+  vehicle::RotorWrenchTable rotor_wrench_;  // the rotors' per-rotor constants, folded once
   double payload_kg_ = 0.0;
   double rest_D_m_ = 0.0;
   BodyState start_;

@@ -18,13 +18,21 @@ NoiseChannel MakeChannel(double rate_hz, const NoiseParams& xy, const NoiseParam
 
 }  // namespace
 
+namespace {
+// H~_B = R_NB^T*B_N + B_current(p);  H = R_SB*(scale*K(I)*H~_B) + beta
+Eigen::Vector3d CompassReading_uT(const CompassParams& c, const Eigen::Vector3d& current_B_uT,
+                                  const Eigen::Quaterniond& q_NB, const Eigen::Vector3d& B_earth_N_uT,
+                                  double battery_A) {
+  const Eigen::Vector3d earth_B_uT = q_NB.conjugate() * B_earth_N_uT;
+  return magnetics::ApplyCompassError(c.error, earth_B_uT + current_B_uT, battery_A);
+}
+}  // namespace
+
 Eigen::Vector3d CompassNoiseFree_uT(const CompassParams& c, const magnetics::CurrentFieldParams& wiring,
                                     const Eigen::Quaterniond& q_NB, const Eigen::Vector3d& B_earth_N_uT,
                                     const magnetics::Currents& currents) {
-  // H~_B = R_NB^T*B_N + B_current(p);  H = R_SB*(scale*K(I)*H~_B) + beta
-  const Eigen::Vector3d earth_B_uT = q_NB.conjugate() * B_earth_N_uT;
-  const Eigen::Vector3d true_B_uT = earth_B_uT + magnetics::CurrentDrivenField_uT(wiring, c.position_B_m, currents);
-  return magnetics::ApplyCompassError(c.error, true_B_uT, currents.battery_A);
+  return CompassReading_uT(c, magnetics::CurrentDrivenField_uT(wiring, c.position_B_m, currents), q_NB, B_earth_N_uT,
+                           currents.battery_A);
 }
 
 NoiseChannel::NoiseChannel(double rate_hz, const Eigen::Vector3d& noise_std, const Eigen::Vector3d& bias_std,
@@ -42,7 +50,8 @@ bool NoiseChannel::Due(double t_s) const {
 Eigen::Vector3d NoiseChannel::Sample(double t_s, const Eigen::Vector3d& truth) {
   if (started_) {
     const double dt = std::max(0.0, t_s - last_t_s_);
-    for (int i = 0; i < 3; ++i) bias_(i) += walk_(i) * std::sqrt(dt) * rng_.Normal();  // b += sigma_w*sqrt(dt)*n
+    const double sqrt_dt = std::sqrt(dt);
+    for (int i = 0; i < 3; ++i) bias_(i) += walk_(i) * sqrt_dt * rng_.Normal();  // b += sigma_w*sqrt(dt)*n
     next_t_s_ += period_s_;
     while (next_t_s_ <= t_s - 1e-9 * period_s_) next_t_s_ += period_s_;  // caller stepped slower than the rate
   } else {
@@ -79,6 +88,7 @@ Result<SensorSuite> SensorSuite::Create(const VehicleParams& params, uint64_t se
     m.params = c;
     m.wiring = params.wiring;
     if (c.current_lag_tau_s >= 0.0) m.wiring.lag_tau_s = c.current_lag_tau_s;
+    m.field = magnetics::FixedPointCurrentField(m.wiring, c.position_B_m);
     m.channel = MakeChannel(c.rate_hz, c.noise, c.noise, seed, "mag" + std::to_string(i + 1));
     suite.mags_.push_back(std::move(m));
   }
@@ -116,7 +126,8 @@ const SensorReadings& SensorSuite::Step(const SensorTruth& truth) {
     }
     Vec3Reading& out = r.mag_uT[i];
     if ((out.fresh = m.channel.Due(t))) {
-      out.value = m.channel.Sample(t, CompassNoiseFree_uT(m.params, m.wiring, truth.q_NB, truth.B_earth_N_uT, *currents));
+      out.value = m.channel.Sample(
+          t, CompassReading_uT(m.params, m.field(*currents), truth.q_NB, truth.B_earth_N_uT, currents->battery_A));
       out.t_s = t;
       out.valid = true;
     }

@@ -25,9 +25,4 @@ double BatteryParams::OpenCircuitVoltage_V(double soc) const {
   return cell_V * cells_series;
 }
 
-double VehicleParams::RotorInertia_kgm2(size_t i) const {
-  HEXSIM_CHECK(i < rotors.size());
-  return rotors[i].inertia_kgm2 > 0.0 ? rotors[i].inertia_kgm2 : motor.inertia_kgm2;
-}
-
 }  // namespace hexsim::vehicle

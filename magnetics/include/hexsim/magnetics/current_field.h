@@ -72,6 +72,29 @@ Status ValidateCurrentFieldParams(const CurrentFieldParams& p, int motor_count);
 Eigen::Vector3d CurrentDrivenField_uT(const CurrentFieldParams& p, const Eigen::Vector3d& sensor_p_B_m,
                                       const Currents& currents);
 
+// CurrentDrivenField_uT at one fixed point (a compass' position in B), its geometry folded once:
+// every segment's and dipole's field is linear in its effective current, so
+//   B = Σ_segments g_s·Eff(share_s·I_s) + Σ_dipoles g_d·Eff(I_d),
+// g = the field per ampere at the point. The same law; the products are grouped differently, so the
+// result differs from CurrentDrivenField_uT's by rounding only (relative ~1e-16). For the sensor
+// loop, where the compass samples at its own rate with the geometry fixed.
+class FixedPointCurrentField {
+ public:
+  FixedPointCurrentField() = default;
+  FixedPointCurrentField(const CurrentFieldParams& p, const Eigen::Vector3d& sensor_p_B_m);
+  Eigen::Vector3d operator()(const Currents& currents) const;
+
+ private:
+  struct Term {
+    Eigen::Vector3d B_per_A_uT = Eigen::Vector3d::Zero();
+    CurrentSource source = CurrentSource::kBattery;
+    int motor_index = -1;
+    double share = 1.0;
+  };
+  std::vector<Term> terms_;
+  double exponent_ = 1.0;
+};
+
 // Lag state: first-order filter of the currents with lag_tau_s, exact discretisation for an input
 // held over the step: y ← e^(−dt/τ)·y + (1 − e^(−dt/τ))·u. The first call (not initialised) starts
 // in steady state (y = u). τ = 0 passes the input through.

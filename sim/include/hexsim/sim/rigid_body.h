@@ -35,7 +35,8 @@ class RigidBodyWorld {
   RigidBodyWorld& operator=(const RigidBodyWorld&) = delete;
 
   BodyState State() const;
-  // Forces and torques accumulate until the next Step.
+  // Forces and torques accumulate until the next Step (body-frame ones are summed and rotated into N
+  // with the attitude at the step).
   void AddForce_B(const Eigen::Vector3d& force_B_N);
   void AddForce_N(const Eigen::Vector3d& force_N_N);
   void AddTorque_B(const Eigen::Vector3d& torque_B_Nm);

@@ -121,6 +121,7 @@ class SensorSuite {
     CompassParams params;
     magnetics::CurrentFieldParams wiring;  // the vehicle's, with this compass' lag
     magnetics::CurrentLagState lag;
+    magnetics::FixedPointCurrentField field;  // the wiring's field at this compass, geometry folded
     NoiseChannel channel;
   };
   SensorSuite() = default;

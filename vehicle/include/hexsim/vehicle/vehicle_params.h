@@ -152,8 +152,12 @@ struct VehicleParams {
   SensorParams sensors;
 
   size_t rotor_count() const { return rotors.size(); }
-  // Spin-axis inertia of rotor i (its own value, or the motor's).
-  double RotorInertia_kgm2(size_t i) const;
+  // Spin-axis inertia of rotor i (its own value, or the motor's). Inline: the powertrain asks per
+  // rotor per physics step.
+  double RotorInertia_kgm2(size_t i) const {
+    HEXSIM_CHECK(i < rotors.size());
+    return rotors[i].inertia_kgm2 > 0.0 ? rotors[i].inertia_kgm2 : motor.inertia_kgm2;
+  }
 };
 
 }  // namespace hexsim::vehicle
