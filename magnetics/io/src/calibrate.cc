@@ -6,6 +6,7 @@
 #include <Eigen/LU>
 #include <fmt/format.h>
 
+#include "calibrate_internal.h"
 #include "hexsim/magnetics/calib_io.h"
 #include "hexsim/magnetics/compensators.h"
 
@@ -15,7 +16,7 @@ namespace {
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
 
-nlohmann::json Vec(const Vector3d& v) { return nlohmann::json::array({v(0), v(1), v(2)}); }
+using internal::Vec;
 nlohmann::json Mat(const Matrix3d& m) {
   return nlohmann::json::array({Vec(m.row(0).transpose()), Vec(m.row(1).transpose()), Vec(m.row(2).transpose())});
 }
@@ -65,10 +66,7 @@ Result<CalibrateOutcome> TurntablePath(CalibrateOutcome out, const std::vector<M
   FieldCalibration& f = out.field;
   f.method_used = method;
   f.why = method == rq.method ? "requested" : "turntable samples (3 or more planes, 2 or more control amounts): the paper's adaptive method";
-  std::vector<double> norms;
-  for (const auto& b : out.raw_uT) norms.push_back(b.norm());
-  std::nth_element(norms.begin(), norms.begin() + static_cast<std::ptrdiff_t>(norms.size() / 2), norms.end());
-  f.coverage = ComputeCoverage(out.raw_uT, norms[norms.size() / 2]);
+  f.coverage = internal::CoverageAboutMedianNorm(out.raw_uT);
   f.norm_spread_before = NormSpread(out.raw_uT);
   std::vector<Vector3d> after;
   after.reserve(s.size());

@@ -7,6 +7,7 @@
 #include <Eigen/LU>
 #include <fmt/format.h>
 
+#include "calibrate_internal.h"
 #include "hexsim/common/plausibility.h"
 #include "hexsim/magnetics/calibrate.h"
 #include "hexsim/magnetics/compensators.h"
@@ -17,7 +18,7 @@ namespace {
 using Eigen::Matrix3d;
 using Eigen::Vector3d;
 
-nlohmann::json Vec(const Vector3d& v) { return nlohmann::json::array({v(0), v(1), v(2)}); }
+using internal::Vec;
 
 // Samples with |roll| or |pitch| beyond this are left out: a flip or a vehicle lying on its side
 // after a crash, where the logged attitude is least trustworthy (the realdata windows' 60° rule).
@@ -95,10 +96,7 @@ Result<CalibrateOutcome> FlightPath(CalibrateOutcome out, const std::vector<MagS
   f.A = M;
   f.K = Minv / std::cbrt(Minv.determinant());
   f.radius_uT = fit->field_N_uT.norm();
-  std::vector<double> norms;
-  for (const auto& b : out.raw_uT) norms.push_back(b.norm());
-  std::nth_element(norms.begin(), norms.begin() + static_cast<std::ptrdiff_t>(norms.size() / 2), norms.end());
-  f.coverage = ComputeCoverage(out.raw_uT, norms[norms.size() / 2]);
+  f.coverage = internal::CoverageAboutMedianNorm(out.raw_uT);
   f.norm_spread_before = NormSpread(out.raw_uT);
 
   // The current term is applied only when it is resolved (interval excludes 0) and plausible.
