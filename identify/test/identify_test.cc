@@ -211,6 +211,7 @@ TEST(Identify, GivenFrameTypesBeyondPlusAndX_WhenTheFrameIsAsked_ThenTheMotorTab
 logs::FlightLog Renumbered(const logs::FlightLog& in, const std::vector<int>& perm) {
   logs::FlightLog log = in;
   std::vector<std::vector<double>> cols;
+  cols.reserve(perm.size());
   for (int p : perm) cols.push_back(in.Column(fmt::format("motor_{}_u", p)));
   for (size_t k = 0; k < perm.size(); ++k) {
     log.MutableColumn(static_cast<size_t>(log.ColumnIndex(fmt::format("motor_{}_u", k + 1)))) = cols[k];
