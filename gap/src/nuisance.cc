@@ -5,8 +5,8 @@
 // sensor scale and a norm error look the same), and the part of δB_N across the WMM direction
 // (an anomaly or a declination/inclination error). Judged against realdata's normal ranges, or, with
 // nuisance_ranges = "exact" (a configured model that is the calibrated truth), by Wald tests.
-// Timing: the compass latency L from a lag scan of the baseline (+ the aligned current term) fit over
-// the flight samples; the current staleness S from a lag scan of current against throttle.
+// Timing: the current staleness S from a lag scan of current against throttle (the compass latency's
+// scan is compass_timing.cc).
 #include "nuisance.h"
 
 #include <algorithm>
@@ -182,82 +182,6 @@ realdata::LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::ve
   so.seed = o.seed;
   so.resamples = o.bootstrap_samples;
   return realdata::StalenessScan(tu, u, ti, I, so);
-}
-
-CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
-                                const Vec3& B_N_uT, const CompassReplayOptions& base, const realdata::LagEstimate& stale,
-                                double shift_s, const DiagnoseOptions& o) {
-  CompassTiming tm;
-  tm.staleness_s = stale.ok() ? stale.value_s : 0.0;
-  nlohmann::json st = nlohmann::json::object();
-  if (stale.ok()) {
-    st["current_A"] = {{"value", stale.value_s}, {"ci95", {stale.ci95_s[0], stale.ci95_s[1]}},
-                       {"against", "control_u"}, {"resolved", !stale.at_grid_edge},
-                       {"plausible", plausibility::IsPlausible("current_staleness", stale.value_s)},
-                       {"applied_shift_s", shift_s}};
-  }
-  tm.json["regressor_staleness_s"] = st;
-  // Latency grid: −0.1…0.3 s in 10 ms steps; every lag on the same compass samples.
-  const std::vector<double> grid = realdata::LagGrid(-0.1, 0.3, 0.01);
-  std::vector<ChannelData> runs;
-  std::map<double, int> count;
-  for (double L : grid) {
-    CompassReplayOptions ro = base;
-    ro.latency_s = L;
-    ro.current_shift_s = shift_s;
-    ro.baseline_only = true;
-    runs.push_back(ReplayCompass(log, v, c, in, B_N_uT, ro));
-    for (double t : runs.back().t) ++count[t];
-  }
-  const int G = std::max(4, o.blocks);
-  std::vector<std::vector<double>> sse(grid.size(), std::vector<double>(static_cast<size_t>(G), 0.0));
-  size_t common = 0;
-  for (const auto& [t, k] : count) common += k == static_cast<int>(grid.size());
-  if (common < 100) return tm;
-  for (size_t g = 0; g < grid.size(); ++g) {
-    const ChannelData& ch = runs[g];
-    const int p = ch.baseline.p() + (ch.candidates.empty() ? 0 : ch.candidates[0].p());
-    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(p, p);
-    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(p);
-    std::vector<Mat3X> X;
-    std::vector<Vec3> y;
-    for (size_t k = 0; k < ch.t.size(); ++k) {
-      if (count[ch.t[k]] != static_cast<int>(grid.size())) continue;
-      Mat3X x(3, p);
-      x.leftCols(ch.baseline.p()) = ch.baseline.X[k];
-      if (!ch.candidates.empty()) x.rightCols(ch.candidates[0].p()) = ch.candidates[0].X[k];
-      A.noalias() += x.transpose() * x;
-      rhs.noalias() += x.transpose() * ch.y[k];
-      X.push_back(x);
-      y.push_back(ch.y[k]);
-    }
-    const Eigen::VectorXd beta = (A + Eigen::MatrixXd::Identity(p, p) * 1e-12 * A.trace()).ldlt().solve(rhs);
-    for (size_t k = 0; k < y.size(); ++k) sse[g][k * static_cast<size_t>(G) / y.size()] += (y[k] - X[k] * beta).squaredNorm();
-  }
-  const realdata::LagEstimate lat = realdata::ProfileLag(grid, sse, o.bootstrap_samples, o.seed);
-  if (!lat.ok()) return tm;
-  tm.latency_ok = !lat.at_grid_edge;
-  tm.latency_s = lat.value_s;
-  tm.latency_ci95_s[0] = lat.ci95_s[0];
-  tm.latency_ci95_s[1] = lat.ci95_s[1];
-  tm.json["latency_s"] = {{"value", lat.value_s}, {"ci95", {lat.ci95_s[0], lat.ci95_s[1]}}, {"against", "attitude (q_*)"},
-                          {"resolved", !lat.at_grid_edge}, {"plausible", plausibility::IsPlausible("latency", lat.value_s)}};
-  // Held-out share of the unaligned baseline residual that the alignment removes, and whether the
-  // unaligned residual has structure at all.
-  CompassReplayOptions r0 = base, r1 = base;
-  r0.baseline_only = r1.baseline_only = true;
-  r0.current_shift_s = r1.current_shift_s = shift_s;
-  r1.latency_s = lat.value_s;
-  const ChannelData c0 = ReplayCompass(log, v, c, in, B_N_uT, r0);
-  const ChannelData c1 = ReplayCompass(log, v, c, in, B_N_uT, r1);
-  if (c0.t.size() < 100 || c1.t.size() < 100) return tm;
-  const Analyzer a0(c0, o), a1(c1, o);
-  const double cv0 = a0.baseline().cv_sse / static_cast<double>(c0.t.size());
-  const double cv1 = a1.baseline().cv_sse / static_cast<double>(c1.t.size());
-  const double noise = 3.0 * NoiseVariance(c1.t, a1.y());
-  tm.latency_share = std::max(0.0, ExplainedShare(cv0, cv1, noise));
-  tm.json["latency_s"]["explained_share"] = tm.latency_share;
-  return tm;
 }
 
 nlohmann::json GroundVsFlight(const ChannelData& flight, const ChannelData& ground, const nlohmann::json& nuisance) {

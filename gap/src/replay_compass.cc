@@ -19,6 +19,7 @@
 #include <Eigen/LU>
 
 #include "channels.h"
+#include "compass_sampler.h"
 #include "hexsim/common/rotation.h"
 #include "hexsim/magnetics/compass_model.h"
 #include "replay_util.h"
@@ -32,102 +33,13 @@ constexpr double kPerMotorExponent = 0.65;
 // throttle^r (pymavlink magfit_compassmot fits r): the grid the throttle family is profiled over.
 constexpr double kThrottleExponents[] = {0.5, 1.0, 1.5, 2.0, 3.0};
 
-struct Sample {
-  double t;
-  Vec3 m;
-  int row;
-};
-
-// New compass samples: where the time stamp (or, without one, the value) changes; the autopilot's
-// logged per-sample motor compensation is subtracted where the log has it.
-std::vector<Sample> CompassSamples(const logs::FlightLog& log, const std::string& pre, bool* undone) {
-  const auto& t_row = log.Column("t_s");
-  const auto& mx = log.Column(pre + "_x_uT");
-  const auto& my = log.Column(pre + "_y_uT");
-  const auto& mz = log.Column(pre + "_z_uT");
-  const std::vector<double>* mt = Col(log, pre + "_t_s");
-  const std::vector<double>* ox = Col(log, pre + "_mot_x_uT");
-  const std::vector<double>* oy = Col(log, pre + "_mot_y_uT");
-  const std::vector<double>* oz = Col(log, pre + "_mot_z_uT");
-  *undone = ox && oy && oz;
-  std::vector<Sample> out;
-  double last_t = -1e300;
-  Vec3 last_v(std::nan(""), std::nan(""), std::nan(""));
-  for (size_t i = 0; i < log.rows(); ++i) {
-    Vec3 m(mx[i], my[i], mz[i]);
-    if (!m.allFinite()) continue;
-    double tm = t_row[i];
-    if (mt) {
-      if (!std::isfinite((*mt)[i]) || (*mt)[i] <= last_t) continue;
-      tm = (*mt)[i];
-      last_t = tm;
-    } else {
-      if (m == last_v) continue;
-      last_v = m;
-    }
-    if (*undone) {
-      const Vec3 o((*ox)[i], (*oy)[i], (*oz)[i]);
-      if (o.allFinite()) m -= o;  // logged = M·(raw + offsets) + motor offsets
-    }
-    out.push_back({tm, m, static_cast<int>(i)});
-  }
-  return out;
-}
-
-// How the motors share the battery current when the log has no per-motor currents, from the motor
-// outputs u_i at row i (weight w to the next): a motor's DC power V·I_i = τ·ω ∝ ω³ with ω ∝ u_i, so
-// I_i ∝ u_i³. Empty when the log has no (finite) outputs: then the motors share equally. A manoeuvre
-// that spins two motors up and two down moves the per-motor wiring fields while the battery
-// current barely changes; an equal split cannot predict that.
-std::vector<double> MotorShares(const LogInputs& in, size_t n_motor, size_t i, double w) {
-  if (in.motor_u.size() != n_motor || n_motor == 0) return {};
-  std::vector<double> share(n_motor);
-  double sum = 0;
-  for (size_t m = 0; m < n_motor; ++m) {
-    const double u = Lerp(*in.motor_u[m], i, w);
-    if (!std::isfinite(u)) return {};
-    share[m] = std::pow(std::clamp(u, 0.0, 1.0), 3.0);
-    sum += share[m];
-  }
-  if (!(sum > 0)) return {};
-  for (double& x : share) x /= sum;
-  return share;
-}
-
-magnetics::Currents CurrentsAt(const LogInputs& in, const vehicle::VehicleParams& v, size_t i, double w,
-                               const std::vector<double>& shares) {
-  magnetics::Currents cu;
-  const size_t n_motor = v.rotors.size();
-  cu.battery_A = in.current ? Lerp(*in.current, i, w) : 0.0;
-  cu.motor_A.assign(n_motor, 0.0);
-  if (!in.motor_A.empty()) {
-    for (size_t m = 0; m < n_motor; ++m) cu.motor_A[m] = Lerp(*in.motor_A[m], i, w);
-  } else if (in.current) {
-    const double motors = std::max(0.0, cu.battery_A - v.avionics_current_A);
-    for (size_t m = 0; m < n_motor; ++m) {
-      cu.motor_A[m] = shares.size() == n_motor ? motors * shares[m] : motors / static_cast<double>(n_motor);
-    }
-  }
-  return cu;
-}
-
 }  // namespace
 
 ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
                           const Vec3& B_N_uT, const CompassReplayOptions& o) {
   const std::string pre = MagPrefix(c);
-  const vehicle::CompassParams& cp = v.compasses[c];
-  const auto& t_row = log.Column("t_s");
-  magnetics::CurrentFieldParams wiring = v.wiring;
-  if (cp.current_lag_tau_s >= 0) wiring.lag_tau_s = cp.current_lag_tau_s;
-  // A log whose compass values the autopilot calibrated carries no hard or soft iron of its own:
-  // the configured sensor errors are not applied to it (orientation and wiring field are).
-  magnetics::CompassErrorParams err = cp.error;
-  if (o.calibrated_log) {
-    err.hard_iron_uT.setZero();
-    err.soft_iron.setIdentity();
-    err.scale = 1.0;
-  }
+  CompassSampler sampler(log, v, c, in, B_N_uT, o.calibrated_log);
+  const magnetics::CurrentFieldParams& wiring = sampler.wiring();
 
   ChannelData ch;
   ch.name = pre;
@@ -135,12 +47,8 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
   ch.compass = true;
   ch.bias_nuisance = false;  // the baseline's offset holds any bias
   ch.field_N_uT = B_N_uT;
-  const std::vector<Sample> samples = CompassSamples(log, pre, &ch.undone_compensation);
+  ch.undone_compensation = sampler.undone_compensation();
 
-  RowCursor cur{t_row}, cur_i{t_row}, cur_m{t_row};
-  magnetics::CurrentLagState lag;
-  double prev_t = 0;
-  bool first = true;
   std::vector<Vec3> h;                     // predicted field before hard iron, sensor frame
   std::vector<Eigen::Matrix3d> Msens, Rt;  // R_SB·scale·K(I), R_NBᵀ
   std::vector<double> I_log, I_mem, u, temp;
@@ -148,66 +56,40 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
   std::vector<magnetics::Currents> currents;
   const bool has_current = in.current != nullptr;
   const bool has_throttle = in.control_u != nullptr || !in.motor_u.empty();
-  for (const Sample& s : samples) {
+  sampler.Begin(o.latency_s, o.current_shift_s, o.member_shift_s);
+  LocatedSample ls;
+  for (const CompassSample& s : sampler.samples()) {
     if (o.row_kind && (*o.row_kind)[static_cast<size_t>(s.row)] != o.want) continue;
-    const double ta = s.t - o.latency_s;  // when the field was measured
-    double w = 0, wi = 0, wm = 0;
-    if (!cur.Seek(ta, &w) || !cur_i.Seek(ta + o.current_shift_s, &wi) || !cur_m.Seek(ta + o.member_shift_s, &wm)) continue;
-    const size_t i = cur.i;
-    const Eigen::Quaterniond q = QuatLerp(in.q, i, w);
-    if (!q.coeffs().allFinite()) continue;
-    // The current on the aligned time base, split by the motor outputs when the field was measured.
-    const std::vector<double> shares = MotorShares(in, v.rotors.size(), i, w);
-    const magnetics::Currents cu = CurrentsAt(in, v, cur_i.i, wi, shares);
-    const double i_logged = has_current ? Lerp(*in.current, i, w) : 0.0;
-    const double i_member = has_current ? Lerp(*in.current, cur_m.i, wm) : 0.0;
+    if (!sampler.Locate(s, &ls)) continue;
+    const Eigen::Matrix3d R_NB = ls.q.toRotationMatrix();
+    const CompassSampler::Prediction p = sampler.Predict(s, ls, R_NB);
     double thr = std::nan("");
     std::vector<double> motors;
-    for (auto* m : in.motor_u) motors.push_back(Lerp(*m, i, w));
+    if (!o.baseline_only) {
+      for (auto* m : in.motor_u) motors.push_back(Lerp(*m, ls.i, ls.w));
+    }
     if (in.control_u) {
-      thr = Lerp(*in.control_u, i, w) / kThrottleFullScale;
-    } else if (!motors.empty()) {
+      thr = Lerp(*in.control_u, ls.i, ls.w) / kThrottleFullScale;
+    } else if (!in.motor_u.empty()) {
       thr = 0;
-      for (double m : motors) thr += m / static_cast<double>(motors.size());
+      for (auto* m : in.motor_u) thr += Lerp(*m, ls.i, ls.w) / static_cast<double>(in.motor_u.size());
     }
-    bool ok = std::isfinite(cu.battery_A) && std::isfinite(i_logged) && std::isfinite(i_member);
-    // Between two log rows the current is unknown; where it jumps (motor spin-up, touchdown) the
-    // interpolated current cannot predict the wiring field, so such samples are left out.
-    constexpr double kMaxCurrentStep_A = 2.0;
-    const size_t ic = cur_i.i;
-    if (has_current && wi > 0 && std::fabs((*in.current)[ic + 1] - (*in.current)[ic]) > kMaxCurrentStep_A) continue;
-    // The same bound on each motor's share between the two rows around the sample (a manoeuvre
-    // that moves the split faster than the rows resolve it).
-    if (has_current && in.motor_A.empty() && !shares.empty() && w > 0) {
-      const std::vector<double> s0 = MotorShares(in, v.rotors.size(), i, 0.0), s1 = MotorShares(in, v.rotors.size(), i + 1, 0.0);
-      const double motors_A = std::max(0.0, cu.battery_A - v.avionics_current_A);
-      bool jump = s0.size() != s1.size();
-      for (size_t m = 0; !jump && m < s0.size(); ++m) jump = motors_A * std::fabs(s1[m] - s0[m]) > kMaxCurrentStep_A;
-      if (jump) continue;
-    }
-    for (double a : cu.motor_A) ok = ok && std::isfinite(a);
-    if (!ok) continue;
-    const double dt = first ? 0.0 : std::max(0.0, s.t - prev_t);
-    first = false;
-    prev_t = s.t;
-    const magnetics::Currents& lagged = magnetics::StepCurrentLag(wiring, cu, dt, &lag);
-    const Eigen::Matrix3d R_NB = q.toRotationMatrix();
-    const Vec3 pred = magnetics::NoiselessCompassReading_uT(err, wiring, cp.position_B_m, R_NB, B_N_uT, lagged);
-    const Eigen::Matrix3d M = err.R_SB * (err.scale * (err.soft_iron + lagged.battery_A * err.soft_iron_per_A));
     ch.t.push_back(s.t);
-    ch.y.emplace_back(s.m - pred);
+    ch.y.emplace_back(s.m - p.pred);
     ch.row.push_back(s.row);
-    ch.current_A.push_back(cu.battery_A);
+    ch.current_A.push_back(ls.currents.battery_A);
     ch.throttle.push_back(thr);
-    h.emplace_back(pred - err.hard_iron_uT);
-    Msens.push_back(M);
+    h.push_back(p.h);
+    Msens.push_back(p.M);
     Rt.emplace_back(R_NB.transpose());
-    I_log.push_back(i_logged);
-    I_mem.push_back(i_member);
+    I_log.push_back(ls.i_logged);
+    I_mem.push_back(ls.i_member);
     u.push_back(thr);
-    mu.push_back(motors);
-    temp.push_back(in.temp ? Lerp(*in.temp, i, w) : std::nan(""));
-    currents.push_back(cu);
+    if (!o.baseline_only) {
+      mu.push_back(std::move(motors));
+      temp.push_back(in.temp ? Lerp(*in.temp, ls.i, ls.w) : std::nan(""));
+      currents.push_back(ls.currents);
+    }
   }
   const size_t n = ch.t.size();
 
@@ -221,7 +103,7 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
   if (o.baseline_only) {
     if (has_current) {
       Candidate chi = MakeCandidate("current_hard_iron", {"d_x_uT_per_A", "d_y_uT_per_A", "d_z_uT_per_A"}, {1, 1, 1}, "uT/A");
-      for (size_t k = 0; k < n; ++k) chi.X.push_back(Diag3(currents[k].battery_A));
+      for (size_t k = 0; k < n; ++k) chi.X.push_back(Diag3(ch.current_A[k]));
       ch.candidates.push_back(std::move(chi));
     }
     return ch;
@@ -285,7 +167,7 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
     // configured one: r = a·M·(W(lp_τ(I)) − W(lp_τcfg(I))), a ≈ 1, τ profiled over a grid.
     double wiring_energy = 0;
     for (size_t k = 0; k < n; ++k) {
-      wiring_energy += magnetics::CurrentDrivenField_uT(wiring, cp.position_B_m, currents[k]).squaredNorm();
+      wiring_energy += sampler.field()(currents[k]).squaredNorm();
     }
     if (n > 0 && std::sqrt(wiring_energy / static_cast<double>(n)) > 0.05) {
       for (double tau : kLagGrid_s) {
@@ -298,10 +180,8 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
         cl.grid_name = "tau_s";
         for (size_t k = 0; k < n; ++k) {
           const double dt = k == 0 ? 0.0 : ch.t[k] - ch.t[k - 1];
-          const Vec3 a = magnetics::CurrentDrivenField_uT(
-              wiring, cp.position_B_m, magnetics::StepCurrentLag(lagged_wiring, currents[k], dt, &s_new));
-          const Vec3 b = magnetics::CurrentDrivenField_uT(
-              wiring, cp.position_B_m, magnetics::StepCurrentLag(wiring, currents[k], dt, &s_cfg));
+          const Vec3 a = sampler.field()(magnetics::StepCurrentLag(lagged_wiring, currents[k], dt, &s_new));
+          const Vec3 b = sampler.field()(magnetics::StepCurrentLag(wiring, currents[k], dt, &s_cfg));
           cl.X.emplace_back(Msens[k] * (a - b));
           cl.regressor.push_back(currents[k].battery_A);
         }

@@ -1,0 +1,127 @@
+// The compass latency L against the attitude: a lag scan of the baseline (+ the aligned current
+// term) fit over the flight samples (private to gap/; declared in nuisance.h).
+//
+// At each trial latency the configured compass model is evaluated at every flight sample
+// (CompassSampler, the replay's own model) and the baseline fitted by least squares on the samples
+// usable at every trial latency; the per-block SSE profile gives the estimate and its block-bootstrap
+// interval (realdata::ProfileLag). Nothing but the fit's regressors is built per trial latency.
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Cholesky>
+
+#include "compass_sampler.h"
+#include "detection.h"
+#include "hexsim/common/plausibility.h"
+#include "nuisance.h"
+
+namespace hexsim::gap::internal {
+namespace {
+
+// The scan's fit: the baseline's 6 columns (offset, Earth-field correction), then the current
+// hard-iron term's 3 where the log has a current.
+constexpr int kMaxScanParams = 9;
+using ScanX = Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kMaxScanParams>;
+using ScanA = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxScanParams, kMaxScanParams>;
+using ScanV = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxScanParams, 1>;
+
+// Per-block SSE of the baseline fit at each trial latency, on the samples usable at every one; empty
+// when fewer than 100 are.
+std::vector<std::vector<double>> LatencyProfile(CompassSampler* sampler, const CompassReplayOptions& base, double shift_s,
+                                                const std::vector<double>& grid, int G) {
+  const std::vector<CompassSample>& samples = sampler->samples();
+  const size_t ns = samples.size();
+  auto wanted = [&](const CompassSample& s) {
+    return !base.row_kind || (*base.row_kind)[static_cast<size_t>(s.row)] == base.want;
+  };
+  LocatedSample ls;
+  Eigen::Matrix3d R_NB;
+  // The samples usable at every trial latency.
+  std::vector<int> usable(ns, 0);
+  for (double L : grid) {
+    sampler->Begin(L, shift_s, base.member_shift_s);
+    for (size_t k = 0; k < ns; ++k) {
+      if (wanted(samples[k]) && sampler->Locate(samples[k], &ls)) ++usable[k];
+    }
+  }
+  size_t common = 0;
+  for (int u : usable) common += u == static_cast<int>(grid.size());
+  if (common < 100) return {};
+  const int p = 6 + (sampler->has_current() ? 3 : 0);
+  std::vector<std::vector<double>> sse(grid.size(), std::vector<double>(static_cast<size_t>(G), 0.0));
+  std::vector<ScanX> X(common);
+  std::vector<Vec3> y(common);
+  for (size_t g = 0; g < grid.size(); ++g) {
+    // Every sample usable at this latency advances the configured current lag, as in the replay.
+    sampler->Begin(grid[g], shift_s, base.member_shift_s);
+    ScanA A = ScanA::Zero(p, p);
+    ScanV rhs = ScanV::Zero(p);
+    size_t m = 0;
+    for (size_t k = 0; k < ns; ++k) {
+      if (!wanted(samples[k]) || !sampler->Locate(samples[k], &ls)) continue;
+      R_NB = ls.q.toRotationMatrix();
+      const CompassSampler::Prediction pr = sampler->Predict(samples[k], ls, R_NB);
+      if (usable[k] != static_cast<int>(grid.size())) continue;
+      ScanX& x = X[m];
+      x.resize(3, p);
+      x.leftCols<3>().setIdentity();
+      x.middleCols<3>(3) = pr.M * R_NB.transpose();
+      if (p > 6) x.rightCols<3>() = Eigen::Matrix3d::Identity() * ls.currents.battery_A;
+      y[m] = samples[k].m - pr.pred;
+      A.noalias() += x.transpose() * x;
+      rhs.noalias() += x.transpose() * y[m];
+      ++m;
+    }
+    const ScanV beta = (A + ScanA::Identity(p, p) * 1e-12 * A.trace()).ldlt().solve(rhs);
+    for (size_t k = 0; k < m; ++k) sse[g][k * static_cast<size_t>(G) / m] += (y[k] - X[k] * beta).squaredNorm();
+  }
+  return sse;
+}
+
+}  // namespace
+
+CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
+                                const Vec3& B_N_uT, const CompassReplayOptions& base, const realdata::LagEstimate& stale,
+                                double shift_s, const DiagnoseOptions& o) {
+  CompassTiming tm;
+  tm.staleness_s = stale.ok() ? stale.value_s : 0.0;
+  nlohmann::json st = nlohmann::json::object();
+  if (stale.ok()) {
+    st["current_A"] = {{"value", stale.value_s}, {"ci95", {stale.ci95_s[0], stale.ci95_s[1]}},
+                       {"against", "control_u"}, {"resolved", !stale.at_grid_edge},
+                       {"plausible", plausibility::IsPlausible("current_staleness", stale.value_s)},
+                       {"applied_shift_s", shift_s}};
+  }
+  tm.json["regressor_staleness_s"] = st;
+  // Latency grid: −0.1…0.3 s in 10 ms steps; every lag on the same compass samples.
+  const std::vector<double> grid = realdata::LagGrid(-0.1, 0.3, 0.01);
+  CompassSampler sampler(log, v, c, in, B_N_uT, base.calibrated_log);
+  const std::vector<std::vector<double>> sse = LatencyProfile(&sampler, base, shift_s, grid, std::max(4, o.blocks));
+  if (sse.empty()) return tm;
+  const realdata::LagEstimate lat = realdata::ProfileLag(grid, sse, o.bootstrap_samples, o.seed);
+  if (!lat.ok()) return tm;
+  tm.latency_ok = !lat.at_grid_edge;
+  tm.latency_s = lat.value_s;
+  tm.latency_ci95_s[0] = lat.ci95_s[0];
+  tm.latency_ci95_s[1] = lat.ci95_s[1];
+  tm.json["latency_s"] = {{"value", lat.value_s}, {"ci95", {lat.ci95_s[0], lat.ci95_s[1]}}, {"against", "attitude (q_*)"},
+                          {"resolved", !lat.at_grid_edge}, {"plausible", plausibility::IsPlausible("latency", lat.value_s)}};
+  // Held-out share of the unaligned baseline residual that the alignment removes, and whether the
+  // unaligned residual has structure at all.
+  CompassReplayOptions r0 = base, r1 = base;
+  r0.baseline_only = r1.baseline_only = true;
+  r0.current_shift_s = r1.current_shift_s = shift_s;
+  r1.latency_s = lat.value_s;
+  const ChannelData c0 = ReplayCompass(log, v, c, in, B_N_uT, r0);
+  const ChannelData c1 = ReplayCompass(log, v, c, in, B_N_uT, r1);
+  if (c0.t.size() < 100 || c1.t.size() < 100) return tm;
+  const Analyzer a0(c0, o), a1(c1, o);
+  const double cv0 = a0.baseline().cv_sse / static_cast<double>(c0.t.size());
+  const double cv1 = a1.baseline().cv_sse / static_cast<double>(c1.t.size());
+  const double noise = 3.0 * NoiseVariance(c1.t, a1.y());
+  tm.latency_share = std::max(0.0, ExplainedShare(cv0, cv1, noise));
+  tm.json["latency_s"]["explained_share"] = tm.latency_share;
+  return tm;
+}
+
+}  // namespace hexsim::gap::internal
