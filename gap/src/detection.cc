@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "spectrum.h"
 #include "stats.h"
 
 namespace hexsim::gap::internal {
@@ -202,8 +203,8 @@ nlohmann::json Where(const ChannelData& ch, const std::vector<Vec3>& y, const lo
 
 namespace {
 
-// Periodogram of the residual (axes summed) at Fourier frequencies 1..m/2 of at most 4096 evenly
-// decimated samples; returns {f_Hz, power}.
+// Periodogram of the residual (axes summed) at Fourier frequencies 1..m/2 of the residual taken every
+// ⌊n/4096⌋-th sample (m < 8192 samples), by FFT; returns {f_Hz, power}.
 std::pair<std::vector<double>, std::vector<double>> Periodogram(const std::vector<double>& t, const std::vector<Vec3>& r) {
   std::vector<double> fs, ps;
   const size_t n = r.size();
@@ -220,21 +221,11 @@ std::pair<std::vector<double>, std::vector<double>> Periodogram(const std::vecto
   Vec3 mean = Vec3::Zero();
   for (const auto& v : x) mean += v;
   mean /= static_cast<double>(m);
-  for (size_t f = 1; f <= m / 2; ++f) {
-    // Goertzel-free direct sum with a rotating phasor.
-    const double w = 2.0 * 3.141592653589793 * static_cast<double>(f) / static_cast<double>(m);
-    const double cw = std::cos(w), sw = std::sin(w);
-    double c = 1, s = 0;
-    Vec3 re = Vec3::Zero(), im = Vec3::Zero();
-    for (size_t k = 0; k < m; ++k) {
-      re += (x[k] - mean) * c;
-      im += (x[k] - mean) * s;
-      const double c2 = c * cw - s * sw;
-      s = s * cw + c * sw;
-      c = c2;
-    }
+  for (auto& v : x) v -= mean;
+  ps = FourierPower(x);
+  for (size_t f = 1; f <= ps.size(); ++f) {
     fs.push_back(static_cast<double>(f) / (static_cast<double>(m) * dt));
-    ps.push_back((re.squaredNorm() + im.squaredNorm()) / static_cast<double>(m));
+    ps[f - 1] /= static_cast<double>(m);
   }
   return {fs, ps};
 }
@@ -340,8 +331,8 @@ nlohmann::json ResidualLeft(const std::vector<double>& t, const std::vector<Vec3
   nlohmann::json j;
   j["share"] = std::clamp(share_left, 0.0, 1.0);
   const size_t n = after.size();
-  // Dominant frequency: periodogram on the sample index (median spacing), at most 2048 samples
-  // (evenly decimated), summed over the three axes.
+  // Dominant frequency: periodogram on the sample index (median spacing), every ⌊n/2048⌋-th sample
+  // (m < 4096), summed over the three axes, by FFT.
   double f_dom = 0;
   if (n >= 32) {
     std::vector<double> dts;
@@ -357,17 +348,12 @@ nlohmann::json ResidualLeft(const std::vector<double>& t, const std::vector<Vec3
     Vec3 mean = Vec3::Zero();
     for (const auto& v : x) mean += v;
     mean /= static_cast<double>(m);
+    for (auto& v : x) v -= mean;
+    const std::vector<double> power = FourierPower(x);
     double best = -1;
-    for (size_t f = 1; f <= m / 2; ++f) {
-      const double w = 2.0 * 3.141592653589793 * static_cast<double>(f) / static_cast<double>(m);
-      Vec3 re = Vec3::Zero(), im = Vec3::Zero();
-      for (size_t k = 0; k < m; ++k) {
-        re += (x[k] - mean) * std::cos(w * static_cast<double>(k));
-        im += (x[k] - mean) * std::sin(w * static_cast<double>(k));
-      }
-      const double p = re.squaredNorm() + im.squaredNorm();
-      if (p > best) {
-        best = p;
+    for (size_t f = 1; f <= power.size(); ++f) {
+      if (power[f - 1] > best) {
+        best = power[f - 1];
         f_dom = static_cast<double>(f) / (static_cast<double>(m) * dt);
       }
     }
