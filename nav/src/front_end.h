@@ -9,6 +9,7 @@
 //   /* propagate over s.t_s − front_.time() */ front_.Advance(s.t_s); ... front_.Record(p, v);
 #pragma once
 
+#include <cmath>
 #include <string>
 
 #include <Eigen/Core>
@@ -67,9 +68,11 @@ class FrontEnd {
   // (when given) the step; the filter then does nothing more.
   template <class V>
   bool CheckFinite(const V& v, const char* quantity, double t_s, const char* where = nullptr) {
-    // x·0 is ±0 for a finite x and NaN for ±inf or NaN, so the sum is 0 exactly when every
-    // coefficient is finite (the same answer as allFinite(), in one vectorised pass).
-    if ((v.array() * 0.0).sum() == 0.0) return true;
+    // A sum with an infinite or NaN term is never finite, so a finite plain sum (one vectorised
+    // pass of additions) proves every coefficient finite. Only when it is not (a non-finite term,
+    // or finite terms overflowing) the exact test: x·0 is ±0 for a finite x and NaN for ±inf or
+    // NaN, so that sum is 0 exactly when every coefficient is finite (allFinite()'s answer).
+    if (std::isfinite(v.sum()) || (v.array() * 0.0).sum() == 0.0) return true;
     Fail("non-finite " + std::string(quantity) + " at t=" + Num(t_s) + " s" + Where(where));
     return false;
   }
