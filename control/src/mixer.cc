@@ -123,7 +123,9 @@ void Mixer::Mix(double thrust_N, const Vector3d& torque_B_Nm, double max_rotor_t
   mu = std::max(mu, 0.0);
   out.yaw_scale = mu;
   for (Eigen::Index i = 0; i < n; ++i) t(i) = std::min(std::max(t(i) + mu * yaw_i(i), 0.0), max);
-  out.achieved.noalias() = A_ * t;
+  // A·t with the fixed-size result (a 4-row product; no general matrix-vector kernel per call).
+  out.achieved.setZero();
+  for (Eigen::Index j = 0; j < n; ++j) out.achieved += A_.col(j).head<4>() * t(j);
   const double tol = 1e-9 * std::max(1.0, max);
   out.saturated = k < 1.0 || std::abs(c - thrust_N) > tol || mu < 1.0;
 }

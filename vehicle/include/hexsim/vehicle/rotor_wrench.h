@@ -24,12 +24,12 @@ class RotorWrenchTable {
   Wrench operator()(const std::vector<double>& omega_radps, const Eigen::Vector3d& w_B_radps) const;
 
  private:
-  struct Rotor {
-    Eigen::Vector3d force_per_w2;   // k_T a, N/(rad/s)²
-    Eigen::Vector3d torque_per_w2;  // k_T p × a − s k_Q a, N·m/(rad/s)²
-    Eigen::Vector3d h_per_w;        // s J_r a, N·m·s/(rad/s)
-  };
-  std::vector<Rotor> rotors_;
+  // Per rotor, contiguous: k_T a (N/(rad/s)²), k_T p × a − s k_Q a (N·m/(rad/s)²), then s J_r a
+  // (N·m·s/(rad/s)). One flat array so the sums vectorise; each component is still the same
+  // sequence of products and additions, so the result is the same bits as three Vector3d sums.
+  static constexpr int kStride = 9;
+  std::vector<double> coef_;
+  size_t rotor_count_ = 0;
 };
 
 }  // namespace hexsim::vehicle
