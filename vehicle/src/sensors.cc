@@ -42,11 +42,6 @@ NoiseChannel::NoiseChannel(double rate_hz, const Eigen::Vector3d& noise_std, con
   for (int i = 0; i < 3; ++i) bias_(i) = bias_std(i) * rng_.Normal();
 }
 
-bool NoiseChannel::Due(double t_s) const {
-  // A small tolerance keeps t = k/rate sampled despite rounding in the caller's clock.
-  return !started_ || t_s >= next_t_s_ - 1e-9 * period_s_;
-}
-
 Eigen::Vector3d NoiseChannel::Sample(double t_s, const Eigen::Vector3d& truth) {
   if (started_) {
     const double dt = std::max(0.0, t_s - last_t_s_);

@@ -9,8 +9,8 @@
 #pragma once
 
 #include <cstdint>
-#include <deque>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -81,7 +81,9 @@ class NoiseChannel {
   NoiseChannel(double rate_hz, const Eigen::Vector3d& noise_std, const Eigen::Vector3d& bias_std,
                const Eigen::Vector3d& bias_walk_per_sqrt_s, uint64_t seed, std::string_view stream);
   // True when a sample is due at t_s (the first step always samples; then every 1/rate).
-  bool Due(double t_s) const;
+  // A small tolerance keeps t = k/rate sampled despite rounding in the caller's clock. Inline:
+  // five channels ask every physics step.
+  bool Due(double t_s) const { return !started_ || t_s >= next_t_s_ - 1e-9 * period_s_; }
   // Takes a sample at t_s: advances the bias walk and returns truth + bias + noise.
   Eigen::Vector3d Sample(double t_s, const Eigen::Vector3d& truth);
   const Eigen::Vector3d& bias() const { return bias_; }
@@ -117,6 +119,34 @@ class SensorSuite {
     double t_s;
     Eigen::Vector3d p_N_m, v_N_mps;
   };
+  // FIFO of the GPS truth history: a ring that doubles when full, so steady stepping allocates
+  // nothing (a deque allocated and freed a block every few steps).
+  class HistoryRing {
+   public:
+    size_t size() const { return size_; }
+    const History& operator[](size_t i) const { return buf_[(head_ + i) & (buf_.size() - 1)]; }
+    const History& front() const { return (*this)[0]; }
+    void pop_front() {
+      head_ = (head_ + 1) & (buf_.size() - 1);
+      --size_;
+    }
+    void push_back(const History& h) {
+      if (size_ == buf_.size()) Grow();
+      buf_[(head_ + size_) & (buf_.size() - 1)] = h;
+      ++size_;
+    }
+
+   private:
+    void Grow() {  // capacity stays a power of two; the entries move to the front in order
+      std::vector<History> next(buf_.empty() ? 64 : 2 * buf_.size());
+      for (size_t i = 0; i < size_; ++i) next[i] = (*this)[i];
+      buf_ = std::move(next);
+      head_ = 0;
+    }
+    std::vector<History> buf_;
+    size_t head_ = 0;
+    size_t size_ = 0;
+  };
   struct Compass {
     CompassParams params;
     magnetics::CurrentFieldParams wiring;  // the vehicle's, with this compass' lag
@@ -130,7 +160,7 @@ class SensorSuite {
   size_t rotor_count_ = 0;
   NoiseChannel gyro_, accel_, gps_pos_, gps_vel_, baro_;
   double gps_latency_s_ = 0.0;
-  std::deque<History> history_;
+  HistoryRing history_;
   bool stepped_ = false;
   double last_t_s_ = 0.0;
   SensorReadings readings_;
