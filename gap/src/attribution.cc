@@ -125,7 +125,9 @@ Analyzer::Analyzer(const ChannelData& ch, const DiagnoseOptions& o) : ch_(ch) {
 
 Evaluated Analyzer::Evaluate(const Candidate& c) const { return EvaluateX(&c); }
 
-Evaluated Analyzer::EvaluateX(const Candidate* c) const {
+Evaluated Analyzer::FitOnly(const Candidate& c) const { return EvaluateX(&c, true); }
+
+Evaluated Analyzer::EvaluateX(const Candidate* c, bool full_only) const {
   Evaluated e;
   e.cand = c;
   const int p0 = baseline_ ? baseline_->p() : 0;
@@ -140,19 +142,42 @@ Evaluated Analyzer::EvaluateX(const Candidate* c) const {
     mean_x /= static_cast<double>(n_);
   }
   const std::vector<Vec3>& y = baseline_ ? y_raw_ : y_;
-  Mat3X x(3, p);
-  for (size_t k = 0; k < n_; ++k) {
-    if (baseline_) x.leftCols(p0) = baseline_->X[k];
-    if (c) x.rightCols(pc) = c->X[k] - mean_x;
-    Block& b = e.blocks[block_[k]];
-    b.A.noalias() += x.transpose() * x;
-    b.g.noalias() += x.transpose() * y[k];
-    b.s += y[k].squaredNorm();
-    b.n += 3;
+  // Coefficient-wise products: a 3-row block is far below the size where the blocked GEMM pays.
+  if (baseline_ && c && base_eval_.blocks.size() == static_cast<size_t>(G_)) {
+    // The baseline's own part of the normal equations is the same under every candidate: taken
+    // from its evaluation, only the candidate's rows and columns are summed (the same sums).
+    for (int g = 0; g < G_; ++g) {
+      const Block& bb = base_eval_.blocks[static_cast<size_t>(g)];
+      Block& b = e.blocks[static_cast<size_t>(g)];
+      b.A.topLeftCorner(p0, p0) = bb.A;
+      b.g.head(p0) = bb.g;
+      b.s = bb.s;
+      b.n = bb.n;
+    }
+    for (size_t k = 0; k < n_; ++k) {
+      const Mat3X& xb = baseline_->X[k];
+      const Mat3X& xc = c->X[k];
+      Block& b = e.blocks[block_[k]];
+      b.A.block(0, p0, p0, pc).noalias() += xb.transpose().lazyProduct(xc);
+      b.A.bottomRightCorner(pc, pc).noalias() += xc.transpose().lazyProduct(xc);
+      b.g.tail(pc).noalias() += xc.transpose().lazyProduct(y[k]);
+    }
+    for (Block& b : e.blocks) b.A.block(p0, 0, pc, p0) = b.A.block(0, p0, p0, pc).transpose();
+  } else {
+    Mat3X x(3, p);
+    for (size_t k = 0; k < n_; ++k) {
+      if (baseline_) x.leftCols(p0) = baseline_->X[k];
+      if (c) x.rightCols(pc) = c->X[k] - mean_x;
+      Block& b = e.blocks[block_[k]];
+      b.A.noalias() += x.transpose().lazyProduct(x);
+      b.g.noalias() += x.transpose().lazyProduct(y[k]);
+      b.s += y[k].squaredNorm();
+      b.n += 3;
+    }
   }
   std::vector<double> w(G_, 1.0);
   e.full = Solve(e.blocks, w, p);
-  if (!e.full.ok) return e;
+  if (!e.full.ok || full_only) return e;
   // Blocked CV: G/2 folds of two adjacent blocks each.
   e.cv_sse = 0;
   for (int f = 0; f < G_; f += 2) {
@@ -216,7 +241,16 @@ double Shrink(double after_sse, double before_sse) {
   return 1.0 - std::sqrt(std::max(0.0, after_sse) / before_sse);
 }
 
-void Describe(const Evaluated& e, const std::vector<double>& grid_boot, CandidateResult* r) {
+double MagnitudeOf(const Evaluated& e) {
+  const Candidate& c = *e.cand;
+  if (c.grid_name == "tau_s") return c.grid_value;
+  const int pm = c.magnitude_params > 0 ? c.magnitude_params : c.p();
+  Eigen::VectorXd v(pm);
+  for (int j = 0; j < pm; ++j) v[j] = e.full.beta[e.off + j] * c.scale[j];
+  return pm == 1 ? v[0] : v.norm();
+}
+
+void Describe(const Evaluated& e, const std::vector<double>& grid_boot, const std::vector<double>& grid, CandidateResult* r) {
   const Candidate& c = *e.cand;
   const double t975 = StudentT975(static_cast<double>(e.blocks.size() - 1));
   const int p = c.p();
@@ -235,6 +269,30 @@ void Describe(const Evaluated& e, const std::vector<double>& grid_boot, Candidat
     if (!g.empty()) {
       lo = std::min(lo, g[static_cast<size_t>(0.025 * static_cast<double>(g.size() - 1))]);
       hi = std::max(hi, g[static_cast<size_t>(std::ceil(0.975 * static_cast<double>(g.size() - 1)))]);
+    }
+    // A profiled parameter is resolved to its grid only: a value between two grid points goes to
+    // one of them, so the interval holds the cells of the grid points it spans (half-way to the
+    // neighbouring grid value; at the grid's ends half a step beyond). A bootstrap that always
+    // picks one grid point would otherwise give an interval of zero width. The member choice
+    // current_aligned is not a continuous parameter.
+    if (c.grid_name != "current_aligned") {
+      std::vector<double> gv = grid;
+      std::sort(gv.begin(), gv.end());
+      gv.erase(std::unique(gv.begin(), gv.end()), gv.end());
+      if (gv.size() >= 2) {
+        const auto cell_lo = [&](double x) {
+          const auto it = std::lower_bound(gv.begin(), gv.end(), x);
+          if (it == gv.begin()) return x - 0.5 * (gv[1] - gv[0]);
+          return 0.5 * (x + *(it - 1));
+        };
+        const auto cell_hi = [&](double x) {
+          const auto it = std::upper_bound(gv.begin(), gv.end(), x);
+          if (it == gv.end()) return x + 0.5 * (gv[gv.size() - 1] - gv[gv.size() - 2]);
+          return 0.5 * (x + *it);
+        };
+        lo = cell_lo(lo);
+        hi = cell_hi(hi);
+      }
     }
     r->ci95[c.grid_name] = {lo, hi};
     if (c.grid_name == "tau_s") {  // the lag is the magnitude of current_lag
@@ -352,7 +410,9 @@ Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseO
     r.p_value = std::min(1.0, e.p_value);
     r.bic = e.bic;
     r.parameters = e.cand->p();
-    Describe(e, grid_boot[at.fam_names[f]], &r);
+    std::vector<double> grid;
+    for (size_t m : at.family[at.fam_names[f]]) grid.push_back(at.all[m].cand->grid_value);
+    Describe(e, grid_boot[at.fam_names[f]], grid, &r);
     at.results.push_back(std::move(r));
   }
   at.order.resize(F);

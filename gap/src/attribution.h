@@ -64,13 +64,15 @@ class Analyzer {
   const Evaluated& baseline() const { return base_eval_; }
   // c fitted over the baseline (nested) or alone (first-wave channels).
   Evaluated Evaluate(const Candidate& c) const;
+  // The full-data fit only (no cross-validation, no covariance): for refits that need the estimate.
+  Evaluated FitOnly(const Candidate& c) const;
   // Residual after subtracting the full-data fit of e (baseline included).
   std::vector<Vec3> After(const Evaluated& e) const;
   // Residual after the baseline alone, per sample.
   std::vector<Vec3> AfterBaseline() const;
 
  private:
-  Evaluated EvaluateX(const Candidate* c) const;
+  Evaluated EvaluateX(const Candidate* c, bool full_only = false) const;
   const ChannelData& ch_;
   const Candidate* baseline_ = nullptr;
   size_t n_ = 0;
@@ -97,8 +99,13 @@ struct Attribution {
 Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseOptions& o, RngStream* rng,
                       double noise_sse = 0.0);
 
-// Fills the reported parameters, intervals and magnitude of a candidate fit.
-void Describe(const Evaluated& e, const std::vector<double>& grid_boot, CandidateResult* r);
+// The reported magnitude of a candidate fit (Describe's): a profiled lag τ, else the scaled
+// parameter or the norm of the magnitude's parameters.
+double MagnitudeOf(const Evaluated& e);
+// Fills the reported parameters, intervals and magnitude of a candidate fit; grid_boot: the profiled
+// parameter's bootstrap picks, grid: its family's grid values.
+void Describe(const Evaluated& e, const std::vector<double>& grid_boot, const std::vector<double>& grid,
+              CandidateResult* r);
 
 double Shrink(double after_sse, double before_sse);
 // (MS_baseline − MS_after) / (MS_baseline − MS_noise) on held-out blocks: the share of the residual

@@ -100,6 +100,7 @@ struct CompassReplayOptions {
   const std::vector<realdata::RowKind>* row_kind = nullptr;  // null: every row
   realdata::RowKind want = realdata::RowKind::kFlight;
   bool baseline_only = false;   // the timing scan: baseline and the aligned current_hard_iron only
+  bool library_free = true;     // build the library-free set (detection)
   bool calibrated_log = false;  // the autopilot calibrated the logged values: no configured hard/soft iron
 };
 

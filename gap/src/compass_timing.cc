@@ -7,9 +7,12 @@
 // interval (realdata::ProfileLag). Nothing but the fit's regressors is built per trial latency.
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <string>
 
 #include <Eigen/Cholesky>
 
+#include "attribution.h"
 #include "compass_sampler.h"
 #include "detection.h"
 #include "hexsim/common/plausibility.h"
@@ -122,6 +125,86 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
   tm.latency_share = std::max(0.0, ExplainedShare(cv0, cv1, noise));
   tm.json["latency_s"]["explained_share"] = tm.latency_share;
   return tm;
+}
+
+void PropagateTiming(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
+                     const Vec3& B_N_uT, const CompassReplayOptions& used, const CompassTiming& timing,
+                     const realdata::LagEstimate& stale, const DiagnoseOptions& o, ChannelResult* res) {
+  // The two plug-ins, each at the ends of its own 95 % interval (a logged current is never early:
+  // its shift at least zero).
+  std::vector<std::pair<CompassReplayOptions, CompassReplayOptions>> pairs;
+  if (timing.latency_ok) {
+    CompassReplayOptions lo = used, hi = used;
+    lo.latency_s = timing.latency_ci95_s[0];
+    hi.latency_s = timing.latency_ci95_s[1];
+    pairs.emplace_back(lo, hi);
+  }
+  if (stale.ok() && (used.current_shift_s > 0 || used.member_shift_s > 0)) {
+    CompassReplayOptions lo = used, hi = used;
+    lo.current_shift_s = used.current_shift_s > 0 ? std::max(0.0, stale.ci95_s[0]) : 0.0;
+    hi.current_shift_s = used.current_shift_s > 0 ? std::max(0.0, stale.ci95_s[1]) : 0.0;
+    lo.member_shift_s = used.member_shift_s > 0 ? std::max(0.0, stale.ci95_s[0]) : 0.0;
+    hi.member_shift_s = used.member_shift_s > 0 ? std::max(0.0, stale.ci95_s[1]) : 0.0;
+    pairs.emplace_back(lo, hi);
+  }
+  if (pairs.empty()) return;
+  // Each reported effect's magnitude on a replay at the given timing: the reported member of its
+  // family (a profiled lag τ, the magnitude itself, profiled again); the nuisance terms from the
+  // baseline.
+  auto magnitudes = [&](CompassReplayOptions ro) {
+    std::map<std::string, double> m;
+    ro.library_free = false;  // not a reported effect
+    const ChannelData ch = ReplayCompass(log, v, c, in, B_N_uT, ro);
+    if (static_cast<int>(ch.t.size()) < o.min_samples) return m;
+    const Analyzer an(ch, o);
+    const NuisanceReport nr = DescribeNuisance(ch, an.baseline(), o);
+    for (const CandidateResult& t : nr.terms) m[t.effect] = t.magnitude;
+    for (const CandidateResult& k : res->candidates) {
+      if (k.params.contains("nuisance") || k.effect == "latency") continue;
+      const Candidate* member = nullptr;
+      double best_sse = 0;
+      for (const Candidate& cand : ch.candidates) {
+        if (cand.effect != k.effect) continue;
+        const bool profiled = cand.grid_name == "tau_s";
+        if (!profiled && !cand.grid_name.empty() &&
+            !(k.params.contains(cand.grid_name) && k.params[cand.grid_name].get<double>() == cand.grid_value)) {
+          continue;
+        }
+        if (!profiled) {
+          member = &cand;
+          break;
+        }
+        const Evaluated e = an.FitOnly(cand);
+        if (e.full.ok && (member == nullptr || e.full.sse < best_sse)) {
+          member = &cand;
+          best_sse = e.full.sse;
+        }
+      }
+      if (member == nullptr) continue;
+      const Evaluated e = an.FitOnly(*member);
+      if (e.full.ok) m[k.effect] = MagnitudeOf(e);
+    }
+    return m;
+  };
+  std::map<std::string, double> var;  // Σ over the plug-ins of (half the refit spread)²
+  for (const auto& [lo, hi] : pairs) {
+    const std::map<std::string, double> a = magnitudes(lo), b = magnitudes(hi);
+    for (const auto& [effect, ma] : a) {
+      const auto it = b.find(effect);
+      if (it == b.end() || !std::isfinite(ma) || !std::isfinite(it->second)) continue;
+      const double half = 0.5 * (it->second - ma);
+      var[effect] += half * half;
+    }
+  }
+  for (CandidateResult& k : res->candidates) {
+    const auto it = var.find(k.effect);
+    if (it == var.end() || k.effect == "latency") continue;
+    const double lo = k.magnitude - k.magnitude_ci95[0], hi = k.magnitude_ci95[1] - k.magnitude;
+    const bool norm = k.effect != "scale_error";  // every other magnitude is a norm or a lag (>= 0)
+    k.magnitude_ci95[0] = k.magnitude - std::sqrt(lo * lo + it->second);
+    k.magnitude_ci95[1] = k.magnitude + std::sqrt(hi * hi + it->second);
+    if (norm) k.magnitude_ci95[0] = std::max(0.0, k.magnitude_ci95[0]);
+  }
 }
 
 }  // namespace hexsim::gap::internal

@@ -111,7 +111,7 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
   // Library-free set (detection): r = A·h + d_I·I + d_u·u, A any 3×3 matrix (scale, cross-coupling,
   // misalignment of any form), linear in the current and the throttle (squares extrapolate wildly
   // into a held-out block; a drift is left to the spectral test).
-  {
+  if (o.library_free) {
     ch.flexible = MakeCandidate("library_free", {}, {}, "");
     for (size_t k = 0; k < n; ++k) {
       std::vector<double> f;
