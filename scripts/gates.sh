@@ -123,14 +123,10 @@ EOF
   # Files whose front-end input (text, headers, comments, macros, flags), clang-tidy version and
   # .clang-tidy equal those of a clean run are not checked again (scripts/tidy_cache.py, like ctcache);
   # HEXSIM_TIDY_FULL=1 checks every file.
-  local manifest=$root/.ci/tidy-clean.txt
-  if [ "${HEXSIM_TIDY_FULL:-0}" = 1 ]; then
-    HEXSIM_GATES_JOBS=$jobs python3 scripts/tidy_cache.py select "$tidy_dir/compile_commands.json" "$root" \
-      "$tidy_dir/files.txt" /dev/null > "$tidy_dir/todo.txt"
-  else
-    HEXSIM_GATES_JOBS=$jobs python3 scripts/tidy_cache.py select "$tidy_dir/compile_commands.json" "$root" \
-      "$tidy_dir/files.txt" "$manifest" > "$tidy_dir/todo.txt"
-  fi
+  local manifest=$root/.ci/tidy-clean.txt known=$root/.ci/tidy-clean.txt
+  [ "${HEXSIM_TIDY_FULL:-0}" != 1 ] || known=/dev/null
+  HEXSIM_GATES_JOBS=$jobs python3 scripts/tidy_cache.py select "$tidy_dir/compile_commands.json" "$root" \
+    "$tidy_dir/files.txt" "$known" > "$tidy_dir/todo.txt"
   rm -rf "$tidy_dir/out" && mkdir -p "$tidy_dir/out"
   # shellcheck disable=SC2016
   # sh -c SCRIPT DIR FILE: $0 = the build dir, $1 = the file (xargs appends it).

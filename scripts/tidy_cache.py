@@ -63,15 +63,20 @@ def key_of(entry, root, identity):
     return h.hexdigest()
 
 
+def read_manifest(manifest_path):
+    """The keys listed in the manifest (none if it does not exist)."""
+    if not os.path.exists(manifest_path):
+        return set()
+    with open(manifest_path) as f:
+        return {l.split()[0] for l in f if l.strip() and not l.startswith("#")}
+
+
 def select(db_path, root, files_path, manifest_path):
     with open(db_path) as f:
         entries = {e["file"]: e for e in json.load(f)}
     with open(files_path) as f:
         files = [l.strip() for l in f if l.strip()]
-    clean = set()
-    if os.path.exists(manifest_path):
-        with open(manifest_path) as f:
-            clean = {l.split()[0] for l in f if l.strip() and not l.startswith("#")}
+    clean = read_manifest(manifest_path)
     identity = tool_identity(root)
     jobs = int(os.environ.get("HEXSIM_GATES_JOBS", os.cpu_count() or 2))
     with concurrent.futures.ThreadPoolExecutor(max_workers=jobs) as pool:
@@ -87,10 +92,7 @@ def select(db_path, root, files_path, manifest_path):
 
 def update(keys_path, manifest_path, root, out_dir):
     """Keeps the key of every file that is clean: listed before, or checked now with exit status 0."""
-    old = set()
-    if os.path.exists(manifest_path):
-        with open(manifest_path) as f:
-            old = {l.split()[0] for l in f if l.strip() and not l.startswith("#")}
+    old = read_manifest(manifest_path)
     with open(keys_path) as f:
         rows = [l.split() for l in f if l.strip()]
     clean = []
