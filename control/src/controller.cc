@@ -42,12 +42,35 @@ void CascadedController::Reset() {
   for (Pid& p : vel_) p.Reset();
   for (Pid& p : rate_) p.Reset();
   debug_ = CascadeDebug();
+  on_ground_ = false;
+  ground_thrust_N_ = 0.0;
+}
+
+// Ground ramp (ArduPilot auto_takeoff_run while land_complete): level at the setpoint's yaw, the
+// collective as ramped, the velocity loops reset and the rate integrators held at zero (they would
+// wind up against the ground's reaction).
+ControlOutput CascadedController::UpdateOnGround(const NavState& state, const Setpoint& setpoint, double dt_s) {
+  const double m = vehicle_.mass_kg;
+  for (Pid& p : vel_) p.Reset();
+  for (Pid& p : rate_) p.set_integrator(0.0);
+  // Full scale: the vehicle's largest thrust, or twice its weight when that is unknown.
+  const double full_N = std::isfinite(vehicle_.max_thrust_N) ? vehicle_.max_thrust_N : 2.0 * m * kGravity_mps2;
+  ground_thrust_N_ = std::clamp(setpoint.ground_thrust_fraction, 0.0, 1.0) * full_N;
+  on_ground_ = true;
+  const Quaterniond q_sp = AttitudeFromThrustAndYaw(Vector3d(0.0, 0.0, -1.0), setpoint.yaw_rad);
+  debug_.v_sp_N_mps.setZero();
+  debug_.a_sp_N_mps2.setZero();
+  return UpdateAttitude(state, q_sp, ground_thrust_N_, 0.0, dt_s);
 }
 
 ControlOutput CascadedController::Update(const NavState& state, const Setpoint& setpoint, double dt_s) {
   if (setpoint.idle) {
     Reset();
     return ControlOutput();
+  }
+  if (setpoint.ground_ramp) return UpdateOnGround(state, setpoint, dt_s);
+  if (setpoint.ground_contact) {
+    for (Pid& p : rate_) p.set_integrator(0.0);
   }
   const ControllerParams& P = params_;
   const double m = vehicle_.mass_kg;
@@ -65,6 +88,15 @@ ControlOutput CascadedController::Update(const NavState& state, const Setpoint& 
   // Velocity PID → acceleration setpoint.
   Vector3d a_sp;
   for (int i = 0; i < 3; ++i) a_sp[i] = vel_[i].Update(v_sp[i], state.v_N_mps[i], dt_s, setpoint.a_ff_N_mps2[i]);
+  if (on_ground_) {
+    // Lift-off: the vertical loop's integrator is set so that its output is the acceleration the
+    // ground ramp's collective gives, a_D = g - T/m (bumpless, as ArduPilot's init_z_controller
+    // seeds its I term from the throttle in use); the sequencer's carrot then moves it on.
+    on_ground_ = false;
+    const double a_D = kGravity_mps2 - ground_thrust_N_ / m;
+    vel_[2].set_integrator(vel_[2].integrator() + a_D - a_sp.z());
+    a_sp.z() = a_D;
+  }
 
   // Thrust vector F = m·(a − g), g = +g·e_D; keep its vertical part first, then limit tilt and size.
   Vector3d F_N = m * (a_sp - Vector3d(0.0, 0.0, kGravity_mps2));

@@ -40,6 +40,10 @@ double Pid::Update(double setpoint, double measurement, double dt_s, double feed
   return u_clamped;
 }
 
+void Pid::set_integrator(double value) {
+  integrator_ = std::clamp(value, -gains_.integrator_limit, gains_.integrator_limit);
+}
+
 void Pid::Reset() {
   integrator_ = 0.0;
   prev_measurement_ = 0.0;

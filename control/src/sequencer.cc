@@ -35,14 +35,31 @@ void MissionSequencer::BeginSegment(const Vector3d& end, double speed_mps) {
   seg_speed_mps_ = speed_mps;
   carrot_s_m_ = 0.0;
   carrot_v_mps_ = 0.0;
+  carrot_a_mps2_ = 0.0;
   ++leg_;
 }
 
 void MissionSequencer::HoldAt(const Vector3d& p, Setpoint* sp) const {
   sp->p_N_m = p;
   sp->v_ff_N_mps.setZero();
-  sp->yaw_rad = yaw_rad_;
+  sp->yaw_rad = yaw_sp_rad_;
+  sp->yaw_rate_ff_radps = yaw_rate_radps_;
   sp->idle = false;
+}
+
+void MissionSequencer::ShapeYaw(double dt_s) {
+  const double rate_max = params_.yaw_rate_dps * kDegToRad;
+  const double accel = params_.yaw_accel_dps2 * kDegToRad;
+  const double e = WrapPi(yaw_rad_ - yaw_sp_rad_);
+  // Rate that still stops at the heading when braking at `accel` (w^2 = 2*a*|e|), capped.
+  const double wanted = std::copysign(std::min(rate_max, std::sqrt(2.0 * accel * std::abs(e))), e);
+  yaw_rate_radps_ = std::clamp(wanted, yaw_rate_radps_ - accel * dt_s, yaw_rate_radps_ + accel * dt_s);
+  if (std::abs(e) < 1e-4 && std::abs(yaw_rate_radps_) <= accel * dt_s) {
+    yaw_sp_rad_ = yaw_rad_;  // arrived
+    yaw_rate_radps_ = 0.0;
+    return;
+  }
+  yaw_sp_rad_ = WrapPi(yaw_sp_rad_ + yaw_rate_radps_ * dt_s);
 }
 
 void MissionSequencer::BeginItem(size_t index, const NavState& state, SequencerOutput* out) {
@@ -56,6 +73,8 @@ void MissionSequencer::BeginItem(size_t index, const NavState& state, SequencerO
   switch (it.type) {
     case MissionItemType::kTakeoff:
       mode_ = FlightMode::kTakeoff;
+      ground_ramp_ = landed_;
+      ground_thrust_fraction_ = 0.0;
       landed_ = false;
       BeginSegment(Vector3d(target_.x(), target_.y(), -it.alt_m), params_.climb_speed_mps);
       break;
@@ -90,10 +109,34 @@ void MissionSequencer::BeginItem(size_t index, const NavState& state, SequencerO
       break;
     case MissionItemType::kLand:
       mode_ = FlightMode::kLand;
-      BeginSegment(Vector3d(target_.x(), target_.y(), params_.ground_D_m), params_.descent_speed_mps);
+      BeginSegment(Vector3d(target_.x(), target_.y(), params_.ground_D_m + params_.land_below_ground_m),
+                   params_.descent_speed_mps);
       timer_s_ = 0.0;
       break;
   }
+}
+
+bool MissionSequencer::GroundRamp(const NavState& state, double dt_s, bool motors_ready, double collective_to_weight,
+                                   Setpoint* sp) {
+  if (motors_ready) {
+    ground_thrust_fraction_ = std::min(1.0, ground_thrust_fraction_ + dt_s / params_.takeoff_slew_time_s);
+  }
+  const double climb_mps = -state.v_N_mps.z();
+  const bool can_lift = collective_to_weight < 0.0 || collective_to_weight >= params_.liftoff_collective_to_weight;
+  const bool lifted = motors_ready && can_lift && climb_mps >= params_.liftoff_climb_fraction * seg_speed_mps_;
+  if (!lifted && ground_thrust_fraction_ < params_.takeoff_throttle_max) {
+    HoldAt(seg_start_, sp);
+    sp->ground_ramp = true;
+    sp->ground_thrust_fraction = ground_thrust_fraction_;
+    return true;
+  }
+  // Lift-off: the carrot starts at the vehicle's height along the climb, at its climb rate.
+  ground_ramp_ = false;
+  const Vector3d d = seg_end_ - seg_start_;
+  const double length = d.norm();
+  if (length > 1e-9) carrot_s_m_ = std::clamp((state.p_N_m - seg_start_).dot(d / length), 0.0, length);
+  carrot_v_mps_ = std::clamp(climb_mps, 0.0, seg_speed_mps_);
+  return false;
 }
 
 bool MissionSequencer::AdvanceCarrot(const NavState& state, double speed_mps, double dt_s, Setpoint* sp) {
@@ -102,30 +145,44 @@ bool MissionSequencer::AdvanceCarrot(const NavState& state, double speed_mps, do
   const Vector3d dir = length > 1e-9 ? Vector3d(d / length) : Vector3d::Zero();
   const double along_m = (state.p_N_m - seg_start_).dot(dir);
   const double remaining_m = length - carrot_s_m_;
-  // Speed profile: accelerate at accel, brake to stop at the end (v² = 2·a·remaining).
-  const double v_brake = std::sqrt(2.0 * params_.accel_mps2 * std::max(remaining_m, 0.0));
-  double v = std::min({speed_mps, v_brake, carrot_v_mps_ + params_.accel_mps2 * dt_s});
-  if (carrot_s_m_ - along_m > params_.max_lead_m) v = std::min(v, std::max(0.0, carrot_v_mps_ - params_.accel_mps2 * dt_s));
-  const double a = dt_s > 0.0 ? (v - carrot_v_mps_) / dt_s : 0.0;
+  // Speed profile: accelerate at accel, brake to stop at the end (v^2 = 2*a*remaining); a lower
+  // segment speed is reached by braking at accel too. Speeding up, the acceleration rises by at
+  // most jerk*dt per step (a step in acceleration is a step in collective); braking is not
+  // jerk-limited (it lowers the collective, and a late brake would overshoot the waypoint).
+  const double a_max = params_.accel_mps2;
+  const double v_brake = std::sqrt(2.0 * a_max * std::max(remaining_m, 0.0));
+  const double dv = a_max * dt_s;
+  double v = std::min(v_brake, std::clamp(speed_mps, carrot_v_mps_ - dv, carrot_v_mps_ + dv));
+  if (carrot_s_m_ - along_m > params_.max_lead_m) v = std::min(v, std::max(0.0, carrot_v_mps_ - dv));
+  double a = dt_s > 0.0 ? (v - carrot_v_mps_) / dt_s : 0.0;
+  if (a > 0.0 && a > carrot_a_mps2_ + params_.jerk_mps3 * dt_s) {
+    a = std::max(0.0, carrot_a_mps2_) + params_.jerk_mps3 * dt_s;
+    v = carrot_v_mps_ + a * dt_s;
+  }
+  carrot_a_mps2_ = a;
   carrot_v_mps_ = v;
   carrot_s_m_ = std::min(length, carrot_s_m_ + v * dt_s);
   const bool at_end = carrot_s_m_ >= length - 1e-9;
   sp->p_N_m = seg_start_ + carrot_s_m_ * dir;
   sp->v_ff_N_mps = at_end ? Vector3d::Zero() : Vector3d(v * dir);
   sp->a_ff_N_mps2 = at_end ? Vector3d::Zero() : Vector3d(a * dir);
-  sp->yaw_rad = yaw_rad_;
+  sp->yaw_rad = yaw_sp_rad_;
+  sp->yaw_rate_ff_radps = yaw_rate_radps_;
   sp->idle = false;
   return at_end;
 }
 
-SequencerOutput MissionSequencer::Step(const NavState& state, double dt_s) {
+SequencerOutput MissionSequencer::Step(const NavState& state, double dt_s, bool motors_ready,
+                                       double collective_to_weight) {
   SequencerOutput out;
   if (!started_) {
     started_ = true;
     target_ = state.p_N_m;
     yaw_rad_ = EulerFromQuat(state.q_NB).z();
+    yaw_sp_rad_ = yaw_rad_;
     BeginItem(0, state, &out);
   }
+  ShapeYaw(dt_s);
   Setpoint& sp = out.setpoint;
   switch (mode_) {
     case FlightMode::kIdle:
@@ -144,6 +201,7 @@ SequencerOutput MissionSequencer::Step(const NavState& state, double dt_s) {
       }
       break;
     case FlightMode::kTakeoff: {
+      if (ground_ramp_ && GroundRamp(state, dt_s, motors_ready, collective_to_weight, &sp)) break;
       const bool at_end = AdvanceCarrot(state, seg_speed_mps_, dt_s, &sp);
       if (at_end && std::abs(state.p_N_m.z() - seg_end_.z()) < params_.takeoff_acceptance_m) {
         target_ = seg_end_;
@@ -183,14 +241,27 @@ SequencerOutput MissionSequencer::Step(const NavState& state, double dt_s) {
       const double speed =
           height_m > params_.final_descent_height_m ? params_.descent_speed_mps : params_.final_descent_speed_mps;
       const bool at_end = AdvanceCarrot(state, speed, dt_s, &sp);
-      // Touchdown: (nearly) still, and either near the ground or unable to follow the carrot down.
+      // Touchdown: (nearly) still, and either near the ground or unable to follow the carrot down;
+      // or the collective far below the weight while the vertical speed is small.
       const bool still = state.v_N_mps.norm() < params_.touchdown_speed_mps;
       const bool near_ground = height_m < params_.touchdown_height_m;
       const bool blocked = at_end || sp.p_N_m.z() - state.p_N_m.z() > params_.touchdown_height_m;
-      timer_s_ = (still && (near_ground || blocked) && carrot_s_m_ > 0.0) ? timer_s_ + dt_s : 0.0;
+      const bool carried = collective_to_weight >= 0.0 &&
+                           collective_to_weight < params_.touchdown_collective_to_weight &&
+                           std::abs(state.v_N_mps.z()) < params_.touchdown_vertical_speed_mps;
+      const bool contact = carrot_s_m_ > 0.0 && ((still && (near_ground || blocked)) || carried);
+      timer_s_ = contact ? timer_s_ + dt_s : 0.0;
+      if (contact) {
+        // On the ground, probably: hold the vehicle's own yaw and let the controller relax.
+        yaw_rad_ = yaw_sp_rad_ = EulerFromQuat(state.q_NB).z();
+        yaw_rate_radps_ = 0.0;
+        sp.yaw_rad = yaw_sp_rad_;
+        sp.yaw_rate_ff_radps = 0.0;
+        sp.ground_contact = true;
+      }
       if (timer_s_ >= params_.touchdown_time_s) {
         landed_ = true;
-        target_ = Vector3d(state.p_N_m.x(), state.p_N_m.y(), seg_end_.z());
+        target_ = Vector3d(state.p_N_m.x(), state.p_N_m.y(), params_.ground_D_m);
         mode_ = FlightMode::kLanded;
         timer_s_ = params_.touchdown_time_s;  // motors off; stay landed this long before the next item
         sp = Setpoint();

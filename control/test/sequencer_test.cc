@@ -52,6 +52,10 @@ TEST(SequencerTest, GivenVehicleThatFollowsTheSetpointExactly_ThenItemsRunInOrde
     if (!out.setpoint.idle) {  // an ideal vehicle: exactly where it is told, at the feed-forward speed
       s.p_N_m = out.setpoint.p_N_m;
       s.v_N_mps = out.setpoint.v_ff_N_mps;
+      if (s.p_N_m.z() > 0.0) {  // ... but stopped by the ground (the landing carrot aims below it)
+        s.p_N_m.z() = 0.0;
+        s.v_N_mps.setZero();
+      }
     }
     s.t_s += dt;
   }

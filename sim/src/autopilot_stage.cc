@@ -39,7 +39,7 @@ control::VehicleModelForControl ControlModelFor(const vehicle::VehicleParams& ve
 
 Autopilot::Autopilot(const RunSetup& setup, Plugins plugins, const magnetics::EarthField& field, double rest_D_m,
                      const Eigen::Vector3d& start_N_m)
-    : vp_(setup.vehicle), opt_(setup.options) {
+    : vp_(setup.vehicle), opt_(setup.options), spool_(setup.vehicle.esc.spool_up_time_s) {
   nominal_V_ = vp_.battery.OpenCircuitVoltage_V(vp_.battery.initial_soc);
   model_ = ControlModelFor(vp_);
   mixer_.emplace(control::Mixer::Create(MixerGeometry(vp_)).value());
@@ -127,7 +127,9 @@ Autopilot::Tick Autopilot::Step(double t, double physics_dt_s, const vehicle::Se
   // arm before its EKF is healthy); until then the motors stay off.
   const bool armed = !estimator_ || opt_.control_on_truth || est_.healthy || !sequencer_->landed();
   if (armed) {
-    seq_out_ = sequencer_->Step(ns_, ap_dt);
+    // The last collective against the vehicle's weight (lift-off and touchdown need it).
+    const double collective_to_weight = spool_.mixing() ? u_.thrust_N / (model_.mass_kg * kGravity_mps2) : 0.0;
+    seq_out_ = sequencer_->Step(ns_, ap_dt, spool_.mixing(), collective_to_weight);
   } else {
     seq_out_ = control::SequencerOutput{};
     seq_out_.setpoint.idle = true;
@@ -135,26 +137,41 @@ Autopilot::Tick Autopilot::Step(double t, double physics_dt_s, const vehicle::Se
   tick.payload_event = seq_out_.payload_event;
   if (seq_out_.arrival) tick.arrival = &*seq_out_.arrival;
   if (setpoint_hook_) setpoint_hook_(t, ns_, &seq_out_.setpoint);
-  if (seq_out_.setpoint.idle) {
-    controller_->Reset();
-    std::fill(commands_.begin(), commands_.end(), 0.0);
-    u_ = control::ControlOutput{};
-  } else {
+  // Rotors with the same propeller and motor reach the same full-command thrust: computed once.
+  double max_thrust = 0.0, rotor_max_N = 0.0;
+  for (size_t i = 0; i < n_rotors; ++i) {
+    if (i == 0 || !SamePropeller(vp_.rotors[i], vp_.rotors[i - 1])) {
+      rotor_max_N = vehicle::ThrustForCommand(vp_, i, 1.0, bus_V);
+    }
+    max_thrust = std::max(max_thrust, rotor_max_N);
+  }
+  const double max_collective_N = max_thrust * static_cast<double>(n_rotors);
+  const bool run = !seq_out_.setpoint.idle;
+  if (run && spool_.mixing()) {
     u_ = controller_->Update(ns_, seq_out_.setpoint, ap_dt);
     if (output_hook_) output_hook_(t, ns_, &u_);
-    // Rotors with the same propeller and motor reach the same full-command thrust: computed once.
-    double max_thrust = 0.0, rotor_max_N = 0.0;
+  } else {
+    controller_->Reset();
+    u_ = control::ControlOutput{};
+  }
+  // The output stage (control/spool.h, ArduPilot MOT_SPOOL_TIME): idle, then the collective capped
+  // while spooling; roll/pitch/yaw are mixed on top of the capped collective.
+  spool_.Step(run, max_collective_N > 0.0 ? u_.thrust_N / max_collective_N : 0.0, ap_dt);
+  if (!spool_.spinning()) {
+    std::fill(commands_.begin(), commands_.end(), 0.0);
+  } else if (!spool_.mixing()) {
+    std::fill(commands_.begin(), commands_.end(), vehicle::kIdleCommand);
+  } else if (run) {
+    const double collective_N = std::min(u_.thrust_N, spool_.collective_cap() * max_collective_N);
+    mixer_->Mix(collective_N, u_.torque_B_Nm, max_thrust, &mix_);
     for (size_t i = 0; i < n_rotors; ++i) {
-      if (i == 0 || !SamePropeller(vp_.rotors[i], vp_.rotors[i - 1])) {
-        rotor_max_N = vehicle::ThrustForCommand(vp_, i, 1.0, bus_V);
-      }
-      max_thrust = std::max(max_thrust, rotor_max_N);
+      commands_[i] = vehicle::CommandForThrust(vp_, i, mix_.thrust_N[static_cast<Eigen::Index>(i)], bus_V);
     }
-    mixer_->Mix(u_.thrust_N, u_.torque_B_Nm, max_thrust, &mix_);
-    const double max_up = opt_.motor_slew_up_per_s * ap_dt;
+  } else {
+    // Spooling down after touchdown, the controller off: every rotor's thrust falls with the cap.
     for (size_t i = 0; i < n_rotors; ++i) {
-      const double wanted = vehicle::CommandForThrust(vp_, i, mix_.thrust_N[static_cast<Eigen::Index>(i)], bus_V);
-      commands_[i] = std::min(wanted, commands_[i] + max_up);
+      const double cap = vehicle::CommandForThrust(vp_, i, spool_.collective_cap() * max_thrust, bus_V);
+      commands_[i] = std::max(vehicle::kIdleCommand, std::min(commands_[i], cap));
     }
   }
   if (command_hook_) {

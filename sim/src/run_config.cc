@@ -128,7 +128,9 @@ Result<RunSetup> LoadRunSetup(const RunRequest& req) {
     r.Opt("estimator", &o.estimator, {"truth", "eskf", "complementary"});
     r.Opt("write_log", &o.write_log);
     r.Opt("control_on_truth", &o.control_on_truth);
-    r.Opt("motor_slew_up_per_s", &o.motor_slew_up_per_s, Positive());
+    if (r.Has("motor_slew_up_per_s")) {
+      r.Fail("motor_slew_up_per_s", "removed: the spool-up is the vehicle's esc.spool_up_time_s (--set vehicle.esc.spool_up_time_s=S)");
+    }
     HEXSIM_RETURN_IF_ERROR(r.Finish());
   }
   if (!req.estimator.empty()) o.estimator = req.estimator;

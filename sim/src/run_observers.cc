@@ -76,6 +76,8 @@ LogRecorder::LogRecorder(logs::FlightLog* log, size_t rotors, size_t compasses, 
   soc_ = add("battery_soc");
   for (size_t i = 0; i < rotors; ++i) motor_u_.push_back(add(fmt::format("motor_{}_u", i + 1)));
   for (size_t i = 0; i < rotors; ++i) motor_A_.push_back(add(fmt::format("motor_{}_A", i + 1)));
+  esc_limited_ = add("esc_limited");
+  batt_limited_ = add("batt_limited");
   for (int i = 0; i < 4; ++i) est_q_[i] = add(fmt::format("est_q_{}", wxyz[i]));
   for (int i = 0; i < 3; ++i) est_pos_[i] = add(fmt::format("est_pos_{}_m", ned[i]));
   for (int i = 0; i < 3; ++i) est_vel_[i] = add(fmt::format("est_vel_{}_mps", ned[i]));
@@ -186,6 +188,8 @@ void LogRecorder::OnStep(const StepRecord& r) {
     log.Set(motor_u_[i], commands[i]);
     log.Set(motor_A_[i], pt.motors.empty() ? 0.0 : pt.motors[i].dc_A);
   }
+  log.Set(esc_limited_, pt.esc_limited);
+  log.Set(batt_limited_, pt.battery_limited ? 1.0 : 0.0);
   log.Set(yaw_true_, YawDegFast(s.q_NB));
   log.Set(yaw_est_, YawDegFast(est.q_NB));
   log.Set(mode_, static_cast<double>(r.mode));
@@ -227,6 +231,8 @@ void RunScorer::OnStep(const StepRecord& r) {
 void RunScorer::OnInterval(const StepInterval& iv) {
   energy_J_ += iv.powertrain->power_in_W * iv.dt_s;
   current_.Add(iv.powertrain->battery_A);
+  if (iv.powertrain->esc_limited > 0) esc_limited_s_ += iv.dt_s;
+  if (iv.powertrain->battery_limited) battery_limited_s_ += iv.dt_s;
   distance_m_ += (iv.p_after_N_m - iv.p_before_N_m).norm();
 }
 
@@ -239,6 +245,8 @@ void RunScorer::WriteSummary(RunSummary* summary) const {
   sum.energy_Wh = energy_J_ / 3600.0;
   sum.current_max_A = current_.max;
   sum.current_mean_A = current_.Mean();
+  sum.current_limited_esc_s = esc_limited_s_;
+  sum.current_limited_battery_s = battery_limited_s_;
   sum.waypoints = arrivals_;
 }
 

@@ -31,6 +31,7 @@ json ToJson(const RunSummary& s) {
   j["yaw_error_all_deg"] = {{"max", s.yaw_error_all_deg.max}, {"rms", s.yaw_error_all_deg.rms}};
   j["energy_Wh"] = s.energy_Wh;
   j["current_A"] = {{"max", s.current_max_A}, {"mean", s.current_mean_A}};
+  j["current_limited_s"] = {{"esc", s.current_limited_esc_s}, {"battery", s.current_limited_battery_s}};
   j["mission_time_s"] = s.mission_time_s ? json(*s.mission_time_s) : json(nullptr);
   j["waypoints"] = json::array();
   for (const auto& w : s.waypoints) {
@@ -120,6 +121,10 @@ Result<RunSummary> RunSummaryFromJson(const json& doc, const std::string& source
   r.Get("/current_A/max", &s.current_max_A);
   r.Get("/current_A/mean", &s.current_mean_A);
   r.GetOptional("/mission_time_s", &s.mission_time_s);
+  if (doc.contains("current_limited_s")) {  // absent from summaries written before the limits
+    r.Get("/current_limited_s/esc", &s.current_limited_esc_s);
+    r.Get("/current_limited_s/battery", &s.current_limited_battery_s);
+  }
   r.Get("/wall_s", &s.wall_s);
   r.Get("/version", &s.version);
   if (!r.error().ok()) return r.error();

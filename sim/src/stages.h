@@ -13,6 +13,7 @@
 #include "hexsim/control/controller.h"
 #include "hexsim/control/mixer.h"
 #include "hexsim/control/sequencer.h"
+#include "hexsim/control/spool.h"
 #include "hexsim/magnetics/wmm.h"
 #include "hexsim/sim/simulation.h"
 #include "hexsim/vehicle/powertrain.h"
@@ -77,6 +78,7 @@ class Autopilot {
   double nominal_V_ = 0.0;
   control::VehicleModelForControl model_;
   std::optional<control::Mixer> mixer_;
+  control::Spool spool_;
   std::unique_ptr<control::Controller> controller_;
   control::CascadedController* builtin_ = nullptr;
   std::optional<control::MissionSequencer> sequencer_;

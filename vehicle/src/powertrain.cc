@@ -14,15 +14,29 @@ struct MotorConstants {
   double R = 0.0;     // ohm
   double I_0 = 0.0;   // A
   double eta = 1.0;
+  double L = 0.0;     // ESC DC current limit, A (infinity: none)
 };
 
 MotorConstants Constants(const VehicleParams& p) {
-  return {p.motor.Kt_Nm_per_A(), p.motor.winding_resistance_ohm, p.motor.no_load_current_A, p.esc.efficiency};
+  return {p.motor.Kt_Nm_per_A(), p.motor.winding_resistance_ohm, p.motor.no_load_current_A, p.esc.efficiency,
+          p.esc.current_limit_A};
 }
 
 // Winding current at motor voltage V_m and back-EMF E: the ESC cannot push current backwards.
 double WindingCurrent(const MotorConstants& c, double motor_V, double back_emf_V) {
   return std::max(0.0, (motor_V - back_emf_V) / c.R);
+}
+
+// DC input current of one ESC: I_dc = d*I_w/eta, I_w = max(0, d*V_bus - E)/R.
+double DcCurrent(const MotorConstants& c, double duty, double back_emf_V, double bus_V) {
+  return duty > 0.0 ? duty * WindingCurrent(c, duty * bus_V, back_emf_V) / c.eta : 0.0;
+}
+
+// The duty at which one ESC draws dc_A > 0: the positive root of V*d^2 - E*d - dc_A*eta*R = 0
+// (I_dc increases with d above E/V, where it is 0).
+double DutyForDcCurrent(const MotorConstants& c, double dc_A, double back_emf_V, double bus_V) {
+  const double E = back_emf_V;
+  return (E + std::sqrt(E * E + 4.0 * bus_V * dc_A * c.eta * c.R)) / (2.0 * bus_V);
 }
 
 // Net electromagnetic torque: K_t*(I_w - I_0) while spinning; at standstill I_0 acts as static
@@ -33,12 +47,13 @@ double MotorTorque(const MotorConstants& c, double omega_radps, double winding_A
   return t;
 }
 
+// The operating point at the duty the ESC applies (the command's, or lower at a current limit).
 MotorOperatingPoint OperatingPoint(const VehicleParams& p, const MotorConstants& c, size_t i, double command,
-                                   double omega_radps, double bus_V) {
+                                   double duty, double omega_radps, double bus_V) {
   const RotorParams& rotor = p.rotors[i];
   MotorOperatingPoint m;
   m.command = command;
-  m.duty = p.esc.Duty(command);
+  m.duty = duty;
   m.omega_radps = omega_radps;
   m.back_emf_V = omega_radps * c.K_t;
   m.motor_V = m.duty * bus_V;
@@ -64,6 +79,10 @@ double BatteryCurrent(const VehicleParams& p, const MotorConstants& c, const std
   double I = p.avionics_current_A;
   double slope = 0.0;
   for (const MotorOperatingPoint& m : motors) {
+    if (m.current_limited) {  // an ESC at its limit is a constant-current load
+      I += c.L;
+      continue;
+    }
     if (m.duty <= 0.0) continue;
     const double drive_V = m.duty * bus_V - m.back_emf_V;
     if (drive_V <= 0.0) continue;
@@ -92,10 +111,11 @@ double SolveBusVoltage(const VehicleParams& p, const MotorConstants& c, const st
 }
 
 // Fills *out (every field reset; the motor vector's storage is reused, so a caller that keeps its
-// PowertrainOutput allocates nothing per step).
+// PowertrainOutput allocates nothing per step). out->motors[i].duty and .current_limited hold what
+// the ESCs apply (EnforceCurrentLimits); esc_limited/battery_limited are the limits' summary.
 void Assemble(const VehicleParams& p, const MotorConstants& c, const std::vector<double>& commands,
-              const std::vector<double>& omega, double soc, double open_circuit_V, double bus_V,
-              PowertrainOutput* out_ptr) {
+              const std::vector<double>& omega, double soc, double open_circuit_V, double bus_V, int esc_limited,
+              bool battery_limited, PowertrainOutput* out_ptr) {
   std::vector<MotorOperatingPoint> motors = std::move(out_ptr->motors);
   PowertrainOutput& out = *out_ptr;
   out = PowertrainOutput();
@@ -104,9 +124,14 @@ void Assemble(const VehicleParams& p, const MotorConstants& c, const std::vector
   out.bus_V = bus_V;
   out.soc = soc;
   out.battery_A = p.avionics_current_A;
-  out.motors.resize(commands.size());
+  out.esc_limited = esc_limited;
+  out.battery_limited = battery_limited;
+  HEXSIM_CHECK(out.motors.size() == commands.size());
   for (size_t i = 0; i < commands.size(); ++i) {
-    out.motors[i] = OperatingPoint(p, c, i, commands[i], omega[i], bus_V);
+    const double duty = out.motors[i].duty;
+    const bool limited = out.motors[i].current_limited;
+    out.motors[i] = OperatingPoint(p, c, i, commands[i], duty, omega[i], bus_V);
+    out.motors[i].current_limited = limited;
     const MotorOperatingPoint& m = out.motors[i];
     out.battery_A += m.dc_A;
     out.shaft_W += m.shaft_W;
@@ -142,6 +167,74 @@ PowertrainOutput EvaluatePowertrain(const VehicleParams& params, const Powertrai
 }
 
 namespace {
+
+// The battery limit at fixed rotor speeds: the bus sits at V_b = V_oc - R_int*I_max and every duty
+// is d_i = min(k*d_cmd_i, the ESC's own limit at V_b); k in (0, 1) by bisection on
+// avionics + sum I_dc,i(k) = I_max (each term increases with k). Sets duty/current_limited;
+// returns V_b and adds the ESCs at their own limit to *esc_limited.
+double EnforceBatteryLimit(const VehicleParams& p, const MotorConstants& c, const std::vector<double>& commands,
+                           double open_circuit_V, std::vector<MotorOperatingPoint>* motors, int* esc_limited) {
+  const double I_max = p.battery.max_current_A;
+  const double V_b = open_circuit_V - p.battery.internal_resistance_ohm * I_max;
+  HEXSIM_CHECK(V_b > 0.0);
+  auto duty = [&](size_t i, double k) {
+    const double d = k * p.esc.Duty(commands[i]);
+    if (!std::isfinite(c.L) || d <= 0.0) return d;
+    return std::min(d, DutyForDcCurrent(c, c.L, (*motors)[i].back_emf_V, V_b));
+  };
+  auto total = [&](double k) {
+    double I = p.avionics_current_A;
+    for (size_t i = 0; i < motors->size(); ++i) I += DcCurrent(c, duty(i, k), (*motors)[i].back_emf_V, V_b);
+    return I;
+  };
+  double lo = 0.0, hi = 1.0;
+  for (int iter = 0; iter < 60 && hi - lo > 1e-13; ++iter) {
+    const double mid = 0.5 * (lo + hi);
+    (total(mid) > I_max ? hi : lo) = mid;
+  }
+  *esc_limited = 0;
+  for (size_t i = 0; i < motors->size(); ++i) {
+    MotorOperatingPoint& m = (*motors)[i];
+    const double d_cmd = p.esc.Duty(commands[i]);
+    m.duty = duty(i, lo);
+    m.current_limited = d_cmd > 0.0;
+    if (std::isfinite(c.L) && d_cmd > 0.0 && m.duty < lo * d_cmd) ++*esc_limited;
+  }
+  return V_b;
+}
+
+// Lowers duties to the ESC limit and then the battery limit (powertrain.h); returns the bus voltage.
+double EnforceCurrentLimits(const VehicleParams& p, const MotorConstants& c, const std::vector<double>& commands,
+                            double open_circuit_V, double bus_V, std::vector<MotorOperatingPoint>* motors,
+                            int* esc_limited, bool* battery_limited) {
+  *esc_limited = 0;
+  *battery_limited = false;
+  double V = bus_V;
+  if (std::isfinite(c.L)) {
+    // An ESC over its limit becomes a constant-current load; the bus rises, so others may join.
+    for (bool changed = true; changed;) {
+      changed = false;
+      for (MotorOperatingPoint& m : *motors) {
+        if (!m.current_limited && DcCurrent(c, m.duty, m.back_emf_V, V) > c.L) {
+          m.current_limited = true;
+          changed = true;
+          ++*esc_limited;
+        }
+      }
+      if (changed) V = SolveBusVoltage(p, c, *motors, open_circuit_V);
+    }
+    for (MotorOperatingPoint& m : *motors) {
+      if (m.current_limited) m.duty = DutyForDcCurrent(c, c.L, m.back_emf_V, V);
+    }
+  }
+  if (std::isfinite(p.battery.max_current_A) &&
+      BatteryCurrent(p, c, *motors, V, nullptr) > p.battery.max_current_A) {
+    *battery_limited = true;
+    V = EnforceBatteryLimit(p, c, commands, open_circuit_V, motors, esc_limited);
+  }
+  return V;
+}
+
 void Evaluate(const VehicleParams& params, const MotorConstants& c, const PowertrainState& state,
               const std::vector<double>& commands, PowertrainOutput* out) {
   // Duty and back-EMF first (the bus-voltage solve needs them), kept in the output's motor records.
@@ -149,10 +242,16 @@ void Evaluate(const VehicleParams& params, const MotorConstants& c, const Powert
   for (size_t i = 0; i < commands.size(); ++i) {
     out->motors[i].duty = params.esc.Duty(commands[i]);
     out->motors[i].back_emf_V = state.omega_radps[i] * c.K_t;
+    out->motors[i].current_limited = false;
   }
   const double V_oc = params.battery.OpenCircuitVoltage_V(state.soc);
-  const double V_bus = SolveBusVoltage(params, c, out->motors, V_oc);
-  Assemble(params, c, commands, state.omega_radps, state.soc, V_oc, V_bus, out);
+  double V_bus = SolveBusVoltage(params, c, out->motors, V_oc);
+  int esc_limited = 0;
+  bool battery_limited = false;
+  if (std::isfinite(c.L) || std::isfinite(params.battery.max_current_A)) {
+    V_bus = EnforceCurrentLimits(params, c, commands, V_oc, V_bus, &out->motors, &esc_limited, &battery_limited);
+  }
+  Assemble(params, c, commands, state.omega_radps, state.soc, V_oc, V_bus, esc_limited, battery_limited, out);
 }
 }  // namespace
 
@@ -208,18 +307,43 @@ double SteadyOmega_radps(const VehicleParams& params, size_t rotor, double motor
   return 2.0 * cc / (b + std::sqrt(b * b + 4.0 * a * cc));
 }
 
+namespace {
+
+// One motor's steady state at duty d on bus V, its ESC limit included: writes the speed and the
+// duty applied (lower at the limit) and returns I_dc.
+double SteadyMotor(const VehicleParams& p, const MotorConstants& c, size_t i, double duty, double bus_V,
+                   double* omega_radps, double* applied_duty, bool* limited) {
+  *omega_radps = SteadyOmega_radps(p, i, duty * bus_V);
+  *applied_duty = duty;
+  *limited = false;
+  const double I = DcCurrent(c, duty, *omega_radps * c.K_t, bus_V);
+  if (!(I > c.L)) return I;
+  *omega_radps = SteadyOmegaAtDcCurrent_radps(p, i, c.L, bus_V);
+  *applied_duty = DutyForDcCurrent(c, c.L, *omega_radps * c.K_t, bus_V);
+  *limited = true;
+  return c.L;
+}
+
+}  // namespace
+
 PowertrainOutput SteadyStateForCommands(const VehicleParams& params, const std::vector<double>& commands,
                                         double soc) {
   HEXSIM_CHECK(commands.size() == params.rotors.size());
   const MotorConstants c = Constants(params);
   const double V_oc = params.battery.OpenCircuitVoltage_V(soc);
-  std::vector<double> omega(commands.size(), 0.0);
-  auto battery_current = [&](double V) {
+  const size_t n = commands.size();
+  std::vector<double> omega(n, 0.0);
+  PowertrainOutput out;
+  out.motors.resize(n);
+  int esc_limited = 0;
+  // Battery current with every duty scaled by k (k = 1: as commanded) at bus voltage V.
+  auto battery_current = [&](double V, double k) {
     double I = params.avionics_current_A;
-    for (size_t i = 0; i < commands.size(); ++i) {
-      const double d = params.esc.Duty(commands[i]);
-      omega[i] = SteadyOmega_radps(params, i, d * V);
-      I += d * WindingCurrent(c, d * V, omega[i] * c.K_t) / c.eta;
+    esc_limited = 0;
+    for (size_t i = 0; i < n; ++i) {
+      MotorOperatingPoint& m = out.motors[i];
+      I += SteadyMotor(params, c, i, k * params.esc.Duty(commands[i]), V, &omega[i], &m.duty, &m.current_limited);
+      esc_limited += m.current_limited ? 1 : 0;
     }
     return I;
   };
@@ -227,13 +351,28 @@ PowertrainOutput SteadyStateForCommands(const VehicleParams& params, const std::
   double lo = 0.0, hi = V_oc;
   for (int iter = 0; iter < 200 && hi - lo > 1e-12 * V_oc; ++iter) {
     const double mid = 0.5 * (lo + hi);
-    if (mid + params.battery.internal_resistance_ohm * battery_current(mid) > V_oc) hi = mid;
+    if (mid + params.battery.internal_resistance_ohm * battery_current(mid, 1.0) > V_oc) hi = mid;
     else lo = mid;
   }
-  const double V_bus = 0.5 * (lo + hi);
-  battery_current(V_bus);  // leaves omega at V_bus
-  PowertrainOutput out;
-  Assemble(params, c, commands, omega, soc, V_oc, V_bus, &out);
+  double V_bus = 0.5 * (lo + hi);
+  double k = 1.0;
+  bool battery_limited = false;
+  if (battery_current(V_bus, 1.0) > params.battery.max_current_A) {
+    // Battery limit: the bus at V_oc - R_int*I_max, every duty scaled by the k that draws I_max.
+    battery_limited = true;
+    V_bus = V_oc - params.battery.internal_resistance_ohm * params.battery.max_current_A;
+    double k_lo = 0.0, k_hi = 1.0;
+    for (int iter = 0; iter < 60 && k_hi - k_lo > 1e-13; ++iter) {
+      const double mid = 0.5 * (k_lo + k_hi);
+      (battery_current(V_bus, mid) > params.battery.max_current_A ? k_hi : k_lo) = mid;
+    }
+    k = k_lo;
+  }
+  battery_current(V_bus, k);  // leaves omega, duties and flags at V_bus
+  if (battery_limited) {
+    for (size_t i = 0; i < n; ++i) out.motors[i].current_limited = commands[i] > 0.0;
+  }
+  Assemble(params, c, commands, omega, soc, V_oc, V_bus, esc_limited, battery_limited, &out);
   return out;
 }
 
@@ -257,8 +396,30 @@ double CommandForThrust(const VehicleParams& params, size_t rotor, double thrust
 
 double ThrustForCommand(const VehicleParams& params, size_t rotor, double command, double bus_V) {
   HEXSIM_CHECK(rotor < params.rotors.size());
-  const double omega = SteadyOmega_radps(params, rotor, params.esc.Duty(command) * bus_V);
+  const MotorConstants c = Constants(params);
+  double omega = 0.0, duty = 0.0;
+  bool limited = false;
+  SteadyMotor(params, c, rotor, params.esc.Duty(command), bus_V, &omega, &duty, &limited);
   return params.rotors[rotor].k_T_Nprps2 * omega * omega;
+}
+
+double SteadyOmegaAtDcCurrent_radps(const VehicleParams& params, size_t rotor, double dc_A, double bus_V) {
+  HEXSIM_CHECK(rotor < params.rotors.size());
+  const MotorConstants c = Constants(params);
+  const double k_Q = params.rotors[rotor].k_Q_Nmprps2;
+  const double P_W = c.eta * bus_V * dc_A;  // power into the windings, V_m*I_w
+  // h(w) = V_m(w)*I_w(w) - P increases with w; h(w_hi) >= 0 since V_m*I_w >= I_w^2*R >= (k_Q*w^2/K_t)^2*R.
+  auto h = [&](double w) {
+    const double I_w = c.I_0 + k_Q * w * w / c.K_t;
+    return (c.K_t * w + I_w * c.R) * I_w - P_W;
+  };
+  if (!(P_W > 0.0) || h(0.0) >= 0.0) return 0.0;
+  double lo = 0.0, hi = std::sqrt(c.K_t * std::sqrt(P_W / c.R) / k_Q);
+  for (int iter = 0; iter < 80 && hi - lo > 1e-12 * hi; ++iter) {
+    const double mid = 0.5 * (lo + hi);
+    (h(mid) > 0.0 ? hi : lo) = mid;
+  }
+  return 0.5 * (lo + hi);
 }
 
 Wrench RotorWrench(const VehicleParams& params, const std::vector<double>& omega_radps,

@@ -82,14 +82,21 @@ TEST(Powertrain, GivenARunWithThrottleChangesWhenIntegratedThenBatteryEnergyMatc
   EXPECT_GT(kinetic_J, 0.0);
 }
 
-TEST(Powertrain, GivenPaperHexClampedWhenControlAmountRisesThenBatteryCurrentRisesMonotonically) {
+TEST(Powertrain, GivenPaperHexClampedWhenControlAmountRisesThenBatteryCurrentRisesMonotonicallyUntilTheEscLimit) {
   const VehicleParams p = Load("paper_hex");
   double previous_A = -1.0;
+  int limited = 0;
   for (int u = 0; u <= 1000; u += 50) {
     const PowertrainOutput out = SteadyStateForCommand(p, u / 1000.0, p.battery.initial_soc);
-    EXPECT_GT(out.battery_A, previous_A) << "u=" << u;
+    if (out.esc_limited == 0) {
+      EXPECT_GT(out.battery_A, previous_A) << "u=" << u;
+    } else {  // every ESC at its limit: the battery current holds at 6 L + avionics
+      ++limited;
+      EXPECT_NEAR(out.battery_A, 6.0 * p.esc.current_limit_A + p.avionics_current_A, 1e-6) << "u=" << u;
+    }
     previous_A = out.battery_A;
   }
+  EXPECT_GT(limited, 0);  // full command is beyond the 30 A the ESCs allow
 }
 
 TEST(Powertrain, GivenPaperHexClampedWhenAtPaperControlAmountsThenCurrentsMatchTable1Within10Percent) {

@@ -94,6 +94,10 @@ TEST(VehicleParams, GivenInvalidFieldsWhenParsedThenEachIsRejectedWithItsName) {
       {"capacity_Ah: 5.0", "capacity_Ah: -5.0", "battery.capacity_Ah"},
       {"inertia_kgm2: [0.01, 0.01, 0.02]", "inertia_kgm2: [0.01, 0.01, 0.05]", "inertia_kgm2"},
       {"k_Q_Nmprps2: 2.0e-7}\n  - ", "k_Q_Nmprps2: -2.0e-7}\n  - ", "rotors[0].k_Q_Nmprps2"},
+      {"internal_resistance_ohm: 0.02}", "internal_resistance_ohm: 0.02, c_rating: 0}", "battery.c_rating"},
+      {"internal_resistance_ohm: 0.02}", "internal_resistance_ohm: 0.02, c_rating: 20, max_current_A: 90}",
+       "battery.c_rating"},
+      {"battery:", "esc: {current_limit_A: -3}\nbattery:", "esc.current_limit_A"},
   };
   for (const Case& c : cases) {
     std::string text = kMinimal;
@@ -139,6 +143,16 @@ TEST(VehicleParams, GivenBatteryTableWhenQueriedThenVoltageInterpolatesAndClamps
   EXPECT_NEAR(b.OpenCircuitVoltage_V(1.5), 6 * 4.20, 1e-12);
   EXPECT_NEAR(b.OpenCircuitVoltage_V(0.85), 6 * 0.5 * (4.00 + 4.08), 1e-12);
   EXPECT_NEAR(b.OpenCircuitVoltage_V(-0.1), 6 * 3.27, 1e-12);
+}
+
+TEST(VehicleParams, GivenACRatingWhenParsedThenTheBatteryLimitIsCTimesCapacity) {
+  std::string text = kMinimal;
+  text.replace(text.find("internal_resistance_ohm: 0.02}"), 30, "internal_resistance_ohm: 0.02, c_rating: 25}");
+  Result<VehicleParams> v = ParseText(text);
+  ASSERT_TRUE(v.ok()) << v.status().message();
+  EXPECT_DOUBLE_EQ(v->battery.max_current_A, 125.0);
+  EXPECT_FALSE(std::isfinite(v->esc.current_limit_A));  // no ESC limit unless given
+  EXPECT_DOUBLE_EQ(v->esc.spool_up_time_s, 0.5);        // ArduPilot's MOT_SPOOL_TIME default
 }
 
 }  // namespace

@@ -164,7 +164,15 @@ void ReadBattery(YamlReader& r, BatteryParams* b) {
   r.Opt("ocv_soc", &b->ocv_soc, InRange(0.0, 1.0));
   r.Opt("ocv_cell_V", &b->ocv_cell_V, InRange(0.5, 5.0));
   r.Opt("initial_soc", &b->initial_soc, InRange(0.0, 1.0));
+  // The continuous discharge limit: as a current, or as a C rating (times capacity_Ah).
+  if (r.Has("max_current_A") && r.Has("c_rating")) {
+    return r.Fail("c_rating", "give either max_current_A or c_rating, not both");
+  }
+  r.Opt("max_current_A", &b->max_current_A, Positive());
+  double c_rating = 0.0;
+  r.Opt("c_rating", &c_rating, Positive());
   if (!r.ok()) return;
+  if (c_rating > 0.0) b->max_current_A = c_rating * b->capacity_Ah;
   if (b->ocv_soc.size() < 2 || b->ocv_soc.size() != b->ocv_cell_V.size()) {
     return r.Fail("ocv_cell_V", fmt::format("needs as many entries as ocv_soc, at least 2 (got {} and {})",
                                             b->ocv_cell_V.size(), b->ocv_soc.size()));
@@ -213,12 +221,18 @@ Result<VehicleParams> ParseVehicle(const YAML::Node& root, const std::string& fi
     e.Opt("efficiency", &p.esc.efficiency, Bound{0.0, 1.0, true, false});
     e.Opt("duty_min", &p.esc.duty_min, InRange(0.0, 1.0));
     e.Opt("duty_max", &p.esc.duty_max, InRange(0.0, 1.0));
+    e.Opt("current_limit_A", &p.esc.current_limit_A, Positive());
+    e.Opt("spool_up_time_s", &p.esc.spool_up_time_s, InRange(0.0, 10.0));
     if (e.ok() && !(p.esc.duty_max > p.esc.duty_min)) {
       e.Fail("duty_max", fmt::format("must be > duty_min {} (got {})", p.esc.duty_min, p.esc.duty_max));
     }
   });
   r.Child("battery", [&](YamlReader& b) { ReadBattery(b, &p.battery); }, /*required=*/true);
   r.Opt("avionics_current_A", &p.avionics_current_A, NonNegative());
+  if (r.ok() && !(p.battery.max_current_A > p.avionics_current_A)) {
+    r.Fail("battery", fmt::format("max_current_A {} must exceed avionics_current_A {}", p.battery.max_current_A,
+                                  p.avionics_current_A));
+  }
 
   r.Child("drag", [&](YamlReader& d) {
     auto read = [&](const char* key, Eigen::Vector3d* v) {

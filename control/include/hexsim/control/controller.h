@@ -91,10 +91,15 @@ class CascadedController final : public Controller {
 
  private:
   ControllerParams params_;
+  // The ground ramp of a take-off (Setpoint::ground_ramp): collective and attitude only.
+  ControlOutput UpdateOnGround(const NavState& state, const Setpoint& setpoint, double dt_s);
+
   VehicleModelForControl vehicle_;
   Pid vel_[3];
   Pid rate_[3];
   CascadeDebug debug_;
+  bool on_ground_ = false;      // the last Update was a ground ramp
+  double ground_thrust_N_ = 0.0;  // its collective
 };
 
 // Attitude that points the body's -z axis along the thrust vector F_N and has heading yaw_rad.

@@ -27,6 +27,9 @@ class Pid {
 
   // Integrator state in output units (ki·∫e dt).
   double integrator() const { return integrator_; }
+  // Sets the integrator (output units, clamped to ±integrator_limit): a bumpless hand-over, as
+  // ArduPilot's init_z_controller seeds its accel I term from the throttle in use.
+  void set_integrator(double value);
   const PidGains& gains() const { return gains_; }
   void set_gains(const PidGains& gains) { gains_ = gains; }
   // True when the last output was clipped to the output limit.

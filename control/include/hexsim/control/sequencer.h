@@ -29,13 +29,44 @@ struct SequencerParams {
   // controller's max_speed_up_mps / max_speed_down_mps, or climbing legs leave the straight line).
   double max_climb_mps = 3.0;
   double max_descent_mps = 1.5;
-  double accel_mps2 = 2.0;              // carrot acceleration and braking along a segment
+  double accel_mps2 = 2.0;              // carrot acceleration and braking along a segment (also
+                                        // when a segment's speed drops, e.g. at final descent)
+  // The yaw setpoint turns to each new heading at most this fast, accelerating and braking at
+  // yaw_accel_dps2 (PX4 MPC_YAWRAUTO_MAX = 45 deg/s; ArduPilot shapes yaw with ATC_ACCEL_Y_MAX):
+  // a heading step would otherwise ask the rotors of one spin direction for a step in speed.
+  double yaw_rate_dps = 45.0;
+  double yaw_accel_dps2 = 90.0;
   double max_lead_m = 4.0;              // the carrot waits while it is this far ahead along the segment
+  // The carrot's acceleration rises at most this fast (ArduPilot PSC_JERK_XY/Z = 5 m/s^3): a step
+  // in acceleration is a step in collective, which the rotors' inertia turns into a current spike.
+  // Braking is not jerk-limited (it lowers the collective; a late brake overshoots the waypoint).
+  double jerk_mps3 = 5.0;
+  // The landing carrot aims this far below the ground: after touchdown the vertical loop keeps
+  // asking for descent and winds the collective down to its minimum while the touchdown detector
+  // runs (ArduPilot descends at LAND_SPEED until its land detector trips).
+  double land_below_ground_m = 1.0;
   double ground_D_m = 0.0;              // ground level (NED D) where the vehicle lands
   double takeoff_acceptance_m = 0.5;    // vertical distance to the takeoff altitude that completes it
   double touchdown_speed_mps = 0.2;     // touchdown: speed below this ...
   double touchdown_height_m = 0.6;      // ... and within this of ground_D_m (or unable to follow the carrot down)
   double touchdown_time_s = 1.0;        // ... for this long
+  // ... or, as ArduPilot's land detector (collective at its lower limit, climb/descent below
+  // LAND_DETECTOR_VEL_Z_MAX = 1 m/s, for 1 s), the collective below touchdown_collective_to_weight
+  // of the weight and the vertical speed below touchdown_vertical_speed_mps, for touchdown_time_s:
+  // robust to an estimate that drifts once the vehicle sits on the ground.
+  double touchdown_vertical_speed_mps = 1.0;
+  double touchdown_collective_to_weight = 0.25;
+  // Lift-off needs the collective at least this fraction of the weight (when it is known): an
+  // estimate drifting upwards on the ground is not a lift-off.
+  double liftoff_collective_to_weight = 0.8;
+  // Take-off from the ground (ArduPilot auto_takeoff_run while land_complete): the collective ramps
+  // from 0 to full scale over takeoff_slew_time_s (TKOFF_SLEW_TIME) with the position loops reset,
+  // until the vehicle climbs at liftoff_climb_fraction of climb_speed_mps (as ArduPilot's "desired
+  // velocity > 10 % of the maximum climb rate" after init_z_controller) or the ramp reaches
+  // takeoff_throttle_max (TKOFF_THR_MAX); then the climb segment is flown from where it is.
+  double takeoff_slew_time_s = 2.0;
+  double takeoff_throttle_max = 0.9;
+  double liftoff_climb_fraction = 0.1;
 };
 
 struct PayloadEvent {
@@ -62,8 +93,13 @@ class MissionSequencer {
   // `mission` must be resolved (ResolveMission); checked.
   explicit MissionSequencer(Mission mission, SequencerParams params = {});
 
-  // The first call takes the vehicle's position as the start of the mission.
-  SequencerOutput Step(const NavState& state, double dt_s);
+  // The first call takes the vehicle's position as the start of the mission. `motors_ready`: the
+  // output stage has spooled up (control/spool.h), so a take-off's ground ramp may advance.
+  // `collective_to_weight`: the last collective over the vehicle's weight (< 0: unknown), which
+  // tells lift-off (only possible near or above 1) and touchdown (far below 1: something else
+  // carries the weight) from an estimate's drift.
+  SequencerOutput Step(const NavState& state, double dt_s, bool motors_ready = true,
+                       double collective_to_weight = -1.0);
 
   FlightMode mode() const { return mode_; }
   const char* mode_name() const { return FlightModeName(mode_); }
@@ -80,6 +116,10 @@ class MissionSequencer {
   // Moves the carrot; true when it has reached the end of the segment.
   bool AdvanceCarrot(const NavState& state, double speed_mps, double dt_s, Setpoint* sp);
   void HoldAt(const Eigen::Vector3d& p, Setpoint* sp) const;
+  // Moves the shaped yaw setpoint towards yaw_rad_ (rate and acceleration limited).
+  void ShapeYaw(double dt_s);
+  // A take-off's ground ramp; true while the vehicle is still on the ground (*sp is the ramp).
+  bool GroundRamp(const NavState& state, double dt_s, bool motors_ready, double collective_to_weight, Setpoint* sp);
 
   Mission mission_;
   SequencerParams params_;
@@ -95,9 +135,14 @@ class MissionSequencer {
   double seg_speed_mps_ = 0.0;
   double carrot_s_m_ = 0.0;
   double carrot_v_mps_ = 0.0;
-  double yaw_rad_ = 0.0;
+  double carrot_a_mps2_ = 0.0;
+  double yaw_rad_ = 0.0;          // the heading wanted
+  double yaw_sp_rad_ = 0.0;       // the shaped yaw setpoint, turning towards yaw_rad_
+  double yaw_rate_radps_ = 0.0;   // its rate
   double timer_s_ = 0.0;
   bool holding_ = false;  // at a waypoint, waiting out its hold_s
+  bool ground_ramp_ = false;  // a take-off from the ground, before lift-off
+  double ground_thrust_fraction_ = 0.0;
 };
 
 // The planned path: start, the takeoff point (start N/E at the takeoff altitude), every waypoint, and

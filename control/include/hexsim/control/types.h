@@ -28,6 +28,15 @@ struct Setpoint {
   // true: motors off (on the ground before take-off or after touchdown). The controller outputs
   // zero and resets its integrators.
   bool idle = false;
+  // true: on the ground before lift-off (ArduPilot's take-off while land_complete): the position
+  // and velocity loops stay reset, the attitude loops level the vehicle at yaw_rad, and the
+  // collective is ground_thrust_fraction of the vehicle's largest thrust, ramped by the sequencer.
+  bool ground_ramp = false;
+  double ground_thrust_fraction = 0.0;
+  // true: landing, probably on the ground (ArduPilot's land_complete_maybe): the rate integrators
+  // are held at zero (they would wind up against the ground's reaction and tip the vehicle), and the
+  // sequencer holds the yaw the vehicle has.
+  bool ground_contact = false;
 };
 
 // Collective thrust along -z_B and body torque; the mixer turns them into rotor thrusts.

@@ -41,6 +41,9 @@ struct RunSummary {
   MaxRms yaw_error_all_deg;             // the same over the whole flight
   double energy_Wh = 0.0;               // battery energy drawn
   double current_max_A = 0.0, current_mean_A = 0.0;  // battery current (JSON: current_A {max, mean})
+  // Time with any ESC at its current limit / the battery at its limit (JSON: current_limited_s
+  // {esc, battery}; a summary written before the limits existed reads as 0).
+  double current_limited_esc_s = 0.0, current_limited_battery_s = 0.0;
   std::optional<double> mission_time_s;  // takeoff to landing; none when it never landed
   std::vector<WaypointArrival> waypoints;
   double wall_s = 0.0;                  // wall-clock time of the run (not reproducible)

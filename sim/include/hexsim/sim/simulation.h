@@ -35,9 +35,6 @@ struct SimOptions {
   // true: the estimator runs and is logged, but the controller flies on the true state (to study
   // an estimator open-loop).
   bool control_on_truth = false;
-  // Autopilot motor-command slew limit upwards (1/s), as ArduPilot's spool-up: without it an ESC
-  // jumping from stop to hover duty draws hundreds of amperes for a few milliseconds.
-  double motor_slew_up_per_s = 4.0;
   bool write_log = true;
   // > 0: the log also carries native-rate imu, rcou and batt streams at up to this rate (sim.stream_rate_hz;
   // sim/step_record.h LogRecorder::EnableStreams); 0: none, the outputs unchanged.
@@ -81,7 +78,7 @@ RunOutput RunMission(const RunSetup& setup);
 using SetpointHook = std::function<void(double t_s, const control::NavState& nav, control::Setpoint* setpoint)>;
 // Called after the controller, before the mixer: may rewrite its output (actuator-point injection).
 using OutputHook = std::function<void(double t_s, const control::NavState& nav, control::ControlOutput* output)>;
-// Called last on every autopilot tick, after the mixer and the spool-up slew (also while the setpoint
+// Called last on every autopilot tick, after the mixer and the spool logic (control/spool.h) (also while the setpoint
 // is idle): may rewrite the per-motor commands, which are then clamped to [0, 1] (a caller flying the
 // motors directly, e.g. the Python bindings).
 using CommandHook = std::function<void(double t_s, const control::NavState& nav, std::vector<double>* commands)>;

@@ -79,6 +79,7 @@ class LogRecorder {
   size_t t_ = 0, pos_[3] = {}, vel_[3] = {}, q_[4] = {}, gyro_[3] = {}, accel_[3] = {}, baro_ = 0, baro_t_ = 0;
   size_t gps_[3] = {}, gps_vel_[3] = {}, gps_t_ = 0, control_u_ = 0, current_ = 0, voltage_ = 0, soc_ = 0;
   std::vector<size_t> motor_u_, motor_A_;
+  size_t esc_limited_ = 0, batt_limited_ = 0;
   std::vector<std::array<size_t, 4>> mag_;  // x, y, z, t per compass
   size_t est_q_[4] = {}, est_pos_[3] = {}, est_vel_[3] = {}, yaw_true_ = 0, yaw_est_ = 0, mode_ = 0, wp_ = 0;
   size_t wind_[3] = {}, payload_ = 0;
@@ -108,7 +109,7 @@ class RunScorer {
   void OnStep(const StepRecord& r);
   void OnInterval(const StepInterval& iv);
   // Adds distance_m, cross_track_m, yaw_error_deg, yaw_error_all_deg, energy_Wh, current_A,
-  // waypoints (hexsim.summary/1).
+  // current_limited_s, waypoints (hexsim.summary/1).
   void WriteSummary(RunSummary* summary) const;
 
   const RunningStats& cross_track_m() const { return cross_track_; }
@@ -122,6 +123,7 @@ class RunScorer {
   std::vector<Eigen::Vector3d> path_;
   RunningStats cross_track_, yaw_err_, yaw_err_all_, current_;
   double energy_J_ = 0.0, distance_m_ = 0.0;
+  double esc_limited_s_ = 0.0, battery_limited_s_ = 0.0;  // time with an ESC / the battery at its limit
   std::vector<WaypointArrival> arrivals_;
   // YawDegFast(est_q_): the yaw of the last estimate seen (bitwise compared; NaN: none yet).
   Eigen::Quaterniond est_q_{std::nan(""), 0.0, 0.0, 0.0};

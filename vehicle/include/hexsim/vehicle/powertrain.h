@@ -8,6 +8,18 @@
 // Battery: V_bus = V_oc(SoC) - R_int*I_batt, I_batt = sum I_dc + avionics (solved exactly: the
 // relation is piecewise linear and convex in V_bus, Newton from V_oc converges in finitely many
 // steps); dSoC/dt = -I_batt/capacity.
+//
+// Current limits (vehicle esc.current_limit_A = L, battery.max_current_A = I_max), enforced on the
+// duty, never on the command:
+//   ESC: where the commanded duty would draw I_dc > L, the ESC lowers its duty to the d at which
+//     d*(d*V_bus - E)/(eta*R) = L, i.e. d = (E + sqrt(E^2 + 4*V_bus*L*eta*R))/(2*V_bus); the ESC is
+//     then a constant-current load L on the bus (the bus solve treats it so; the set of limited ESCs
+//     only grows as the bus voltage rises, so at most one pass per ESC).
+//   Battery: where the total would exceed I_max, every ESC's duty is lowered by one common factor k
+//     (d_i = min(k*d_cmd_i, the ESC's own limit)) so that I_batt = I_max exactly; the bus is then
+//     V_oc - R_int*I_max, and k follows by bisection (each current increases with k).
+// A spinning rotor's inertia is what these limits meet at spin-up: accelerating J*omega from rest
+// through the winding resistance alone draws (d*V_bus/R)*d/eta per ESC.
 #pragma once
 
 #include <vector>
@@ -44,6 +56,7 @@ struct MotorOperatingPoint {
   double no_load_W = 0.0;        // E*I_0
   double esc_loss_W = 0.0;       // (1-eta)*V_bus*I_dc
   double aero_W = 0.0;           // k_Q*omega^3, power absorbed by the propeller
+  bool current_limited = false;  // the ESC lowered its duty below the command's (own or battery limit)
 };
 
 struct PowertrainOutput {
@@ -57,6 +70,8 @@ struct PowertrainOutput {
   double shaft_W = 0.0;          // sum over motors
   double copper_W = 0.0;         // sum over motors
   double total_thrust_N = 0.0;   // sum of |thrust| (magnitudes)
+  int esc_limited = 0;           // ESCs at their own current limit (log column esc_limited)
+  bool battery_limited = false;  // the battery limit scaled every duty down (log column batt_limited)
 
   // The currents the magnetic model needs.
   magnetics::Currents Currents() const;
@@ -79,7 +94,7 @@ void StepPowertrain(const VehicleParams& params, const std::vector<double>& comm
                     PowertrainState* state, PowertrainOutput* out);
 
 // Steady state (domega/dt = 0 for every rotor, body held still) for per-rotor commands at a state
-// of charge; the bus voltage is found by bisection on the battery equation.
+// of charge, current limits included; the bus voltage is found by bisection on the battery equation.
 PowertrainOutput SteadyStateForCommands(const VehicleParams& params, const std::vector<double>& commands,
                                         double soc);
 // Every motor at the same command (the paper's collective control amount u = 1000*command).
@@ -92,8 +107,12 @@ double SteadyOmega_radps(const VehicleParams& params, size_t rotor, double motor
 // (stopped); thrust below the idle thrust gives kIdleCommand; thrust beyond reach gives 1.
 inline constexpr double kIdleCommand = 1e-6;
 double CommandForThrust(const VehicleParams& params, size_t rotor, double thrust_N, double bus_V);
-// The inverse: steady thrust of one rotor at a command and bus voltage.
+// The inverse: steady thrust of one rotor at a command and bus voltage (its ESC's current limit
+// included).
 double ThrustForCommand(const VehicleParams& params, size_t rotor, double command, double bus_V);
+// Steady speed of one rotor whose ESC draws exactly dc_A at bus_V (the speed its current limit
+// allows): I_w = I_0 + k_Q*w^2/K_t, V_m = K_t*w + I_w*R, V_m*I_w = eta*V_bus*dc_A.
+double SteadyOmegaAtDcCurrent_radps(const VehicleParams& params, size_t rotor, double dc_A, double bus_V);
 
 struct Wrench {
   Eigen::Vector3d force_B_N = Eigen::Vector3d::Zero();

@@ -10,6 +10,7 @@
 // (spin +1, axis -z) pushes the body's nose to the right (positive yaw about +z down).
 #pragma once
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -45,10 +46,17 @@ struct MotorParams {
 
 // ESC: duty = 0 for command <= 0 (stopped); otherwise duty_min + (duty_max - duty_min)*command,
 // command clamped to 1. duty_min is the armed idle (ESC start-up + autopilot spin-min).
+//
+// Current limit (powertrain.h): the ESC measures its DC input current I_dc = d*I_w/eta and lowers
+// its duty d below the commanded one until I_dc <= current_limit_A (BLHeli_32 / AM32 "current
+// protection"; a plain ESC's rating is what a builder sets it to). The autopilot's output stage
+// spools the motors up over spool_up_time_s (ArduPilot MOT_SPOOL_TIME; control/spool.h).
 struct EscParams {
   double efficiency = 0.95;  // eta: power to the windings = eta * V_bus * I_dc
   double duty_min = 0.10;
   double duty_max = 1.0;
+  double current_limit_A = std::numeric_limits<double>::infinity();  // per ESC, DC input side
+  double spool_up_time_s = 0.5;  // ground idle -> full throttle range (ArduPilot MOT_SPOOL_TIME)
   double Duty(double command) const {  // inline: the powertrain calls it per motor per step
     if (!(command > 0.0)) return 0.0;  // stopped (also for NaN)
     const double c = command < 1.0 ? command : 1.0;
@@ -64,6 +72,10 @@ struct BatteryParams {
   std::vector<double> ocv_soc = {0.0, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0};
   std::vector<double> ocv_cell_V = {3.27, 3.50, 3.61, 3.69, 3.73, 3.77, 3.81, 3.86, 3.92, 4.00, 4.08, 4.20};
   double initial_soc = 1.0;
+  // Largest continuous discharge current of the pack (its C rating times capacity_Ah): the power
+  // system lowers every ESC's duty by one common factor to keep the battery current within it
+  // (powertrain.h). Infinity: no limit.
+  double max_current_A = std::numeric_limits<double>::infinity();
   // Pack open-circuit voltage at a state of charge (linear interpolation, clamped to the table).
   double OpenCircuitVoltage_V(double soc) const;
 };
