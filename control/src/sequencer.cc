@@ -11,6 +11,22 @@ namespace hexsim::control {
 
 using Eigen::Vector3d;
 
+namespace {
+
+// The speed from which a profile braking at `accel` still stops within `distance` once this step
+// has moved it on by speed*dt: v^2 = 2*accel*(distance - v*dt), v = -accel*dt + sqrt((accel*dt)^2 +
+// 2*accel*distance). The plain sqrt(2*accel*distance) of the distance before the step lags the
+// profile by one step: the speed change it makes in a step is accel*(the previous step's dt), so
+// with the autopilot's uneven ticks (a 400 Hz IMU on a 1 ms physics step: 2 and 3 ms) the
+// acceleration feed-forward alternated between 2/3 and 3/2 of accel, and the collective with it,
+// tick by tick.
+double StoppingSpeed(double accel, double distance, double dt_s) {
+  const double ad = accel * std::max(dt_s, 0.0);
+  return std::sqrt(ad * ad + 2.0 * accel * std::max(distance, 0.0)) - ad;
+}
+
+}  // namespace
+
 const char* FlightModeName(FlightMode mode) {
   switch (mode) {
     case FlightMode::kIdle: return "idle";
@@ -51,8 +67,8 @@ void MissionSequencer::ShapeYaw(double dt_s) {
   const double rate_max = params_.yaw_rate_dps * kDegToRad;
   const double accel = params_.yaw_accel_dps2 * kDegToRad;
   const double e = WrapPi(yaw_rad_ - yaw_sp_rad_);
-  // Rate that still stops at the heading when braking at `accel` (w^2 = 2*a*|e|), capped.
-  const double wanted = std::copysign(std::min(rate_max, std::sqrt(2.0 * accel * std::abs(e))), e);
+  // Rate that still stops at the heading when braking at `accel` after this step, capped.
+  const double wanted = std::copysign(std::min(rate_max, StoppingSpeed(accel, std::abs(e), dt_s)), e);
   yaw_rate_radps_ = std::clamp(wanted, yaw_rate_radps_ - accel * dt_s, yaw_rate_radps_ + accel * dt_s);
   if (std::abs(e) < 1e-4 && std::abs(yaw_rate_radps_) <= accel * dt_s) {
     yaw_sp_rad_ = yaw_rad_;  // arrived
@@ -145,12 +161,12 @@ bool MissionSequencer::AdvanceCarrot(const NavState& state, double speed_mps, do
   const Vector3d dir = length > 1e-9 ? Vector3d(d / length) : Vector3d::Zero();
   const double along_m = (state.p_N_m - seg_start_).dot(dir);
   const double remaining_m = length - carrot_s_m_;
-  // Speed profile: accelerate at accel, brake to stop at the end (v^2 = 2*a*remaining); a lower
+  // Speed profile: accelerate at accel, brake to stop at the end (StoppingSpeed); a lower
   // segment speed is reached by braking at accel too. Speeding up, the acceleration rises by at
   // most jerk*dt per step (a step in acceleration is a step in collective); braking is not
   // jerk-limited (it lowers the collective, and a late brake would overshoot the waypoint).
   const double a_max = params_.accel_mps2;
-  const double v_brake = std::sqrt(2.0 * a_max * std::max(remaining_m, 0.0));
+  const double v_brake = StoppingSpeed(a_max, remaining_m, dt_s);
   const double dv = a_max * dt_s;
   double v = std::min(v_brake, std::clamp(speed_mps, carrot_v_mps_ - dv, carrot_v_mps_ + dv));
   if (carrot_s_m_ - along_m > params_.max_lead_m) v = std::min(v, std::max(0.0, carrot_v_mps_ - dv));
