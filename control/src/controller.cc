@@ -70,7 +70,11 @@ ControlOutput CascadedController::Update(const NavState& state, const Setpoint& 
   }
   if (setpoint.ground_ramp) return UpdateOnGround(state, setpoint, dt_s);
   if (setpoint.ground_contact) {
+    // The rate integrators and the horizontal velocity integrators would wind up against the
+    // ground's reaction and friction (ArduPilot soften_for_landing_xy relaxes the latter).
     for (Pid& p : rate_) p.set_integrator(0.0);
+    vel_[0].set_integrator(0.0);
+    vel_[1].set_integrator(0.0);
   }
   const ControllerParams& P = params_;
   const double m = vehicle_.mass_kg;

@@ -268,7 +268,13 @@ SequencerOutput MissionSequencer::Step(const NavState& state, double dt_s, bool 
       const bool contact = carrot_s_m_ > 0.0 && ((still && (near_ground || blocked)) || carried);
       timer_s_ = contact ? timer_s_ + dt_s : 0.0;
       if (contact) {
-        // On the ground, probably: hold the vehicle's own yaw and let the controller relax.
+        // On the ground, probably: hold the vehicle's own yaw and where it stands, and let the
+        // controller relax (ArduPilot's land_complete_maybe: soften_for_landing_xy moves the
+        // horizontal target to the current position). A horizontal target the vehicle cannot reach
+        // while its legs grip the ground would tilt it about a leg until it tips over.
+        sp.p_N_m.head<2>() = state.p_N_m.head<2>();
+        sp.v_ff_N_mps.head<2>().setZero();
+        sp.a_ff_N_mps2.head<2>().setZero();
         yaw_rad_ = yaw_sp_rad_ = EulerFromQuat(state.q_NB).z();
         yaw_rate_radps_ = 0.0;
         sp.yaw_rad = yaw_sp_rad_;

@@ -203,8 +203,13 @@ TEST_P(OutOfLibrary, GivenAnEffectOutsideTheLibraryWhenDiagnosedThenItIsNotAConf
   EXPECT_TRUE(not_explained || mag2->residual_left.value("share", 0.0) >= 0.3) << Summary(*rep);
 }
 
+// current_exponent 1.0: the wiring field grows as I^2. With the powertrain's current limits and spool
+// the square's current spans about 4-26 A, over which I^1.5 (the former 0.5) is within a few per cent
+// of a line: current_hard_iron then rightly explains > 90 % of it and the case no longer lies outside
+// what the library describes on this flight. I^2 over the same range does (75 % linear, the rest a
+// part growing with the square of the prediction).
 INSTANTIATE_TEST_SUITE_P(Effects, OutOfLibrary,
-                         ::testing::Values(OutCase{"current_exponent", 0.5, 601}, OutCase{"thermal_ramp", 4.0, 602}),
+                         ::testing::Values(OutCase{"current_exponent", 1.0, 601}, OutCase{"thermal_ramp", 4.0, 602}),
                          [](const ::testing::TestParamInfo<OutCase>& i) { return std::string(i.param.effect); });
 
 }  // namespace

@@ -66,6 +66,7 @@ class Eskf final : public Estimator, private internal::Filter {
     cov_dv_N_.setZero();
     cov_count_ = 0;
     last_gps_fused_t_ = front_.time();
+    last_gps_vel_fused_t_ = front_.time();
     last_mag_fused_t_ = front_.time();
     InitCovariance();
   }
@@ -198,6 +199,7 @@ class Eskf final : public Estimator, private internal::Filter {
     } else if (t_valid - last_gps_fused_t_ > prm_.gps_reset_timeout_s) {
       ResetToGps(s, p_then, v_then);
       last_gps_fused_t_ = t_valid;
+      last_gps_vel_fused_t_ = t_valid;
       return;
     }
     // The position update moved the history too: take the velocity innovation after it.
@@ -212,6 +214,16 @@ class Eskf final : public Estimator, private internal::Filter {
     double ratio = 0;
     const bool fused = FuseGroup(3, H, y, r, prm_.gps_gate_sigma, s.t_s, "gps velocity", &ratio);
     Count(&stats.gps_vel, fused, y_v, ratio);
+    if (fused) {
+      last_gps_vel_fused_t_ = t_valid;
+    } else if (t_valid - last_gps_vel_fused_t_ > prm_.gps_reset_timeout_s) {
+      // The position still passes its gate but the velocity has not for this long: the filter is
+      // confident of a velocity the receiver keeps contradicting (a tilt error the velocity would
+      // have corrected, drifting beyond the gate), and only a reset brings it back (EKF2's
+      // resetVelocityToGnss when its velocity fusion times out).
+      ResetVelocityToGps(s, v_then);
+      last_gps_vel_fused_t_ = t_valid;
+    }
   }
 
   void FuseBaro(const BaroSample& s) override {
@@ -246,6 +258,17 @@ class Eskf final : public Estimator, private internal::Filter {
   // EKF2-style reset: horizontal position and velocity jump to the GPS sample (the offset found at
   // its time of validity is applied to the current state and the history); their covariance
   // becomes the GPS noise, uncorrelated with the rest.
+  // Velocity only: it jumps to the GPS sample (the offset at its time of validity applied to the
+  // current state and the history); its covariance becomes the GPS noise, uncorrelated.
+  void ResetVelocityToGps(const GpsSample& s, const Eigen::Vector3d& v_then) {
+    const Eigen::Vector3d dv = s.v_N_mps - v_then;
+    v_ += dv;
+    front_.Shift(Eigen::Vector3d::Zero(), dv);
+    const double r_v = prm_.gps_vel_std_mps * prm_.gps_vel_std_mps;
+    for (int i = 0; i < 3; ++i) ResetVariance(kV + i, r_v);
+    ++front_.stats().gps_vel.resets;
+  }
+
   void ResetToGps(const GpsSample& s, const Eigen::Vector3d& p_then, const Eigen::Vector3d& v_then) {
     const Eigen::Vector3d dp(s.p_N_m.x() - p_then.x(), s.p_N_m.y() - p_then.y(), 0.0);
     const Eigen::Vector3d dv = s.v_N_mps - v_then;
@@ -446,6 +469,7 @@ class Eskf final : public Estimator, private internal::Filter {
   Eigen::Vector3d cov_dv_N_ = Eigen::Vector3d::Zero();  // Σ R·f·dt over the same interval
   int cov_count_ = 0;
   double last_gps_fused_t_ = 0;  // time of validity of the last fused horizontal GPS position
+  double last_gps_vel_fused_t_ = 0;  // time of validity of the last fused GPS velocity
   double last_mag_fused_t_ = 0;
 };
 

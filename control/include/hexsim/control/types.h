@@ -33,9 +33,9 @@ struct Setpoint {
   // collective is ground_thrust_fraction of the vehicle's largest thrust, ramped by the sequencer.
   bool ground_ramp = false;
   double ground_thrust_fraction = 0.0;
-  // true: landing, probably on the ground (ArduPilot's land_complete_maybe): the rate integrators
-  // are held at zero (they would wind up against the ground's reaction and tip the vehicle), and the
-  // sequencer holds the yaw the vehicle has.
+  // true: landing, probably on the ground (ArduPilot's land_complete_maybe): the rate and the
+  // horizontal velocity integrators are held at zero (they would wind up against the ground's
+  // reaction and tip the vehicle), and the sequencer holds the yaw and the position the vehicle has.
   bool ground_contact = false;
 };
 

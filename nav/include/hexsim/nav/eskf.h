@@ -13,8 +13,9 @@
 // satisfy |y_i| ≤ gate_sigma·√S_ii, else the whole group is rejected and counted. GPS horizontal
 // position, GPS height and GPS velocity are separate groups.
 // Recovery (EKF2-style): no horizontal GPS fused for gps_reset_timeout_s → horizontal position and
-// velocity reset to GPS; no compass fused for mag_yaw_reset_timeout_s → yaw reset to the compass
-// (both counted in SensorStats::resets).
+// velocity reset to GPS; no GPS velocity fused for gps_reset_timeout_s (the position still fusing)
+// → velocity reset to GPS; no compass fused for mag_yaw_reset_timeout_s → yaw reset to the compass
+// (all counted in SensorStats::resets).
 // Heading Jacobian: the compass is levelled with the estimated tilt, so the innovation is
 // y = δθ_D − B_D(B_N δθ_N + B_E δθ_E)/B_H² (a tilt error leaks in ×tan(inclination)).
 // Compass: heading mode (ψ from the tilt-compensated field with the estimated roll/pitch, plus the
