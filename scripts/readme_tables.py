@@ -119,6 +119,22 @@ def selftest(path, machine, date):
     share = any(k.startswith("median_explained_share") for k in (t or {})) and "median_explained_share" in one
     one_last = (f"median explained share {pct(one.get('median_explained_share'))}" if share
                 else f"median held-out shrink {pct(one.get('median_heldout_shrink'))}")
+    if j.get("profile") == "real":
+        # The real profile's details: which effects' intervals miss, which families are named.
+        def misses(cls, hit, total):
+            pe = cls.get("per_effect", {}) or cls.get("per_family", {})
+            parts = [f"{e.replace('_', ' ')} {v[hit]}/{v[total]}" for e, v in sorted(pe.items()) if v[hit] < v[total]]
+            return ", ".join(parts) + (", the rest all" if parts else "all")
+        cov = misses(one, "covered", "coverage_trials")
+        ool_miss = misses(ool, "unexplained", "trials")
+        sweep = j.get("detection_threshold", {}).get("current_hard_iron", {}) or {}
+        grid, rate = sweep.get("grid_uT_per_A", []), sweep.get("flagged_rate", [])
+        flagged = ", ".join(f"{100 * r:.0f} % at {g:g}" for g, r in zip(grid, rate))
+        thr_text += f" (flagged {flagged} µT/A; {sweep.get('trials_per_magnitude')} flights each)"
+        one_last += f"; coverage by effect: {cov}"
+        ool_detail = f" ({ool_miss})"
+    else:
+        ool_detail = ""
     rows = [
         ("clean", f"false alarms {pct(clean.get('false_alarm_rate'))}", target(t, "false_alarm")),
         ("one effect", f"top-1 {pct(one.get('top1_rate'))}, 95 % interval covers the truth "
@@ -127,7 +143,7 @@ def selftest(path, machine, date):
                     target(t, "median_explained_share" if share else "median_shrink")])),
         ("two effects", f"top-1 {pct(two.get('top1_rate'))}; overall top-1 {pct(j.get('overall_top1_rate'))}",
          "overall " + target(t, "overall_top1")),
-        (ool_label, f"\"unexplained\" {pct(ool.get('unexplained_rate'))}", target(t, "unexplained")),
+        (ool_label, f"\"unexplained\" {pct(ool.get('unexplained_rate'))}{ool_detail}", target(t, "unexplained")),
         ("detection threshold, current hard iron", thr_text, target(t, "current_hard_iron_threshold")),
     ]
     # The dynamics channel's rows, where the profile runs that channel (it then has its targets).
