@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <string>
+#include <utility>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -83,10 +84,14 @@ class Eskf final : public Estimator, private internal::Filter {
     const Eigen::Vector3d p_new = p_ + v_ * dt + 0.5 * a_N * dt * dt;
     const Eigen::Vector3d v_new = v_ + a_N * dt;
     const Eigen::Quaterniond q_new = (q_ * QuatExp(w * dt)).normalized();
-    if (!front_.CheckFinite(p_new, "p_N_m", s.t_s, "IMU predict") ||
-        !front_.CheckFinite(v_new, "v_N_mps", s.t_s, "IMU predict") ||
-        !front_.CheckFinite(q_new.coeffs(), "q_NB", s.t_s, "IMU predict") ||
-        !front_.CheckSpeed(v_new, s.t_s, "IMU predict")) {
+    // One test of the ten numbers first (a finite sum proves each finite); only when it fails the
+    // checks one by one, which name the quantity.
+    const bool ok = std::isfinite(p_new.sum() + v_new.sum() + q_new.coeffs().sum()) &&
+                    internal::FrontEnd::SpeedOk(v_new);
+    if (!ok && (!front_.CheckFinite(p_new, "p_N_m", s.t_s, "IMU predict") ||
+                !front_.CheckFinite(v_new, "v_N_mps", s.t_s, "IMU predict") ||
+                !front_.CheckFinite(q_new.coeffs(), "q_NB", s.t_s, "IMU predict") ||
+                !front_.CheckSpeed(v_new, s.t_s, "IMU predict"))) {
       return;
     }
     p_ = p_new;
@@ -318,7 +323,8 @@ class Eskf final : public Estimator, private internal::Filter {
 
   // P ← F P Fᵀ + Q over dt; F = I + A dt (A as in the header) with f_N·dt = dv_N, Q from the noise
   // densities.
-  void PredictCovariance(const Eigen::Matrix3d& R, const Eigen::Vector3d& dv_N, double dt) {
+  __attribute__((noinline)) void PredictCovariance(const Eigen::Matrix3d& R, const Eigen::Vector3d& dv_N,
+                                                   double dt) {
     // F = I except F_θ,bg = −R·dt (A), F_v,θ = −[Δv_N]× (B), F_v,ba = −R·dt (A), F_p,v = I·dt.
     // F·P·Fᵀ is written blockwise (3×3 by 3×15 products, no general 15×15 GEMM at 1 kHz), only
     // its upper block triangle, then mirrored: P stays exactly symmetric.
@@ -356,9 +362,7 @@ class Eskf final : public Estimator, private internal::Filter {
       P(kBg + i, kBg + i) += qbg;
       P(kBa + i, kBa + i) += qba;
     }
-    for (int c = 0; c < 15; ++c) {
-      for (int r = c + 1; r < 15; ++r) P(r, c) = P(c, r);
-    }
+    MirrorUpper(&P);
     if (!CheckCovariance(P, front_.time(), "covariance predict")) return;
     P_ = P;
   }
@@ -388,20 +392,18 @@ class Eskf final : public Estimator, private internal::Filter {
       // Joseph form (I−KH)·P·(I−KH)ᵀ + K·r·Kᵀ; with P symmetric and HP = (PHᵀ)ᵀ it expands to
       //   P − K·(PHᵀ)ᵀ − (PHᵀ)·Kᵀ + (HPHᵀ + r)·K·Kᵀ,
       // evaluated on the upper triangle (O(n²)), mirrored once after the group: P stays exactly symmetric.
-      for (int c = 0; c < 15; ++c) {
-        for (int row = 0; row <= c; ++row) {
-          P(row, c) += S * K(row) * K(c) - K(row) * Pht(c) - Pht(row) * K(c);
-        }
+      JosephUpper(K, Pht, S, &P);
+    }
+    MirrorUpper(&P);
+    const Eigen::Vector3d v_new = v_ + dx.segment<3>(kV);
+    if (!internal::FrontEnd::Finite(dx) || !CovarianceOk(P) || !internal::FrontEnd::SpeedOk(v_new)) {
+      // Named only when a check fails (no formatting per fusion): the same checks again, recording
+      // which one failed and where.
+      char where[48];
+      std::snprintf(where, sizeof where, "%s update", what);
+      if (front_.CheckFinite(dx, "error state", t_s, where) && CheckCovariance(P, t_s, where)) {
+        front_.CheckSpeed(v_new, t_s, where);
       }
-    }
-    for (int c = 0; c < 15; ++c) {
-      for (int row = c + 1; row < 15; ++row) P(row, c) = P(c, row);
-    }
-    char where[48];
-    std::snprintf(where, sizeof where, "%s update", what);  // no heap allocation per fusion
-    if (!front_.CheckFinite(dx, "error state", t_s, where) ||
-        !CheckCovariance(P, t_s, where) ||
-        !front_.CheckSpeed(v_ + dx.segment<3>(kV), t_s, where)) {
       return false;
     }
     // Injection: q ← exp(δθ)⊗q (δθ in N), additive for the rest. Reset of a *global* (N-frame)
@@ -415,8 +417,7 @@ class Eskf final : public Estimator, private internal::Filter {
     front_.Shift(dx.segment<3>(kP), dx.segment<3>(kV));
     // P ← G·P·Gᵀ with G = I except G_θθ = I + [δθ̂/2]×: only the θ row and column blocks change.
     const Eigen::Matrix3d G = Eigen::Matrix3d::Identity() + Skew(0.5 * dth);
-    P.middleRows<3>(kTh) = (G * P.middleRows<3>(kTh)).eval();
-    P.middleCols<3>(kTh) = (P.middleCols<3>(kTh) * G.transpose()).eval();
+    ResetAttitudeBlock(G, &P);
     P_ = P;
     return true;
   }
@@ -440,6 +441,54 @@ class Eskf final : public Estimator, private internal::Filter {
     q_ = (QuatExp(Eigen::Vector3d(0, 0, dpsi_rad)) * q_).normalized();
     ResetVariance(kTh + 2, variance);
     ++front_.stats().mag.resets;
+  }
+
+  // The covariance steps below are kept out of line (noinline): inlined into PredictImu and
+  // FuseGroup they cost ≈ 120 instructions per physics step more (sim_instructions full), the
+  // callers' every call paying for the registers the 15×15 code needs.
+
+  // P(r,c) = P(c,r) below the diagonal, unrolled at compile time (105 plain copies).
+  template <int... I>
+  static void MirrorUpperImpl(Mat15* P, std::integer_sequence<int, I...> /*unused*/) {
+    double* d = P->data();
+    (((I % 15) > (I / 15) ? void(d[I] = d[(I % 15) * 15 + I / 15]) : void()), ...);
+  }
+  __attribute__((noinline)) static void MirrorUpper(Mat15* P) {
+    MirrorUpperImpl(P, std::make_integer_sequence<int, 225>());
+  }
+
+  // P += (HPHᵀ + r)·K·Kᵀ − K·(PHᵀ)ᵀ − (PHᵀ)·Kᵀ on the upper triangle: every entry (row ≤ c) is
+  // P(row,c) + ((S·K(row))·K(c) − K(row)·Pht(c)) − Pht(row)·K(c). Column c is updated in rows
+  // 0..c rounded up to an even count, so each column is whole vector packets; the one entry below
+  // the diagonal this adds is overwritten by the mirror after the group and read by nothing before
+  // (the next row's P·hᵀ reads the upper triangle).
+  template <int C>
+  static void JosephColumns(const Vec15& SK, const Vec15& K, const Vec15& Pht, Mat15* P) {
+    if constexpr (C < 15) {
+      constexpr int kRows = std::min(15, (C + 2) / 2 * 2);
+      P->col(C).template head<kRows>() +=
+          SK.head<kRows>() * K(C) - K.head<kRows>() * Pht(C) - Pht.head<kRows>() * K(C);
+      JosephColumns<C + 1>(SK, K, Pht, P);
+    }
+  }
+  __attribute__((noinline)) static void JosephUpper(const Vec15& K, const Vec15& Pht, double S, Mat15* P) {
+    const Vec15 SK = S * K;
+    JosephColumns<0>(SK, K, Pht, P);
+  }
+
+  // P ← G·P·Gᵀ for G = I except the θθ block: only the θ row and column blocks change.
+  __attribute__((noinline)) static void ResetAttitudeBlock(const Eigen::Matrix3d& G, Mat15* P) {
+    P->middleRows<3>(kTh) = (G * P->middleRows<3>(kTh)).eval();
+    P->middleCols<3>(kTh) = (P->middleCols<3>(kTh) * G.transpose()).eval();
+  }
+
+  // CheckCovariance's test without the failure.
+  static bool CovarianceOk(const Mat15& P) {
+    if (!internal::FrontEnd::Finite(P)) return false;
+    for (int i = 0; i < 15; ++i) {
+      if (P(i, i) < 0.0) return false;
+    }
+    return true;
   }
 
   bool CheckCovariance(const Mat15& P, double t_s, const char* where) {

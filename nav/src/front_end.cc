@@ -84,7 +84,7 @@ bool FrontEnd::LookupForGps(double t_s, const Eigen::Vector3d& p_now, const Eige
 }
 
 bool FrontEnd::CheckSpeed(const Eigen::Vector3d& v_N_mps, double t_s, const char* where) {
-  if (v_N_mps.norm() <= kMaxSpeed_mps) return true;
+  if (SpeedOk(v_N_mps)) return true;
   Fail("diverged: |v_N_mps| = " + Num(v_N_mps.norm()) + " m/s at t=" + Num(t_s) + " s" + Where(where));
   return false;
 }

@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <string>
+#include <type_traits>
 
 #include <Eigen/Core>
 
@@ -68,14 +69,21 @@ class FrontEnd {
   // (when given) the step; the filter then does nothing more.
   template <class V>
   bool CheckFinite(const V& v, const char* quantity, double t_s, const char* where = nullptr) {
-    // A sum with an infinite or NaN term is never finite, so a finite plain sum (one vectorised
-    // pass of additions) proves every coefficient finite. Only when it is not (a non-finite term,
-    // or finite terms overflowing) the exact test: x·0 is ±0 for a finite x and NaN for ±inf or
-    // NaN, so that sum is 0 exactly when every coefficient is finite (allFinite()'s answer).
-    if (std::isfinite(v.sum()) || (v.array() * 0.0).sum() == 0.0) return true;
+    if (Finite(v)) return true;
     Fail("non-finite " + std::string(quantity) + " at t=" + Num(t_s) + " s" + Where(where));
     return false;
   }
+  // Whether every coefficient is finite (allFinite()'s answer). A sum with an infinite or NaN term
+  // is never finite, so a finite plain sum (one vectorised pass of additions) proves every
+  // coefficient finite. Only when it is not (a non-finite term, or finite terms overflowing) the
+  // exact test: x·0 is ±0 for a finite x and NaN for ±inf or NaN, so that sum is 0 exactly when
+  // every coefficient is finite.
+  template <class V>
+  static bool Finite(const V& v) {
+    return std::isfinite(PlainSum(v)) || (v.array() * 0.0).sum() == 0.0;
+  }
+  // |v_N| ≤ kMaxSpeed_mps (CheckSpeed without the failure).
+  static bool SpeedOk(const Eigen::Vector3d& v_N_mps) { return v_N_mps.norm() <= kMaxSpeed_mps; }
   // |v_N| ≤ kMaxSpeed_mps, a speed no multirotor reaches.
   bool CheckSpeed(const Eigen::Vector3d& v_N_mps, double t_s, const char* where = nullptr);
   void Fail(const std::string& what) { health_ = Status::Numerical(name_ + ": " + what); }
@@ -93,6 +101,23 @@ class FrontEnd {
   static constexpr double kMaxSpeed_mps = 1000.0;
 
  private:
+  // Σ v in any order (only its finiteness is used). A large fixed-size matrix (the filters'
+  // covariance) is summed in eight independent lanes, which the compiler packs into vector
+  // additions: Eigen's sum() of 225 terms is one loop of dependent pairs, twice the instructions.
+  template <class V>
+  static double PlainSum(const V& v) {
+    if constexpr (V::SizeAtCompileTime >= 64 && std::is_base_of_v<Eigen::PlainObjectBase<V>, V>) {  // contiguous
+      constexpr int kN = V::SizeAtCompileTime;
+      // The coefficients as an 8 × (kN/8) matrix whose column sum is accumulated packet-wise.
+      const double* x = v.data();
+      double total = Eigen::Map<const Eigen::Matrix<double, 8, kN / 8>>(x).rowwise().sum().sum();
+      for (int i = kN - kN % 8; i < kN; ++i) total += x[i];
+      return total;
+    } else {
+      return v.sum();
+    }
+  }
+
   // false: the sample went into the alignment, which the filter finishes when it is complete.
   bool FinishIfAligned(double align_time_s, Filter* filter) {
     if (aligner_.Ready(t_s_, align_time_s)) filter->OnAligned();
