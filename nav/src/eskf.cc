@@ -115,7 +115,7 @@ class Eskf final : public Estimator, private internal::Filter {
     if (!front_.AdmitMag(s, prm_.align_time_s, this)) return;
     EstimatorStats& stats = front_.stats();
     const Eigen::Matrix3d R = q_.toRotationMatrix();
-    if (prm_.mag_mode == MagMode::kThreeAxis && P_(kTh + 2, kTh + 2) < kThreeAxisMaxYawStd_rad * kThreeAxisMaxYawStd_rad) {
+    if (prm_.mag_mode == MagMode::kThreeAxis && Cov()(kTh + 2, kTh + 2) < kThreeAxisMaxYawStd_rad * kThreeAxisMaxYawStd_rad) {
       const Eigen::Vector3d& B_N = prm_.earth.B_N_uT;
       const Eigen::Vector3d h = R.transpose() * B_N;
       // h(δθ) = Rᵀ(I − [δθ]×)B_N = h + Rᵀ[B_N]× δθ
@@ -136,7 +136,7 @@ class Eskf final : public Estimator, private internal::Filter {
       } else if (s.t_s - last_mag_fused_t_ > prm_.mag_yaw_reset_timeout_s) {
         const Eigen::Vector3d euler = EulerFromQuat(q_);
         const double psi_meas =
-            TiltCompensatedHeadingRad(s.mag_B_uT, euler.x(), euler.y()) + DeclinationRad(prm_.earth);
+            TiltCompensatedHeadingRad(s.mag_B_uT, euler.x(), euler.y()) + declination_rad_;
         ResetYaw(WrapPi(psi_meas - euler.z()), prm_.mag_heading_std_rad * prm_.mag_heading_std_rad);
         last_mag_fused_t_ = s.t_s;
       }
@@ -153,7 +153,7 @@ class Eskf final : public Estimator, private internal::Filter {
     }
     const Eigen::Vector3d euler = EulerFromQuat(q_);
     const double psi_meas =
-        TiltCompensatedHeadingRad(s.mag_B_uT, euler.x(), euler.y()) + DeclinationRad(prm_.earth);
+        TiltCompensatedHeadingRad(s.mag_B_uT, euler.x(), euler.y()) + declination_rad_;
     const Eigen::Vector3d& B = prm_.earth.B_N_uT;
     const double bh2 = B.x() * B.x() + B.y() * B.y();
     Row15 H = Row15::Zero();
@@ -252,7 +252,7 @@ class Eskf final : public Estimator, private internal::Filter {
     e.gyro_bias_B_radps = bg_;
     e.accel_bias_B_mps2 = ba_;
     e.q_NB = q_;
-    e.yaw_std_rad = std::sqrt(std::max(0.0, P_(kTh + 2, kTh + 2)));
+    e.yaw_std_rad = std::sqrt(std::max(0.0, Cov()(kTh + 2, kTh + 2)));
     e.healthy = front_.healthy() && !front_.aligning();
     return e;
   }
@@ -295,7 +295,7 @@ class Eskf final : public Estimator, private internal::Filter {
         Eigen::Vector3d::Constant(prm_.init_pos_std_m * prm_.init_pos_std_m),
         Eigen::Vector3d::Constant(prm_.init_gyro_bias_std_radps * prm_.init_gyro_bias_std_radps),
         Eigen::Vector3d::Constant(prm_.init_accel_bias_std_mps2 * prm_.init_accel_bias_std_mps2);
-    P_ = d.asDiagonal();
+    Cov() = d.asDiagonal();
   }
 
   void OnFirstImu(const ImuSample& s) override {
@@ -331,17 +331,18 @@ class Eskf final : public Estimator, private internal::Filter {
     using Rows3 = Eigen::Matrix<double, 3, 15>;
     const Eigen::Matrix3d A = -R * dt;
     const Eigen::Matrix3d B = -Skew(dv_N);
+    const Mat15& P0 = Cov();
     // Row blocks of M = F·P (the bias rows of M are those of P).
-    Rows3 M_th = P_.middleRows<3>(kTh);
-    M_th.noalias() += A * P_.middleRows<3>(kBg);
-    Rows3 M_v = P_.middleRows<3>(kV);
-    M_v.noalias() += B * P_.middleRows<3>(kTh);
-    M_v.noalias() += A * P_.middleRows<3>(kBa);
-    const Rows3 M_p = P_.middleRows<3>(kP) + dt * P_.middleRows<3>(kV);
+    Rows3 M_th = P0.middleRows<3>(kTh);
+    M_th.noalias() += A * P0.middleRows<3>(kBg);
+    Rows3 M_v = P0.middleRows<3>(kV);
+    M_v.noalias() += B * P0.middleRows<3>(kTh);
+    M_v.noalias() += A * P0.middleRows<3>(kBa);
+    const Rows3 M_p = P0.middleRows<3>(kP) + dt * P0.middleRows<3>(kV);
     // Column blocks of M·Fᵀ: col θ = M_θ + M_bg·Aᵀ; col v = M_v + M_θ·Bᵀ + M_ba·Aᵀ;
     // col p = M_p + dt·M_v; bias columns unchanged.
     const Eigen::Matrix3d At = A.transpose(), Bt = B.transpose();
-    Mat15 P;
+    Mat15& P = SpareCov();
     P.block<3, 3>(kTh, kTh) = M_th.middleCols<3>(kTh) + M_th.middleCols<3>(kBg) * At;
     P.block<3, 3>(kTh, kV) = M_th.middleCols<3>(kV) + M_th.middleCols<3>(kTh) * Bt + M_th.middleCols<3>(kBa) * At;
     P.block<3, 3>(kTh, kP) = M_th.middleCols<3>(kP) + dt * M_th.middleCols<3>(kV);
@@ -351,7 +352,7 @@ class Eskf final : public Estimator, private internal::Filter {
     P.block<3, 6>(kV, kBg) = M_v.middleCols<6>(kBg);
     P.block<3, 3>(kP, kP) = M_p.middleCols<3>(kP) + dt * M_p.middleCols<3>(kV);
     P.block<3, 6>(kP, kBg) = M_p.middleCols<6>(kBg);
-    P.block<6, 6>(kBg, kBg) = P_.block<6, 6>(kBg, kBg);
+    P.block<6, 6>(kBg, kBg) = P0.block<6, 6>(kBg, kBg);
     const double qg = prm_.gyro_noise_radps_rthz * prm_.gyro_noise_radps_rthz * dt;
     const double qa = prm_.accel_noise_mps2_rthz * prm_.accel_noise_mps2_rthz * dt;
     const double qbg = prm_.gyro_bias_rw_radps2_rthz * prm_.gyro_bias_rw_radps2_rthz * dt;
@@ -364,7 +365,7 @@ class Eskf final : public Estimator, private internal::Filter {
     }
     MirrorUpper(&P);
     if (!CheckCovariance(P, front_.time(), "covariance predict")) return;
-    P_ = P;
+    CommitSpareCov();
   }
 
   // Gates the group (every |y_i| ≤ gate·√S_ii), then fuses its components one by one (Joseph form),
@@ -376,14 +377,14 @@ class Eskf final : public Estimator, private internal::Filter {
     Vec15 PHt[3];  // P·Hᵢᵀ from the few non-zero entries of Hᵢ (groups have at most three rows)
     HEXSIM_CHECK(n >= 1 && n <= 3);
     for (int i = 0; i < n; ++i) {
-      PHt[i] = SparseTimes(P_, H[i]);
+      PHt[i] = SparseTimes(Cov(), H[i]);
       const double S = H[i].dot(PHt[i]) + r[i];
       worst = std::max(worst, std::abs(y[i]) / (gate_sigma * std::sqrt(S)));
     }
     *test_ratio = worst;
     if (!(worst <= 1.0)) return false;
     Vec15 dx = Vec15::Zero();
-    Mat15 P = P_;
+    Mat15& P = SpareCov();  // the first row's update reads Cov(), the next ones P
     for (int i = 0; i < n; ++i) {
       const Vec15 Pht = i == 0 ? PHt[0] : SparseTimesUpper(P, H[i]);
       const double S = H[i].dot(Pht) + r[i];
@@ -392,7 +393,7 @@ class Eskf final : public Estimator, private internal::Filter {
       // Joseph form (I−KH)·P·(I−KH)ᵀ + K·r·Kᵀ; with P symmetric and HP = (PHᵀ)ᵀ it expands to
       //   P − K·(PHᵀ)ᵀ − (PHᵀ)·Kᵀ + (HPHᵀ + r)·K·Kᵀ,
       // evaluated on the upper triangle (O(n²)), mirrored once after the group: P stays exactly symmetric.
-      JosephUpper(K, Pht, S, &P);
+      JosephUpper(K, Pht, S, i == 0 ? Cov() : P, &P);
     }
     MirrorUpper(&P);
     const Eigen::Vector3d v_new = v_ + dx.segment<3>(kV);
@@ -418,7 +419,7 @@ class Eskf final : public Estimator, private internal::Filter {
     // P ← G·P·Gᵀ with G = I except G_θθ = I + [δθ̂/2]×: only the θ row and column blocks change.
     const Eigen::Matrix3d G = Eigen::Matrix3d::Identity() + Skew(0.5 * dth);
     ResetAttitudeBlock(G, &P);
-    P_ = P;
+    CommitSpareCov();
     return true;
   }
 
@@ -431,9 +432,9 @@ class Eskf final : public Estimator, private internal::Filter {
 
   // Zeroes the cross-covariances of error-state index i and sets its variance (a state reset).
   void ResetVariance(int i, double variance) {
-    P_.row(i).setZero();
-    P_.col(i).setZero();
-    P_(i, i) = variance;
+    Cov().row(i).setZero();
+    Cov().col(i).setZero();
+    Cov()(i, i) = variance;
   }
 
   // EKF2-style yaw reset: rotates the attitude about N down by the heading innovation.
@@ -462,18 +463,20 @@ class Eskf final : public Estimator, private internal::Filter {
   // 0..c rounded up to an even count, so each column is whole vector packets; the one entry below
   // the diagonal this adds is overwritten by the mirror after the group and read by nothing before
   // (the next row's P·hᵀ reads the upper triangle).
+  // *P = P0 + that (P0 may be *P: each entry reads only its own), and nothing else of *P is written.
   template <int C>
-  static void JosephColumns(const Vec15& SK, const Vec15& K, const Vec15& Pht, Mat15* P) {
+  static void JosephColumns(const Vec15& SK, const Vec15& K, const Vec15& Pht, const Mat15& P0, Mat15* P) {
     if constexpr (C < 15) {
       constexpr int kRows = std::min(15, (C + 2) / 2 * 2);
-      P->col(C).template head<kRows>() +=
-          SK.head<kRows>() * K(C) - K.head<kRows>() * Pht(C) - Pht.head<kRows>() * K(C);
-      JosephColumns<C + 1>(SK, K, Pht, P);
+      P->col(C).template head<kRows>() = P0.col(C).template head<kRows>() +
+          (SK.head<kRows>() * K(C) - K.head<kRows>() * Pht(C) - Pht.head<kRows>() * K(C));
+      JosephColumns<C + 1>(SK, K, Pht, P0, P);
     }
   }
-  __attribute__((noinline)) static void JosephUpper(const Vec15& K, const Vec15& Pht, double S, Mat15* P) {
+  __attribute__((noinline)) static void JosephUpper(const Vec15& K, const Vec15& Pht, double S, const Mat15& P0,
+                                                    Mat15* P) {
     const Vec15 SK = S * K;
-    JosephColumns<0>(SK, K, Pht, P);
+    JosephColumns<0>(SK, K, Pht, P0, P);
   }
 
   // P ← G·P·Gᵀ for G = I except the θθ block: only the θ row and column blocks change.
@@ -491,6 +494,11 @@ class Eskf final : public Estimator, private internal::Filter {
     return true;
   }
 
+  const Mat15& Cov() const { return P_store_[p_current_]; }
+  Mat15& Cov() { return P_store_[p_current_]; }
+  Mat15& SpareCov() { return P_store_[1 - p_current_]; }
+  void CommitSpareCov() { p_current_ = 1 - p_current_; }
+
   bool CheckCovariance(const Mat15& P, double t_s, const char* where) {
     static const char* kNames[15] = {"δθ_x", "δθ_y", "δθ_z", "δv_N", "δv_E", "δv_D", "δp_N", "δp_E",
                                      "δp_D", "δbg_x", "δbg_y", "δbg_z", "δba_x", "δba_y", "δba_z"};
@@ -506,13 +514,17 @@ class Eskf final : public Estimator, private internal::Filter {
   }
 
   NavParams prm_;
+  double declination_rad_ = DeclinationRad(prm_.earth);  // of the fixed reference field (an atan2 per sample)
   Eigen::Quaterniond q_ = Eigen::Quaterniond::Identity();
   Eigen::Vector3d v_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d p_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d bg_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d ba_ = Eigen::Vector3d::Zero();
   Eigen::Vector3d w_B_ = Eigen::Vector3d::Zero();
-  Mat15 P_ = Mat15::Identity();
+  // The covariance, double-buffered: a predict or an update writes the spare and, when its checks
+  // pass, makes it the current one (no 15×15 copy back).
+  Mat15 P_store_[2] = {Mat15::Identity(), Mat15::Identity()};
+  int p_current_ = 0;
   internal::FrontEnd front_{"eskf"};
   double cov_dt_ = 0;                                    // accumulated since the last covariance predict
   Eigen::Vector3d cov_dv_N_ = Eigen::Vector3d::Zero();  // Σ R·f·dt over the same interval
