@@ -28,7 +28,7 @@ Quaterniond AttitudeFromThrustAndYaw(const Vector3d& F_N, double yaw_rad) {
 }
 
 CascadedController::CascadedController(const ControllerParams& params, const VehicleModelForControl& vehicle)
-    : params_(params), vehicle_(vehicle) {
+    : params_(params), tan_max_tilt_(std::tan(params.max_tilt_deg * kDegToRad)), vehicle_(vehicle) {
   HEXSIM_CHECK(vehicle.mass_kg > 0.0);
   vel_[0].set_gains(params.vel_xy);
   vel_[1].set_gains(params.vel_xy);
@@ -108,7 +108,7 @@ ControlOutput CascadedController::Update(const NavState& state, const Setpoint& 
   double F_up = std::max(-F_N.z(), T_min);
   F_up = std::min(F_up, vehicle_.max_thrust_N);
   Eigen::Vector2d F_h = F_N.head<2>();
-  double F_h_max = F_up * std::tan(P.max_tilt_deg * kDegToRad);
+  double F_h_max = F_up * tan_max_tilt_;
   if (std::isfinite(vehicle_.max_thrust_N)) {
     F_h_max = std::min(F_h_max, std::sqrt(std::max(0.0, vehicle_.max_thrust_N * vehicle_.max_thrust_N - F_up * F_up)));
   }

@@ -47,13 +47,13 @@ double MotorTorque(const MotorConstants& c, double omega_radps, double winding_A
   return t;
 }
 
-// The operating point at the duty the ESC applies (the command's, or lower at a current limit).
-MotorOperatingPoint OperatingPoint(const VehicleParams& p, const MotorConstants& c, size_t i, double command,
-                                   double duty, double omega_radps, double bus_V) {
+// The operating point at the duty the ESC applies (the command's, or lower at a current limit),
+// written into *m in place (m->duty is that duty; m->current_limited is left as it is).
+void FillOperatingPoint(const VehicleParams& p, const MotorConstants& c, size_t i, double command, double omega_radps,
+                        double bus_V, MotorOperatingPoint* m_ptr) {
   const RotorParams& rotor = p.rotors[i];
-  MotorOperatingPoint m;
+  MotorOperatingPoint& m = *m_ptr;
   m.command = command;
-  m.duty = duty;
   m.omega_radps = omega_radps;
   m.back_emf_V = omega_radps * c.K_t;
   m.motor_V = m.duty * bus_V;
@@ -68,7 +68,6 @@ MotorOperatingPoint OperatingPoint(const VehicleParams& p, const MotorConstants&
   m.no_load_W = m.back_emf_V * c.I_0;
   m.esc_loss_W = (1.0 - c.eta) * m.power_in_W;
   m.aero_W = m.drag_torque_Nm * omega_radps;
-  return m;
 }
 
 // Battery current as a function of the bus voltage for fixed rotor speeds:
@@ -110,28 +109,25 @@ double SolveBusVoltage(const VehicleParams& p, const MotorConstants& c, const st
   return V;
 }
 
-// Fills *out (every field reset; the motor vector's storage is reused, so a caller that keeps its
-// PowertrainOutput allocates nothing per step). out->motors[i].duty and .current_limited hold what
-// the ESCs apply (EnforceCurrentLimits); esc_limited/battery_limited are the limits' summary.
+// Fills *out: every field is written, in place (the motor records too, so a caller that keeps its
+// PowertrainOutput allocates and copies nothing per step). out->motors[i].duty and .current_limited
+// hold what the ESCs apply (EnforceCurrentLimits); esc_limited/battery_limited are the limits' summary.
 void Assemble(const VehicleParams& p, const MotorConstants& c, const std::vector<double>& commands,
               const std::vector<double>& omega, double soc, double open_circuit_V, double bus_V, int esc_limited,
               bool battery_limited, PowertrainOutput* out_ptr) {
-  std::vector<MotorOperatingPoint> motors = std::move(out_ptr->motors);
   PowertrainOutput& out = *out_ptr;
-  out = PowertrainOutput();
-  out.motors = std::move(motors);
   out.open_circuit_V = open_circuit_V;
   out.bus_V = bus_V;
   out.soc = soc;
   out.battery_A = p.avionics_current_A;
+  out.shaft_W = 0.0;
+  out.copper_W = 0.0;
+  out.total_thrust_N = 0.0;
   out.esc_limited = esc_limited;
   out.battery_limited = battery_limited;
   HEXSIM_CHECK(out.motors.size() == commands.size());
   for (size_t i = 0; i < commands.size(); ++i) {
-    const double duty = out.motors[i].duty;
-    const bool limited = out.motors[i].current_limited;
-    out.motors[i] = OperatingPoint(p, c, i, commands[i], duty, omega[i], bus_V);
-    out.motors[i].current_limited = limited;
+    FillOperatingPoint(p, c, i, commands[i], omega[i], bus_V, &out.motors[i]);
     const MotorOperatingPoint& m = out.motors[i];
     out.battery_A += m.dc_A;
     out.shaft_W += m.shaft_W;
@@ -280,6 +276,7 @@ void StepPowertrain(const VehicleParams& params, const std::vector<double>& comm
   PowertrainOutput& out = *out_ptr;
   const MotorConstants c = Constants(params);
   Evaluate(params, c, *state, commands, &out);
+  const double driven_damping = c.K_t * c.K_t / c.R;
   for (size_t i = 0; i < commands.size(); ++i) {
     const MotorOperatingPoint& m = out.motors[i];
     const double J = params.RotorInertia_kgm2(i);
@@ -287,7 +284,7 @@ void StepPowertrain(const VehicleParams& params, const std::vector<double>& comm
     const double w = state->omega_radps[i];
     // f(w) = (K_t*(I_w - I_0) - k_Q*w^2)/J; df/dw = -(K_t^2/R [while driven] + 2*k_Q*w)/J.
     const double f = (m.motor_torque_Nm - m.drag_torque_Nm) / J;
-    const double electrical_damping = m.winding_A > 0.0 ? c.K_t * c.K_t / c.R : 0.0;
+    const double electrical_damping = m.winding_A > 0.0 ? driven_damping : 0.0;
     const double df_dw = -(electrical_damping + 2.0 * k_Q * w) / J;
     // Semi-implicit (linearised backward) Euler: w+ = w + dt*f/(1 - dt*df/dw).
     state->omega_radps[i] = std::max(0.0, w + dt_s * f / (1.0 - dt_s * df_dw));

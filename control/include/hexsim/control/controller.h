@@ -91,6 +91,7 @@ class CascadedController final : public Controller {
 
  private:
   ControllerParams params_;
+  double tan_max_tilt_ = 0.0;  // tan(params_.max_tilt_deg), a constant (a tan per tick otherwise)
   // The ground ramp of a take-off (Setpoint::ground_ramp): collective and attitude only.
   ControlOutput UpdateOnGround(const NavState& state, const Setpoint& setpoint, double dt_s);
 
