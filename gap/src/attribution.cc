@@ -26,18 +26,32 @@ std::vector<int> BlockIndex(size_t n, int G) {
 
 }  // namespace
 
-Fit Solve(const std::vector<Block>& blocks, const std::vector<double>& w, int p) {
-  Fit f;
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(p, p);
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(p);
-  double s = 0;
+Block SumBlocks(const std::vector<Block>& blocks, const std::vector<double>& w, int p) {
+  Block t{Eigen::MatrixXd::Zero(p, p), Eigen::VectorXd::Zero(p), 0, 0};
   for (size_t b = 0; b < blocks.size(); ++b) {
     if (w[b] == 0) continue;
-    A += w[b] * blocks[b].A;
-    g += w[b] * blocks[b].g;
-    s += w[b] * blocks[b].s;
-    f.n += w[b] * blocks[b].n;
+    t.A += w[b] * blocks[b].A;
+    t.g += w[b] * blocks[b].g;
+    t.s += w[b] * blocks[b].s;
+    t.n += w[b] * blocks[b].n;
   }
+  return t;
+}
+
+namespace {
+
+// Up to this many parameters the sums and their factorisation live on the stack (no allocation per
+// solve: the bootstrap and the CV folds solve thousands of small systems); the arithmetic is the
+// same as with heap matrices.
+constexpr int kSmallP = 24;
+using SmallA = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kSmallP, kSmallP>;
+using SmallV = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kSmallP, 1>;
+
+// The regularised LDLT solve of Solve, on A and g of any storage.
+template <typename MatA, typename VecG>
+Fit SolveNormal(const MatA& A, const VecG& g, double s, double n, int p) {
+  Fit f;
+  f.n = n;
   if (p == 0) {
     f.beta = Eigen::VectorXd();
     f.sse = s;
@@ -46,12 +60,48 @@ Fit Solve(const std::vector<Block>& blocks, const std::vector<double>& w, int p)
   }
   const double tr = A.trace();
   if (!(tr > 0)) return f;
-  Eigen::LDLT<Eigen::MatrixXd> ldlt(A + Eigen::MatrixXd::Identity(p, p) * (1e-12 * tr / p));
+  using Plain = typename MatA::PlainObject;
+  Eigen::LDLT<Plain> ldlt(A + Plain::Identity(p, p) * (1e-12 * tr / p));
   if (ldlt.info() != Eigen::Success) return f;
   f.beta = ldlt.solve(g);
   f.sse = std::max(0.0, s - f.beta.dot(g));
   f.ok = f.beta.allFinite();
   return f;
+}
+
+}  // namespace
+
+Fit SolveSums(const Block& sums, int p) { return SolveNormal(sums.A, sums.g, sums.s, sums.n, p); }
+
+Fit Solve(const std::vector<Block>& blocks, const std::vector<double>& w, int p) { return SolveSums(SumBlocks(blocks, w, p), p); }
+
+Fit SolveNested(const std::vector<Block>& blocks, const std::vector<double>& w, int p, const Block& base_sums) {
+  const int p0 = static_cast<int>(base_sums.g.size());
+  const int pc = p - p0;
+  if (pc <= 0) return SolveSums(base_sums, p0);
+  auto sum = [&](auto& A, auto& g) {
+    A.topLeftCorner(p0, p0) = base_sums.A;
+    A.rightCols(pc).setZero();
+    A.bottomLeftCorner(pc, p0).setZero();
+    g.head(p0) = base_sums.g;
+    g.tail(pc).setZero();
+    for (size_t b = 0; b < blocks.size(); ++b) {
+      if (w[b] == 0) continue;
+      A.rightCols(pc) += w[b] * blocks[b].A.rightCols(pc);
+      A.bottomLeftCorner(pc, p0) += w[b] * blocks[b].A.bottomLeftCorner(pc, p0);
+      g.tail(pc) += w[b] * blocks[b].g.tail(pc);
+    }
+  };
+  if (p <= kSmallP) {
+    SmallA A(p, p);
+    SmallV g(p);
+    sum(A, g);
+    return SolveNormal(A, g, base_sums.s, base_sums.n, p);
+  }
+  Eigen::MatrixXd A(p, p);
+  Eigen::VectorXd g(p);
+  sum(A, g);
+  return SolveNormal(A, g, base_sums.s, base_sums.n, p);
 }
 
 Candidate Join(const Candidate& a, const Candidate& b) {
@@ -106,6 +156,14 @@ Analyzer::Analyzer(const ChannelData& ch, const DiagnoseOptions& o) : ch_(ch) {
   if (baseline_) {
     base_eval_ = EvaluateX(nullptr);
     y_ = After(base_eval_);
+    const int p0 = baseline_->p();
+    base_all_ = SumBlocks(base_eval_.blocks, std::vector<double>(static_cast<size_t>(G_), 1.0), p0);
+    for (size_t f = 0; f < static_cast<size_t>(G_); f += 2) {
+      std::vector<double> wf(static_cast<size_t>(G_), 1.0);
+      wf[f] = 0;
+      if (f + 1 < wf.size()) wf[f + 1] = 0;
+      base_folds_.push_back(SumBlocks(base_eval_.blocks, wf, p0));
+    }
   } else if (ch.bias_nuisance) {
     // First-wave channels: the nuisance intercept removed when the configured sensor has a bias.
     Vec3 mean = Vec3::Zero();
@@ -175,8 +233,10 @@ Evaluated Analyzer::EvaluateX(const Candidate* c, bool full_only) const {
       b.n += 3;
     }
   }
+  // The baseline's part of the sums is the same under every candidate (its blocks copied above).
+  const bool reuse = baseline_ && c && base_folds_.size() == static_cast<size_t>((G_ + 1) / 2);
   std::vector<double> w(G_, 1.0);
-  e.full = Solve(e.blocks, w, p);
+  e.full = reuse ? SolveNested(e.blocks, w, p, base_all_) : Solve(e.blocks, w, p);
   if (!e.full.ok || full_only) return e;
   // Blocked CV: G/2 folds of two adjacent blocks each.
   e.cv_sse = 0;
@@ -184,7 +244,7 @@ Evaluated Analyzer::EvaluateX(const Candidate* c, bool full_only) const {
     std::vector<double> wf(G_, 1.0);
     wf[f] = 0;
     if (f + 1 < G_) wf[f + 1] = 0;
-    const Fit fit = Solve(e.blocks, wf, p);
+    const Fit fit = reuse ? SolveNested(e.blocks, wf, p, base_folds_[static_cast<size_t>(f / 2)]) : Solve(e.blocks, wf, p);
     double fold = 0;
     for (int b = f; b < std::min(G_, f + 2); ++b) fold += fit.ok ? HeldOutSse(e.blocks[b], fit.beta) : e.blocks[b].s;
     e.fold_sse.push_back(fold);
@@ -375,7 +435,11 @@ Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseO
       n_w += w[k] * an.base_n()[k];
       base += w[k] * an.base_blocks()[k];
     }
-    if (an.nested()) base = Solve(an.baseline().blocks, w, p0).sse;
+    Block base_sums;
+    if (an.nested()) {
+      base_sums = SumBlocks(an.baseline().blocks, w, p0);
+      base = SolveSums(base_sums, p0).sse;
+    }
     double best_bic = n_w * std::log(std::max(base, 1e-300) / n_w);
     int winner = -1;
     for (size_t f = 0; f < F; ++f) {
@@ -383,7 +447,7 @@ Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseO
       double fam_grid = 0;
       for (size_t m : at.family[at.fam_names[f]]) {
         const int pc = at.all[m].cand->p();
-        const Fit fit = Solve(at.all[m].blocks, w, p0 + pc);
+        const Fit fit = an.nested() ? SolveNested(at.all[m].blocks, w, p0 + pc, base_sums) : Solve(at.all[m].blocks, w, p0 + pc);
         if (!fit.ok) continue;
         const double bic = n_w * std::log(std::max(fit.sse, 1e-300) / n_w) + pc * std::log(n_w);
         if (bic < fam_bic) {

@@ -28,6 +28,13 @@ struct Fit {
 };
 
 Fit Solve(const std::vector<Block>& blocks, const std::vector<double>& w, int p);
+// The weighted sums Σ_b w_b·(A_b, g_b, s_b, n_b) of p-parameter blocks, and the fit from them.
+Block SumBlocks(const std::vector<Block>& blocks, const std::vector<double>& w, int p);
+Fit SolveSums(const Block& sums, int p);
+// Solve for blocks whose first rows and columns are the baseline's own normal equations (every
+// candidate's, EvaluateX), given the baseline's sums over the same weights: only the candidate's
+// rows and columns are summed (the same sums as Solve).
+Fit SolveNested(const std::vector<Block>& blocks, const std::vector<double>& w, int p, const Block& base_sums);
 
 struct Evaluated {
   const Candidate* cand = nullptr;  // null: the baseline alone
@@ -82,6 +89,9 @@ class Analyzer {
   std::vector<double> base_, base_n_;
   double total_base_ = 0, total_n_ = 0;
   Evaluated base_eval_;
+  // The baseline's sums over all blocks and over each CV fold's fitting blocks (EvaluateX).
+  Block base_all_;
+  std::vector<Block> base_folds_;
 };
 
 // Every candidate evaluated, grouped into families (one member per family: the smallest in-sample

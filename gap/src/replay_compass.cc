@@ -165,24 +165,44 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
     }
     // current_lag: the configured wiring field arrives through a first-order lag τ instead of the
     // configured one: r = a·M·(W(lp_τ(I)) − W(lp_τcfg(I))), a ≈ 1, τ profiled over a grid.
+    // The configured field W(I) is linear in the currents (exponent 1), so a first-order lag of the
+    // currents is the same lag of the field: W(lp_τ(I)) = lp_τ(W(I)). The field is then evaluated
+    // once per sample and lagged as a vector for each τ; the configured lag's field once.
+    std::vector<Vec3> field(n), field_cfg(n);
     double wiring_energy = 0;
-    for (size_t k = 0; k < n; ++k) {
-      wiring_energy += sampler.field()(currents[k]).squaredNorm();
+    {
+      magnetics::CurrentLagState s_cfg;
+      for (size_t k = 0; k < n; ++k) {
+        const double dt = k == 0 ? 0.0 : ch.t[k] - ch.t[k - 1];
+        field[k] = sampler.field()(currents[k]);
+        field_cfg[k] = sampler.field()(magnetics::StepCurrentLag(wiring, currents[k], dt, &s_cfg));
+        wiring_energy += field[k].squaredNorm();
+      }
     }
     if (n > 0 && std::sqrt(wiring_energy / static_cast<double>(n)) > 0.05) {
+      const bool linear = wiring.exponent == 1.0;
       for (double tau : kLagGrid_s) {
         if (tau <= wiring.lag_tau_s) continue;
         magnetics::CurrentFieldParams lagged_wiring = wiring;
         lagged_wiring.lag_tau_s = tau;
-        magnetics::CurrentLagState s_new, s_cfg;
+        magnetics::CurrentLagState s_new;
         Candidate cl = MakeCandidate("current_lag", {"amplitude"}, {1.0}, "s", "current_A");
         cl.grid_value = tau;
         cl.grid_name = "tau_s";
+        cl.X.reserve(n);
+        cl.regressor.reserve(n);
+        Vec3 a = Vec3::Zero();
         for (size_t k = 0; k < n; ++k) {
           const double dt = k == 0 ? 0.0 : ch.t[k] - ch.t[k - 1];
-          const Vec3 a = sampler.field()(magnetics::StepCurrentLag(lagged_wiring, currents[k], dt, &s_new));
-          const Vec3 b = sampler.field()(magnetics::StepCurrentLag(wiring, currents[k], dt, &s_cfg));
-          cl.X.emplace_back(Msens[k] * (a - b));
+          if (!linear) {
+            a = sampler.field()(magnetics::StepCurrentLag(lagged_wiring, currents[k], dt, &s_new));
+          } else if (k == 0) {
+            a = field[0];  // steady state at the first sample, as StepCurrentLag starts
+          } else {
+            const double alpha = std::exp(-dt / tau);
+            a = alpha * a + (1.0 - alpha) * field[k];
+          }
+          cl.X.emplace_back(Msens[k] * (a - field_cfg[k]));
           cl.regressor.push_back(currents[k].battery_A);
         }
         ch.candidates.push_back(std::move(cl));
