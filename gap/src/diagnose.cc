@@ -184,6 +184,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
       if (k.effect == "per_motor_current_hard_iron") AddPerMotorEquivalent(ch, &k);
     }
     ro.want = realdata::RowKind::kGround;
+    ro.baseline_only = true;  // the ground-vs-flight check reads the residual, baseline and current only
     const ChannelData ground = internal::ReplayCompass(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro);
     r.ground_vs_flight = internal::GroundVsFlight(ch, ground, r.nuisance);
     if (ro.calibrated_log) {
