@@ -10,10 +10,8 @@
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/format.h"
 #include "hexsim/common/paths.h"
-#include "hexsim/logs/dataflash_import.h"
 #include "hexsim/logs/flight_log.h"
 #include "hexsim/logs/mag_input.h"
-#include "hexsim/logs/ulog_import.h"
 #include "hexsim/magnetics/calib_io.h"
 #include "hexsim/magnetics/calibrate.h"
 #include "hexsim/realdata/windows.h"
@@ -52,23 +50,15 @@ Status WriteBeforeAfterPng(const magnetics::CalibrateOutcome& o, const std::stri
   return render::WritePng(*image, path);
 }
 
-// The log's flight windows (realdata), as a flag per compass sample (by the sample's time).
-Status MarkFlightSamples(const std::string& path, const std::string& format, magnetics::FlightContext* fc) {
-  Result<logs::FlightLog> log = Status::BadInput("no log");
-  if (format == "dataflash") {
-    auto imp = logs::ImportDataFlashFile(path);
-    if (!imp.ok()) return imp.status();
-    log = std::move(imp->log);
-  } else if (format == "ulog") {
-    auto bytes = ReadFile(path);
-    if (!bytes.ok()) return bytes.status();
-    auto imp = logs::ImportULog(*bytes, path);
-    if (!imp.ok()) return imp.status();
-    log = std::move(imp->log);
-  } else {
-    log = logs::ReadFlightLog(path);
-    if (!log.ok()) return log.status();
+// The log's flight windows (realdata), as a flag per compass sample (by the sample's time). A
+// binary log's import comes with the input; a FlightLog CSV is read as a FlightLog here.
+Status MarkFlightSamples(const logs::MagInput& input, const std::string& path, magnetics::FlightContext* fc) {
+  Result<logs::FlightLog> read = Status::BadInput("no log");
+  if (!input.log) {
+    read = logs::ReadFlightLog(path);
+    if (!read.ok()) return read.status();
   }
+  const logs::FlightLog* log = input.log ? input.log.get() : &*read;
   const realdata::FlightWindows w = realdata::FindFlightWindows(*log);
   fc->in_flight.assign(fc->t_s.size(), 0);
   std::string spans;
@@ -117,7 +107,7 @@ Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
   fc.decimal_year = input->decimal_year;
   fc.px4_comp_type = input->px4_comp_type;
   fc.px4_comp_G = input->px4_comp_G;
-  if (fc.has_attitude) HEXSIM_RETURN_IF_ERROR(MarkFlightSamples(a.samples, input->format, &fc));
+  if (fc.has_attitude) HEXSIM_RETURN_IF_ERROR(MarkFlightSamples(*input, a.samples, &fc));
   auto o = magnetics::Calibrate(std::move(samples), rq);
   if (!o.ok()) return o.status().WithContext(a.samples);
   o->report["input"] = {{"file", a.samples}, {"format", input->format}, {"compass", a.compass}, {"notes", input->notes}};

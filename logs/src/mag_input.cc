@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
+#include <memory>
 #include <optional>
 
 #include <Eigen/LU>
@@ -409,6 +410,7 @@ Result<MagInput> ParseMagInput(const std::string& bytes, const std::string& name
     if (!in.ok()) return in.status();
     in->format = "dataflash";
     NameTheFormat("ArduPilot DataFlash log, imported", &*in);
+    in->log = std::make_shared<const FlightLog>(std::move(imp->log));
     return in;
   }
   if (IsULog(bytes)) {
@@ -419,6 +421,7 @@ Result<MagInput> ParseMagInput(const std::string& bytes, const std::string& name
     in->format = "ulog";
     NameTheFormat("PX4 ULog, imported", &*in);
     for (const auto& w : imp->warnings) in->notes.push_back("warning: " + w);
+    in->log = std::make_shared<const FlightLog>(std::move(imp->log));
     return in;
   }
   if (bytes.find('\0') != std::string::npos) {

@@ -16,6 +16,7 @@
 // gives u = raw + P·comp with P from the import's px4_mag_power column.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,7 @@
 #include <nlohmann/json.hpp>
 
 #include "hexsim/common/status.h"
+#include "hexsim/logs/flight_log.h"
 
 namespace hexsim::logs {
 
@@ -53,6 +55,9 @@ struct MagInput {
   // The log's place and date (meta `location`, `date_decimal_year`), for the Earth field.
   bool has_place = false;
   double lat_deg = 0.0, lon_deg = 0.0, alt_m = 0.0, decimal_year = 0.0;
+  // A binary log's import (DataFlash, ULog), kept so that a caller needing more of the log (the
+  // flight windows) does not import it again; null for text inputs.
+  std::shared_ptr<const FlightLog> log;
   int px4_comp_type = -1;                                   // CAL_MAG_COMP_TYP (-1: not a PX4 log)
   Eigen::Vector3d px4_comp_G = Eigen::Vector3d::Zero();     // its CAL_MAGn_X/Y/ZCOMP
 };
