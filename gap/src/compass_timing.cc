@@ -190,7 +190,12 @@ void PropagateTiming(const logs::FlightLog& log, const vehicle::VehicleParams& v
         continue;
       }
       const Evaluated e = an.FitOnly(*member);
-      if (e.full.ok) m[k.effect] = MagnitudeOf(e);
+      if (!e.full.ok) continue;
+      CandidateResult refit;
+      refit.effect = k.effect;
+      refit.magnitude = MagnitudeOf(e);
+      DescaleMisalignment(nr.json.value("field_scale", 1.0), &refit);
+      m[k.effect] = refit.magnitude;
     }
     return m;
   };

@@ -184,6 +184,19 @@ realdata::LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::ve
   return realdata::StalenessScan(tu, u, ti, I, so);
 }
 
+void DescaleMisalignment(double field_scale, CandidateResult* r) {
+  if (r->effect != "misalignment" || !(field_scale > 0) || !std::isfinite(field_scale)) return;
+  r->magnitude /= field_scale;
+  r->magnitude_ci95[0] /= field_scale;
+  r->magnitude_ci95[1] /= field_scale;
+  for (auto& [name, v] : r->params.items()) {
+    if (v.is_number()) v = v.get<double>() / field_scale;
+  }
+  for (auto& [name, ci] : r->ci95.items()) {
+    if (ci.is_array() && ci.size() == 2) ci = {ci[0].get<double>() / field_scale, ci[1].get<double>() / field_scale};
+  }
+}
+
 nlohmann::json GroundVsFlight(const ChannelData& flight, const ChannelData& ground, const nlohmann::json& nuisance) {
   nlohmann::json j = nlohmann::json::object();
   constexpr size_t kMinSamples = 20;

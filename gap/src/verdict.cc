@@ -115,6 +115,7 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
   Attribution at = Attribute(ch, an, o, rng, noise_sse);
   const size_t F = at.fam_names.size();
   for (CandidateResult& r : at.results) {
+    DescaleMisalignment(nu.json.value("field_scale", 1.0), &r);
     r.plausible = plausibility::IsPlausible(r.effect, r.magnitude);
     r.physical_range = plausibility::RangeText(r.effect);
   }

@@ -42,6 +42,11 @@ struct NuisanceReport {
   std::vector<std::string> findings;   // plain language
 };
 NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& baseline, const DiagnoseOptions& o);
+// A compass misaligned by φ whose readings carry a field-norm error s (a sensor scale, or a field of
+// another size) reads (1 + s)·R(φ)·h: the linear residual φ × h of the prediction h holds (1 + s)·φ.
+// The angle is the coefficient over the baseline's fitted field scale |B_fit|/|B_WMM| (nuisance.cc):
+// the misalignment's magnitude, interval and parameters divided by it.
+void DescaleMisalignment(double field_scale, CandidateResult* r);
 
 // The second wave's rule, for compass channels.
 ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
