@@ -30,6 +30,18 @@ Mission LoadShipped(const std::string& name) {
   return *r;
 }
 
+// An ideal vehicle: exactly where the setpoint tells it, at the feed-forward speed, but stopped by
+// the ground (the landing carrot aims below it); it stays put while the motors are idle.
+void FollowExactly(const SequencerOutput& out, NavState* s) {
+  if (out.setpoint.idle) return;
+  s->p_N_m = out.setpoint.p_N_m;
+  s->v_N_mps = out.setpoint.v_ff_N_mps;
+  if (s->p_N_m.z() > 0.0) {
+    s->p_N_m.z() = 0.0;
+    s->v_N_mps.setZero();
+  }
+}
+
 int CountWaypoints(const Mission& m) {
   int n = 0;
   for (const MissionItem& it : m.items) n += it.type == MissionItemType::kWaypoint;
@@ -49,14 +61,7 @@ TEST(SequencerTest, GivenVehicleThatFollowsTheSetpointExactly_ThenItemsRunInOrde
     if (modes.empty() || modes.back() != seq.mode()) modes.push_back(seq.mode());
     if (out.arrival) arrivals.push_back(out.arrival->waypoint_index);
     if (out.payload_event) events.push_back(*out.payload_event);
-    if (!out.setpoint.idle) {  // an ideal vehicle: exactly where it is told, at the feed-forward speed
-      s.p_N_m = out.setpoint.p_N_m;
-      s.v_N_mps = out.setpoint.v_ff_N_mps;
-      if (s.p_N_m.z() > 0.0) {  // ... but stopped by the ground (the landing carrot aims below it)
-        s.p_N_m.z() = 0.0;
-        s.v_N_mps.setZero();
-      }
-    }
+    FollowExactly(out, &s);
     s.t_s += dt;
   }
   ASSERT_TRUE(seq.done());
@@ -91,17 +96,11 @@ TEST(SequencerTest, GivenUnevenAutopilotTicks_WhenTheCarrotBrakes_ThenItsAcceler
   for (int i = 0; i < 200000 && !seq.done(); ++i) {
     const double dt = i % 2 == 0 ? 0.003 : 0.002;
     const SequencerOutput out = seq.Step(s, dt);
-    if (!out.setpoint.idle) {  // an ideal vehicle: exactly where it is told, at the feed-forward speed
-      const double a = out.setpoint.a_ff_N_mps2.norm();
-      max_a = std::max(max_a, a);
+    if (!out.setpoint.idle) {
+      max_a = std::max(max_a, out.setpoint.a_ff_N_mps2.norm());
       if (out.setpoint.a_ff_N_mps2.dot(out.setpoint.v_ff_N_mps) < 0.0) ++braking_ticks;
-      s.p_N_m = out.setpoint.p_N_m;
-      s.v_N_mps = out.setpoint.v_ff_N_mps;
-      if (s.p_N_m.z() > 0.0) {  // ... but stopped by the ground (the landing carrot aims below it)
-        s.p_N_m.z() = 0.0;
-        s.v_N_mps.setZero();
-      }
     }
+    FollowExactly(out, &s);
     s.t_s += dt;
   }
   ASSERT_TRUE(seq.done());

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include "support/shipped_vehicle.h"
+
 #include "hexsim/common/rng.h"
 #include "hexsim/vehicle/powertrain.h"
 #include "hexsim/vehicle/vehicle_io.h"
@@ -13,11 +15,7 @@
 namespace hexsim::vehicle {
 namespace {
 
-VehicleParams Load(const std::string& name) {
-  Result<VehicleParams> v = LoadVehicleFile(std::string(HEXSIM_SOURCE_DIR) + "/worlds/vehicles/" + name + ".yaml");
-  HEXSIM_CHECK(v.ok());
-  return *v;
-}
+VehicleParams Load(const std::string& name) { return vehicletest::LoadShipped(name); }
 
 constexpr double kDt_s = 1e-3;
 

@@ -6,6 +6,8 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
+#include "support/shipped_vehicle.h"
+
 #include "hexsim/common/rotation.h"
 #include "hexsim/magnetics/heading.h"
 #include "hexsim/magnetics/wmm.h"
@@ -16,11 +18,7 @@
 namespace hexsim::vehicle {
 namespace {
 
-VehicleParams Load(const std::string& name) {
-  Result<VehicleParams> v = LoadVehicleFile(std::string(HEXSIM_SOURCE_DIR) + "/worlds/vehicles/" + name + ".yaml");
-  HEXSIM_CHECK(v.ok());
-  return *v;
-}
+VehicleParams Load(const std::string& name) { return vehicletest::LoadShipped(name); }
 
 magnetics::EarthField Changchun() {
   Result<magnetics::EarthField> f = magnetics::EvaluateWmm({43.88, 125.35, 200.0}, 2016.5);
