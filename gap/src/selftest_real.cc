@@ -80,7 +80,12 @@ Status InjectOutOfLibrary(logs::FlightLog* log, size_t compass, const std::strin
     else if (family == "cross_coupling") m[ax] += s * m[bx];
     else if (family == "periodic") m += d * a * std::sin(6.283185307179586 * f_hz * t[i] + phase);
     else if (family == "spikes") {
-      if (rng->Uniform() < 0.02) m[ax] += (rng->Uniform() < 0.5 ? -1 : 1) * (10.0 + 20.0 * rng->Uniform());
+      if (rng->Uniform() < 0.02) {
+        // One draw per statement: the operands of * are unsequenced, and gcc and clang order them
+        // differently (the trials must not depend on the compiler).
+        const double sign = rng->Uniform() < 0.5 ? -1.0 : 1.0;
+        m[ax] += sign * (10.0 + 20.0 * rng->Uniform());
+      }
     } else if (family == "regime_current") {
       if (u[i] > u_med) m += d * k_regime * Ii;
     } else {
@@ -132,7 +137,8 @@ Result<logs::FlightLog> DegradeToRealLog(const logs::FlightLog& in, const vehicl
   for (size_t c = 0; c < 8; ++c) {
     const std::string pre = Prefix(c);
     if (!in.Has(pre + "_x_uT")) continue;
-    const Vec3 b = RandomUnit(rng) * 4.0 * rng->Uniform();
+    const Vec3 dir = RandomUnit(rng);  // before the size: one draw per statement (see above)
+    const Vec3 b = dir * 4.0 * rng->Uniform();
     const double s = -0.03 + 0.06 * rng->Uniform();
     if (c == 1) {
       truth->offset_uT = b;

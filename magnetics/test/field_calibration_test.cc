@@ -40,7 +40,8 @@ std::vector<Vector3d> Dump(const std::string& kind, int n, double sigma_uT, uint
       const double yaw = 2.0 * M_PI * i / n;
       B = Eigen::AngleAxisd(-yaw, Vector3d::UnitZ()) * earth_N;
     } else {
-      B = Eigen::AngleAxisd(0.08 * rng.Normal(), rng.Normal3(1.0).normalized()) * earth_N;
+      const double angle = 0.08 * rng.Normal();  // draws in a fixed order (arguments are unsequenced)
+      B = Eigen::AngleAxisd(angle, rng.Normal3(1.0).normalized()) * earth_N;
     }
     H.emplace_back(K * B + b + rng.Normal3(sigma_uT));
   }

@@ -26,7 +26,8 @@ TEST(ShortestDouble, GivenTypicalAndEdgeValuesWhenPrintedThenItMatchesFmtsDefaul
 TEST(ShortestDouble, GivenRandomDoublesAcrossMagnitudesWhenPrintedThenItMatchesFmtsDefault) {
   RngStream rng(7, "format");
   for (int i = 0; i < 2000; ++i) {
-    const double v = rng.Normal() * std::pow(10.0, -9.0 + 29.0 * rng.Uniform());
+    const double mantissa = rng.Normal();  // draws in a fixed order (operands are unsequenced)
+    const double v = mantissa * std::pow(10.0, -9.0 + 29.0 * rng.Uniform());
     ASSERT_EQ(ShortestDouble(v), fmt::format("{}", v)) << v;
   }
 }
