@@ -92,11 +92,22 @@ struct LogInputs {
   bool has_attitude = false;
 };
 
+// How the motors share the battery current in a log without per-motor currents: I_i ∝ u_i^p over
+// the motor outputs u_i. p = 3 is the static law (a motor's DC power τ·ω ∝ ω³, ω ∝ u) and bounds it
+// above; p = 0, the equal split, is what a log without outputs allows and bounds it below. The real
+// currents' differences lie between: the motors' dynamics and the rotors' inflow damp the commanded
+// differences (measured on hexsim's quad: the cubic split's per-motor error grows with tilt², exactly
+// the shape of the baseline's vertical-field column, which absorbed it, 0.27 µT in D; the equal
+// split, 0.05 µT). The plug-in is the middle of its range; PropagatePlugIns refits at both ends.
+constexpr double kShareExponentLo = 0.0, kShareExponentHi = 3.0;
+constexpr double kShareExponent = 0.5 * (kShareExponentLo + kShareExponentHi);
+
 // How a compass is replayed: its timing, which rows, how much is built.
 struct CompassReplayOptions {
   double latency_s = 0.0;        // the sample stamped t measured the field at t − latency_s
   double current_shift_s = 0.0;  // the prediction's current is I(t − latency_s + current_shift_s)
   double member_shift_s = 0.0;   // the candidates' aligned current member: I(t − latency_s + member_shift_s)
+  double share_exponent = kShareExponent;  // the motors' current split (see kShareExponent), in [0, 3]
   const std::vector<realdata::RowKind>* row_kind = nullptr;  // null: every row
   realdata::RowKind want = realdata::RowKind::kFlight;
   bool baseline_only = false;   // the timing scan: baseline and the aligned current_hard_iron only

@@ -56,8 +56,9 @@ std::vector<CompassSample> NewSamples(const logs::FlightLog& log, const std::str
 }  // namespace
 
 CompassSampler::CompassSampler(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
-                               const Vec3& B_N_uT, bool calibrated_log)
-    : in_(in), v_(v), t_row_(log.Column("t_s")), B_N_uT_(B_N_uT), cur_{t_row_}, cur_i_{t_row_}, cur_m_{t_row_} {
+                               const Vec3& B_N_uT, bool calibrated_log, double share_exponent)
+    : share_exponent_(std::clamp(share_exponent, kShareExponentLo, kShareExponentHi)),
+      in_(in), v_(v), t_row_(log.Column("t_s")), B_N_uT_(B_N_uT), cur_{t_row_}, cur_i_{t_row_}, cur_m_{t_row_} {
   const vehicle::CompassParams& cp = v.compasses[c];
   wiring_ = v.wiring;
   if (cp.current_lag_tau_s >= 0) wiring_.lag_tau_s = cp.current_lag_tau_s;
@@ -72,7 +73,7 @@ CompassSampler::CompassSampler(const logs::FlightLog& log, const vehicle::Vehicl
   }
   samples_ = NewSamples(log, MagPrefix(c), &undone_);
   // How the motors share the battery current when the log has no per-motor currents, from the motor
-  // outputs u_i: a motor's DC power V·I_i = τ·ω ∝ ω³ with ω ∝ u_i, so I_i ∝ u_i³. A row without
+  // outputs u_i: I_i ∝ u_i^p (kShareExponent: the static law p = 3 damped by the motors' dynamics). A row without
   // (finite) outputs has none: the motors share equally there. A manoeuvre that spins two motors up
   // and two down moves the per-motor wiring fields while the battery current barely changes; an
   // equal split cannot predict that.
@@ -114,7 +115,7 @@ bool CompassSampler::SharesAt(size_t i, double w) {
       return false;
     }
     const double uc = std::clamp(u, 0.0, 1.0);
-    share_.push_back(uc * uc * uc);
+    share_.push_back(share_exponent_ == kShareExponentHi ? uc * uc * uc : std::pow(uc, share_exponent_));
     sum += share_.back();
   }
   if (!(sum > 0)) {

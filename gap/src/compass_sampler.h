@@ -39,7 +39,7 @@ struct LocatedSample {
 class CompassSampler {
  public:
   CompassSampler(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
-                 const Vec3& B_N_uT, bool calibrated_log);
+                 const Vec3& B_N_uT, bool calibrated_log, double share_exponent);
 
   // New compass samples (the autopilot's logged motor compensation undone where the log has it).
   const std::vector<CompassSample>& samples() const { return samples_; }
@@ -65,6 +65,7 @@ class CompassSampler {
   Prediction Predict(const CompassSample& s, const LocatedSample& ls, const Eigen::Matrix3d& R_NB);
 
  private:
+  double share_exponent_;  // I_i ∝ u_i^p (kShareExponent)
   const LogInputs& in_;
   const vehicle::VehicleParams& v_;
   const std::vector<double>& t_row_;

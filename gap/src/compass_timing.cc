@@ -99,7 +99,7 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
   tm.json["regressor_staleness_s"] = st;
   // Latency grid: −0.1…0.3 s in 10 ms steps; every lag on the same compass samples.
   const std::vector<double> grid = realdata::LagGrid(-0.1, 0.3, 0.01);
-  CompassSampler sampler(log, v, c, in, B_N_uT, base.calibrated_log);
+  CompassSampler sampler(log, v, c, in, B_N_uT, base.calibrated_log, base.share_exponent);
   const std::vector<std::vector<double>> sse = LatencyProfile(&sampler, base, shift_s, grid, std::max(4, o.blocks));
   if (sse.empty()) return tm;
   const realdata::LagEstimate lat = realdata::ProfileLag(grid, sse, o.bootstrap_samples, o.seed);
@@ -128,7 +128,7 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
   return tm;
 }
 
-void PropagateTiming(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
+void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
                      const Vec3& B_N_uT, const CompassReplayOptions& used, const CompassTiming& timing,
                      const realdata::LagEstimate& stale, const DiagnoseOptions& o, ChannelResult* res) {
   // The two plug-ins, each at the ends of its own 95 % interval (a logged current is never early:
@@ -146,6 +146,14 @@ void PropagateTiming(const logs::FlightLog& log, const vehicle::VehicleParams& v
     hi.current_shift_s = used.current_shift_s > 0 ? std::max(0.0, stale.ci95_s[1]) : 0.0;
     lo.member_shift_s = used.member_shift_s > 0 ? std::max(0.0, stale.ci95_s[0]) : 0.0;
     hi.member_shift_s = used.member_shift_s > 0 ? std::max(0.0, stale.ci95_s[1]) : 0.0;
+    pairs.emplace_back(lo, hi);
+  }
+  // The split matters only where the replay splits a battery current over configured motor wiring.
+  if (in.motor_A.empty() && in.current != nullptr && in.motor_u.size() == v.rotors.size() && !v.rotors.empty() &&
+      (!v.wiring.segments.empty() || !v.wiring.dipoles.empty())) {
+    CompassReplayOptions lo = used, hi = used;
+    lo.share_exponent = kShareExponentLo;
+    hi.share_exponent = kShareExponentHi;
     pairs.emplace_back(lo, hi);
   }
   if (pairs.empty()) return;

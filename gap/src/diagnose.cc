@@ -177,7 +177,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
     RngStream rng(options.seed, "gap_bootstrap/" + name);
     ChannelResult r = internal::AnalyzeCompass(ch, log, phases, options, timing, &rng);
     if (options.timing_scan) {
-      internal::PropagateTiming(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro, timing, stale, options, &r);
+      internal::PropagatePlugIns(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro, timing, stale, options, &r);
     }
     for (CandidateResult& k : r.candidates) {
       if (k.effect == "throttle_hard_iron") AddCurrentEquivalent(ch, &k);

@@ -67,18 +67,29 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
   const Vec3 Bhat = Bn > 0 ? Vec3(B / Bn) : Vec3::UnitZ();
   const Vec3 Bfit = B + d;
   const double scale = Bn > 0 ? Bfit.norm() / Bn : 1.0;
-  const double s_along = Bn > 0 ? d.dot(B) / (Bn * Bn) : 0.0;  // δ along the WMM field, as a scale
+  // The sensor scale, read from the horizontal field: the correction along the WMM field's horizontal
+  // part, as a scale. A flight stays nearly level, so the vertical field's column differs from a
+  // body-z offset only by 1 − cos(tilt) and the tilts' sines, and any current-driven field the
+  // replay mispredicts (the current grows as 1/cos(tilt) with the thrust) leaks into it; the
+  // horizontal field turns with every change of heading. Near the magnetic poles (horizontal
+  // field under kMinHorizontalShare of the norm) the projection on the whole field is used.
+  constexpr double kMinHorizontalShare = 0.2;
+  const Vec3 B_h(B.x(), B.y(), 0.0);
+  const Vec3 B_s = B_h.norm() >= kMinHorizontalShare * Bn ? B_h : B;
+  const double Bs2 = B_s.squaredNorm();
+  const double s_along = Bs2 > 0 ? d.dot(B_s) / Bs2 : 0.0;
   const Vec3 d_perp = d - d.dot(Bhat) * Bhat;
   const double b_norm = b.norm();
   const double b_sd = b_norm > 0 ? std::sqrt(std::max(0.0, (b / b_norm).dot(Vb * (b / b_norm)))) : 0.0;
   const double d_norm = d.norm();
   const double d_sd = d_norm > 0 ? std::sqrt(std::max(0.0, (d / d_norm).dot(Vd * (d / d_norm)))) : 0.0;
-  const double s_sd = Bn > 0 ? std::sqrt(std::max(0.0, Bhat.dot(Vd * Bhat))) / Bn : 0.0;
+  const double s_sd = Bs2 > 0 ? std::sqrt(std::max(0.0, B_s.dot(Vd * B_s))) / Bs2 : 0.0;
   const double perp_norm = d_perp.norm();
   const double perp_sd = perp_norm > 0 ? std::sqrt(std::max(0.0, (d_perp / perp_norm).dot(Vd * (d_perp / perp_norm)))) : 0.0;
   nr.json = {{"offset_uT", Vec(b)},
              {"offset_ci95_uT", {std::max(0.0, b_norm - t975 * b_sd), b_norm + t975 * b_sd}},
              {"field_scale", scale},
+             {"field_scale_horizontal", 1.0 + s_along},
              {"field_vector_N_uT", Vec(Bfit)},
              {"field_prior_N_uT", Vec(B)},
              {"field_correction_N_uT", Vec(d)},
@@ -129,11 +140,13 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
     // heading error), which a sensor scale cannot produce; the anomaly explains the norm change along
     // the field as well, so it is named before the scale (one cause for both parts).
     const bool anomaly_out = perp_norm - t975 * perp_sd > an->normal_hi;
-    if (scale < sc->normal_lo || scale > sc->normal_hi) {
+    const double scale_h = 1.0 + s_along;  // the scale term's (horizontal field)
+    if (scale_h < sc->normal_lo || scale_h > sc->normal_hi) {
       if (nr.out_of_range.empty() && !anomaly_out) nr.out_of_range = "scale_error";
-      nr.findings.push_back(fmt::format("{}: fitted field norm {:.1f} % {} the WMM field: recalibrate (scale) or check "
-                                        "for a local anomaly",
-                                        ch.name, 100 * std::fabs(scale - 1), scale < 1 ? "below" : "above"));
+      nr.findings.push_back(fmt::format("{}: fitted field {:.1f} % {} the WMM field (horizontal part; norm {:+.1f} %): "
+                                        "recalibrate (scale) or check for a local anomaly",
+                                        ch.name, 100 * std::fabs(s_along), s_along < 0 ? "below" : "above",
+                                        100 * (scale - 1)));
     }
     if (anomaly_out) {
       if (nr.out_of_range.empty()) nr.out_of_range = "local_anomaly";

@@ -17,12 +17,14 @@ realdata::LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::ve
 CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
                                 const Vec3& B_N_uT, const CompassReplayOptions& base, const realdata::LagEstimate& stale,
                                 double shift_s, const DiagnoseOptions& o);
-// The latency and the current's shift are estimated, then taken as given: each reported effect (and
-// nuisance term) is refitted with the latency at the ends of its 95 % interval and with the shift
-// at the ends of the staleness's; half of each refit spread is added, in quadrature, to its 95 %
-// half-widths (the plug-ins' own uncertainty, which the fit's intervals do not hold). `used`: the
-// options the channel was replayed with.
-void PropagateTiming(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
+// The replay's plug-ins are taken as given by the fit: the latency and the current's shift (each
+// estimated) and, in a log without per-motor currents, the motors' current split (kShareExponent,
+// known only to lie in its range). Each reported effect (and nuisance term) is refitted with each
+// plug-in at the ends of its range: the latency and the shift at the ends of their 95 % intervals,
+// the split at the equal and the cubic law; half of each refit spread is added, in quadrature, to
+// its 95 % half-widths (the plug-ins' own uncertainty, which the fit's intervals do not hold).
+// `used`: the options the channel was replayed with.
+void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
                      const Vec3& B_N_uT, const CompassReplayOptions& used, const CompassTiming& timing,
                      const realdata::LagEstimate& stale, const DiagnoseOptions& o, ChannelResult* res);
 // ΔB/ΔI between flight and ground with the flight's baseline (compassmot's principle).

@@ -38,7 +38,7 @@ constexpr double kThrottleExponents[] = {0.5, 1.0, 1.5, 2.0, 3.0};
 ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
                           const Vec3& B_N_uT, const CompassReplayOptions& o) {
   const std::string pre = MagPrefix(c);
-  CompassSampler sampler(log, v, c, in, B_N_uT, o.calibrated_log);
+  CompassSampler sampler(log, v, c, in, B_N_uT, o.calibrated_log, o.share_exponent);
   const magnetics::CurrentFieldParams& wiring = sampler.wiring();
 
   ChannelData ch;

@@ -8,8 +8,10 @@
 
 namespace hexsim::gap::gaptest {
 
-Flown FlyInjected(const std::vector<Injection>& injections, uint64_t seed, const std::string& stream) {
+Flown FlyInjected(const std::vector<Injection>& injections, uint64_t seed, const std::string& stream,
+                  const std::string& mission) {
   SelftestOptions options;
+  options.mission = mission;
   RngStream rng(seed, stream);
   auto trial = MakeTrial(options, seed, injections, &rng);
   EXPECT_TRUE(trial.ok()) << trial.status().message();

@@ -19,7 +19,9 @@ struct Flown {
 
 // Makes and flies a trial with `injections`; `stream` names the test's random stream, so each test
 // file keeps its own sequence for a given seed. Failures are reported as test failures.
-Flown FlyInjected(const std::vector<Injection>& injections, uint64_t seed, const std::string& stream);
+// `mission`: empty for the ideal profile's square; "selftest_flight" for the real profile's flight.
+Flown FlyInjected(const std::vector<Injection>& injections, uint64_t seed, const std::string& stream,
+                  const std::string& mission = "");
 
 // The diagnosis options of the ideal profile: the configured vehicle is the calibrated truth, so a
 // significant nuisance term (offset, field, scale) is a finding (CONTRACTS.md "Second wave").
