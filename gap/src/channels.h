@@ -95,10 +95,12 @@ struct LogInputs {
 // How the motors share the battery current in a log without per-motor currents: I_i ∝ u_i^p over
 // the motor outputs u_i. p = 3 is the static law (a motor's DC power τ·ω ∝ ω³, ω ∝ u) and bounds it
 // above; p = 0, the equal split, is what a log without outputs allows and bounds it below. The real
-// currents' differences lie between: the motors' dynamics and the rotors' inflow damp the commanded
-// differences (measured on hexsim's quad: the cubic split's per-motor error grows with tilt², exactly
-// the shape of the baseline's vertical-field column, which absorbed it, 0.27 µT in D; the equal
-// split, 0.05 µT). The plug-in is the middle of its range; PropagatePlugIns refits at both ends.
+// currents' differences lie between: thrust-linearised outputs, motor losses, the motors' dynamics
+// and the rotors' inflow all lower it (measured on hexsim's quad: the cubic split's per-motor error
+// grows with tilt², exactly the shape of the baseline's vertical-field column, which absorbed it,
+// 0.27 µT in D; the equal split, 0.05 µT). Diagnose fits p to the logged battery current against
+// the outputs (FitShareExponent: the law's common mode; hexsim's quad reads 2.0); kShareExponent,
+// the middle of the range, where it cannot. PropagatePlugIns refits at both ends of the range.
 constexpr double kShareExponentLo = 0.0, kShareExponentHi = 3.0;
 constexpr double kShareExponent = 0.5 * (kShareExponentLo + kShareExponentHi);
 

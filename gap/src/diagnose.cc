@@ -136,6 +136,10 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
   const double shift_s = stale.ok() && !stale.at_grid_edge && plausibility::IsPlausible("current_staleness", stale.value_s)
                              ? std::max(0.0, stale.value_s)
                              : 0.0;
+  // The motors' current law's exponent, where the replay splits a battery current over them.
+  const bool splits = rr.inputs.motor_A.empty() && rr.inputs.current != nullptr && !rr.inputs.motor_u.empty();
+  const double share_exponent =
+      splits ? internal::FitShareExponent(log, rr.inputs, vehicle, fw.row_kind, shift_s) : internal::kShareExponent;
   double flight_s = 0;
   for (const auto& w : fw.windows) flight_s += w.kind == "flight" ? w.end_s - w.start_s : 0.0;
 
@@ -159,6 +163,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
     internal::CompassReplayOptions ro;
     ro.row_kind = &fw.row_kind;
     ro.calibrated_log = !sim_truth;
+    ro.share_exponent = share_exponent;
     internal::CompassTiming timing;
     if (options.timing_scan) {
       timing = internal::ScanCompassTiming(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro, stale, shift_s, options);
@@ -179,6 +184,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
     if (options.timing_scan) {
       internal::PropagatePlugIns(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro, timing, stale, options, &r);
     }
+    if (splits) r.nuisance["current_split_exponent"] = share_exponent;
     for (CandidateResult& k : r.candidates) {
       if (k.effect == "throttle_hard_iron") AddCurrentEquivalent(ch, &k);
       if (k.effect == "per_motor_current_hard_iron") AddPerMotorEquivalent(ch, &k);

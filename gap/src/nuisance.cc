@@ -11,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 
 #include <Eigen/Cholesky>
@@ -195,6 +196,60 @@ realdata::LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::ve
   so.seed = o.seed;
   so.resamples = o.bootstrap_samples;
   return realdata::StalenessScan(tu, u, ti, I, so);
+}
+
+double FitShareExponent(const logs::FlightLog& log, const LogInputs& in, const vehicle::VehicleParams& v,
+                        const std::vector<realdata::RowKind>& kinds, double shift_s) {
+  if (in.current == nullptr || in.motor_u.empty() || in.motor_u.size() != v.rotors.size()) return kShareExponent;
+  const auto& t = log.Column("t_s");
+  const std::vector<double>& I = *in.current;
+  constexpr size_t kMinRows = 100;
+  constexpr double kMinOutput = 0.05;  // a motor at (or near) zero output: spool-up, not the law
+  std::vector<double> y;
+  std::vector<std::vector<double>> logu;  // per row, log u_i
+  size_t j = 0;
+  for (size_t i = 0; i < log.rows() && i < kinds.size(); ++i) {
+    if (kinds[i] != realdata::RowKind::kFlight) continue;
+    const double ts = t[i] + shift_s;
+    while (j + 1 < t.size() && t[j + 1] <= ts) ++j;
+    if (j + 1 >= t.size() || t[j] > ts) continue;
+    const double w = t[j + 1] > t[j] ? (ts - t[j]) / (t[j + 1] - t[j]) : 0.0;
+    const double Ii = (1 - w) * I[j] + w * I[j + 1] - v.avionics_current_A;
+    if (!std::isfinite(Ii)) continue;
+    std::vector<double> lu;
+    for (const auto* u : in.motor_u) {
+      const double ui = (*u)[i];
+      if (!(ui >= kMinOutput && ui <= 1.0)) break;
+      lu.push_back(std::log(ui));
+    }
+    if (lu.size() != in.motor_u.size()) continue;
+    y.push_back(Ii);
+    logu.push_back(std::move(lu));
+  }
+  if (y.size() < kMinRows) return kShareExponent;
+  // Profile over p: c = Σxy/Σxx in closed form at each p.
+  constexpr double kStep = 0.05;
+  double best_p = kShareExponent, best_sse = std::numeric_limits<double>::infinity();
+  double yy = 0;
+  for (double yi : y) yy += yi * yi;
+  const int steps = static_cast<int>(std::lround((kShareExponentHi - kShareExponentLo) / kStep));
+  for (int g = 0; g <= steps; ++g) {
+    const double p = kShareExponentLo + kStep * g;
+    double xy = 0, xx = 0;
+    for (size_t k = 0; k < y.size(); ++k) {
+      double x = 0;
+      for (double lu : logu[k]) x += std::exp(p * lu);
+      xy += x * y[k];
+      xx += x * x;
+    }
+    if (!(xx > 0)) continue;
+    const double sse = yy - xy * xy / xx;
+    if (sse < best_sse) {
+      best_sse = sse;
+      best_p = p;
+    }
+  }
+  return best_p;
 }
 
 void DescaleMisalignment(double field_scale, CandidateResult* r) {

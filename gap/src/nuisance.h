@@ -13,6 +13,13 @@ namespace hexsim::gap::internal {
 // How stale the logged current is against the throttle, over the flight rows.
 realdata::LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::vector<realdata::RowKind>& kinds,
                                        const DiagnoseOptions& o);
+// The exponent p of the motors' current law I_i = c·u_i^p (kShareExponent), fitted to the logged
+// battery current (less the avionics', shifted by `shift_s`) against the outputs over the flight rows:
+// the law's common mode, which the split of the current then uses. In [kShareExponentLo,
+// kShareExponentHi] (a best fit beyond the range is read at its edge); kShareExponent where the log
+// lacks the outputs or the current, or has fewer than 100 flight rows with both.
+double FitShareExponent(const logs::FlightLog& log, const LogInputs& in, const vehicle::VehicleParams& v,
+                        const std::vector<realdata::RowKind>& kinds, double shift_s);
 // The compass latency against the attitude (and its held-out share), on the rows `base` selects.
 CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
                                 const Vec3& B_N_uT, const CompassReplayOptions& base, const realdata::LagEstimate& stale,

@@ -1,5 +1,5 @@
 // How the compass replay splits a battery current over the motors when the log has no per-motor
-// currents (kShareExponent): I_i ∝ u_i^p, p in [0, 3].
+// currents (kShareExponent): I_i ∝ u_i^p, p in [0, 3], and the fit of p to the battery current.
 #include <cmath>
 #include <string>
 #include <vector>
@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include "../src/compass_sampler.h"
+#include "../src/nuisance.h"
 #include "hexsim/vehicle/vehicle_io.h"
 
 namespace hexsim::gap {
@@ -70,10 +71,40 @@ TEST(GapCurrentSplit, GivenNoPerMotorCurrents_WhenReplayed_ThenTheMotorsShareThe
     }
     EXPECT_NEAR(total, motors_A, 1e-9);
   }
-  // The plug-in is the middle of its physical range (the equal split and the static cubic law).
+  // Where the law cannot be fitted: the middle of its physical range (equal split, static cubic law).
   EXPECT_DOUBLE_EQ(internal::kShareExponentLo, 0.0);
   EXPECT_DOUBLE_EQ(internal::kShareExponentHi, 3.0);
   EXPECT_DOUBLE_EQ(internal::kShareExponent, 1.5);
+}
+
+TEST(GapCurrentSplit, GivenABatteryCurrentThatFollowsAPowerOfTheOutputs_WhenTheLawIsFitted_ThenItsExponentIsRecovered) {
+  const vehicle::VehicleParams v = QuadX();
+  for (double p_true : {1.2, 2.0, 2.6}) {
+    logs::FlightLog log;
+    for (int r = 0; r < 300; ++r) {
+      log.AppendRow();
+      log.Set("t_s", 0.1 * r);
+      double sum = 0;
+      for (int m = 0; m < 4; ++m) {
+        // Outputs that wander between 0.3 and 0.8, each motor its own way.
+        const double u = 0.55 + 0.25 * std::sin(0.07 * r * (m + 1) + m);
+        log.Set(fmt::format("motor_{}_u", m + 1), u);
+        sum += std::pow(u, p_true);
+      }
+      log.Set("current_A", v.avionics_current_A + 12.0 * sum);
+      log.Set("q_w", 1.0);
+      log.Set("q_x", 0.0);
+      log.Set("q_y", 0.0);
+      log.Set("q_z", 0.0);
+    }
+    const internal::LogInputs in = Inputs(log, 4);
+    const std::vector<realdata::RowKind> kinds(log.rows(), realdata::RowKind::kFlight);
+    EXPECT_NEAR(internal::FitShareExponent(log, in, v, kinds, 0.0), p_true, 0.026) << p_true;
+    // Too few flight rows: the middle of the range.
+    std::vector<realdata::RowKind> few(log.rows(), realdata::RowKind::kGround);
+    for (size_t i = 0; i < 50; ++i) few[i] = realdata::RowKind::kFlight;
+    EXPECT_DOUBLE_EQ(internal::FitShareExponent(log, in, v, few, 0.0), internal::kShareExponent);
+  }
 }
 
 }  // namespace
