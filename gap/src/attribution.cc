@@ -75,6 +75,21 @@ Fit SolveSums(const Block& sums, int p) { return SolveNormal(sums.A, sums.g, sum
 
 Fit Solve(const std::vector<Block>& blocks, const std::vector<double>& w, int p) { return SolveSums(SumBlocks(blocks, w, p), p); }
 
+Eigen::MatrixXd JackknifeCov(const Evaluated& e) {
+  const int p = e.p();
+  const int G = static_cast<int>(e.blocks.size());
+  if (p == 0 || G < 3 || !e.full.ok) return e.cov;
+  const Block all = SumBlocks(e.blocks, std::vector<double>(static_cast<size_t>(G), 1.0), p);
+  Eigen::MatrixXd V = Eigen::MatrixXd::Zero(p, p);
+  for (const Block& b : e.blocks) {
+    const Fit f = SolveNormal(Eigen::MatrixXd(all.A - b.A), Eigen::VectorXd(all.g - b.g), all.s - b.s, all.n - b.n, p);
+    if (!f.ok) return e.cov;
+    const Eigen::VectorXd d = f.beta - e.full.beta;
+    V += d * d.transpose();
+  }
+  return V * (static_cast<double>(G - 1) / G);
+}
+
 Fit SolveNested(const std::vector<Block>& blocks, const std::vector<double>& w, int p, const Block& base_sums) {
   const int p0 = static_cast<int>(base_sums.g.size());
   const int pc = p - p0;
@@ -315,9 +330,10 @@ void Describe(const Evaluated& e, const std::vector<double>& grid_boot, const st
   const double t975 = StudentT975(static_cast<double>(e.blocks.size() - 1));
   const int p = c.p();
   const int o = e.off;
+  const Eigen::MatrixXd V = JackknifeCov(e);
   for (int j = 0; j < p; ++j) {
     const double v = e.full.beta[o + j] * c.scale[j];
-    const double sd = std::sqrt(std::max(0.0, e.cov(o + j, o + j))) * std::fabs(c.scale[j]);
+    const double sd = std::sqrt(std::max(0.0, V(o + j, o + j))) * std::fabs(c.scale[j]);
     r->params[c.names[j]] = v;
     r->ci95[c.names[j]] = {v - t975 * sd, v + t975 * sd};
   }
@@ -368,7 +384,7 @@ void Describe(const Evaluated& e, const std::vector<double>& grid_boot, const st
   Eigen::VectorXd v(pm);
   for (int j = 0; j < pm; ++j) v[j] = e.full.beta[o + j] * c.scale[j];
   Eigen::MatrixXd S = Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(c.scale.data(), pm)).asDiagonal();
-  const Eigen::MatrixXd cov = S * e.cov.block(o, o, pm, pm) * S;
+  const Eigen::MatrixXd cov = S * V.block(o, o, pm, pm) * S;
   if (pm == 1) {
     r->magnitude = v[0];
     const double sd = std::sqrt(std::max(0.0, cov(0, 0)));

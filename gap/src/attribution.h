@@ -50,6 +50,14 @@ struct Evaluated {
   int p() const { return static_cast<int>(full.beta.size()); }
 };
 
+// The jackknife (CR3) covariance of beta over the blocks: (G−1)/G · Σ_g (β₍₋g₎ − β)(β₍₋g₎ − β)ᵀ,
+// β₍₋g₎ the fit without block g. Where a parameter's information sits in a few blocks (the vertical
+// field of a nearly level flight: the few tilted ones) the sandwich `cov` is too small and the
+// jackknife holds that leverage (MacKinnon, Nielsen & Webb 2023, "Cluster-robust inference: a guide
+// to empirical practice"). Reported intervals use it; the tests that select a model keep `cov`.
+// `cov` where a leave-one-out fit fails.
+Eigen::MatrixXd JackknifeCov(const Evaluated& e);
+
 // Cluster-robust Wald test that the parameters `idx` are zero.
 double WaldP(const Eigen::VectorXd& beta, const Eigen::MatrixXd& cov, const std::vector<int>& idx, int G);
 std::vector<int> Range(int a, int b);

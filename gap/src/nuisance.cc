@@ -63,6 +63,9 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
   const Vec3 b = base.full.beta.head<3>();
   const Vec3 d = base.full.beta.segment<3>(3);
   const Eigen::Matrix3d Vb = base.cov.block<3, 3>(0, 0), Vd = base.cov.block<3, 3>(3, 3);
+  // The reported intervals' (JackknifeCov); the range tests keep the sandwich.
+  const Eigen::MatrixXd Vjk = JackknifeCov(base);
+  const Eigen::Matrix3d Jb = Vjk.block<3, 3>(0, 0), Jd = Vjk.block<3, 3>(3, 3);
   const Vec3 B = ch.field_N_uT;
   const double Bn = B.norm();
   const Vec3 Bhat = Bn > 0 ? Vec3(B / Bn) : Vec3::UnitZ();
@@ -83,12 +86,16 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
   const double b_norm = b.norm();
   const double b_sd = b_norm > 0 ? std::sqrt(std::max(0.0, (b / b_norm).dot(Vb * (b / b_norm)))) : 0.0;
   const double d_norm = d.norm();
-  const double d_sd = d_norm > 0 ? std::sqrt(std::max(0.0, (d / d_norm).dot(Vd * (d / d_norm)))) : 0.0;
   const double s_sd = Bs2 > 0 ? std::sqrt(std::max(0.0, B_s.dot(Vd * B_s))) / Bs2 : 0.0;
+  // The same along the reported directions, from the jackknife (the intervals).
+  auto along = [](const Eigen::Matrix3d& V, const Vec3& u) { return std::sqrt(std::max(0.0, u.dot(V * u))); };
+  const double b_ci_sd = b_norm > 0 ? along(Jb, b / b_norm) : 0.0;
+  const double d_ci_sd = d_norm > 0 ? along(Jd, d / d_norm) : 0.0;
+  const double s_ci_sd = Bs2 > 0 ? along(Jd, B_s) / Bs2 : 0.0;
   const double perp_norm = d_perp.norm();
   const double perp_sd = perp_norm > 0 ? std::sqrt(std::max(0.0, (d_perp / perp_norm).dot(Vd * (d_perp / perp_norm)))) : 0.0;
   nr.json = {{"offset_uT", Vec(b)},
-             {"offset_ci95_uT", {std::max(0.0, b_norm - t975 * b_sd), b_norm + t975 * b_sd}},
+             {"offset_ci95_uT", {std::max(0.0, b_norm - t975 * b_ci_sd), b_norm + t975 * b_ci_sd}},
              {"field_scale", scale},
              {"field_scale_horizontal", 1.0 + s_along},
              {"field_vector_N_uT", Vec(Bfit)},
@@ -97,13 +104,13 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
              {"field_direction_error_uT", perp_norm},
              {"undone_compensation", ch.undone_compensation},
              {"ranges", o.nuisance_ranges}};
-  nr.terms.push_back(Term("hard_iron_offset", b_norm, b_sd, t975, "uT", true));
+  nr.terms.push_back(Term("hard_iron_offset", b_norm, b_ci_sd, t975, "uT", true));
   nr.terms.back().params["b_x_uT"] = b.x();
   nr.terms.back().params["b_y_uT"] = b.y();
   nr.terms.back().params["b_z_uT"] = b.z();
-  nr.terms.push_back(Term("local_anomaly", d_norm, d_sd, t975, "uT", true));
+  nr.terms.push_back(Term("local_anomaly", d_norm, d_ci_sd, t975, "uT", true));
   nr.terms.back().params["anomaly_N_uT"] = Vec(d);
-  nr.terms.push_back(Term("scale_error", s_along, s_sd, t975, "1", false));
+  nr.terms.push_back(Term("scale_error", s_along, s_ci_sd, t975, "1", false));
   nr.terms.back().parameters = 1;
   nr.terms.back().params["scale_minus_1"] = s_along;
   // Which term is out of its range.
