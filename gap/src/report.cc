@@ -137,8 +137,15 @@ std::string Summary(const GapReport& r) {
     }
     if (c.nuisance.contains("offset_uT")) {
       const auto& o = c.nuisance["offset_uT"];
-      s += fmt::format("  nuisance: offset ({:.0f}, {:.0f}, {:.0f}) mG, field norm {:+.1f} % against WMM\n", 10 * o[0].get<double>(),
-                       10 * o[1].get<double>(), 10 * o[2].get<double>(), 100 * (c.nuisance.value("field_scale", 1.0) - 1));
+      s += fmt::format("  nuisance: offset ({:.0f}, {:.0f}, {:.0f}) mG, field norm {:+.1f} % against WMM (horizontal {:+.1f} %)",
+                       10 * o[0].get<double>(), 10 * o[1].get<double>(), 10 * o[2].get<double>(),
+                       100 * (c.nuisance.value("field_scale", 1.0) - 1),
+                       100 * (c.nuisance.value("field_scale_horizontal", 1.0) - 1));
+      // Without per-motor currents: how the replay split the battery current over the motors.
+      if (c.nuisance.contains("current_split_exponent")) {
+        s += fmt::format("; motor currents split as output^{:.2f}", c.nuisance["current_split_exponent"].get<double>());
+      }
+      s += "\n";
     }
     if (c.ground_vs_flight.contains("mG_per_A")) {
       s += fmt::format("  ground vs flight: {:.1f} mG/A over {:.1f} A\n", c.ground_vs_flight["mG_per_A"].get<double>(),
