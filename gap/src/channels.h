@@ -104,6 +104,12 @@ struct LogInputs {
 constexpr double kShareExponentLo = 0.0, kShareExponentHi = 3.0;
 constexpr double kShareExponent = 0.5 * (kShareExponentLo + kShareExponentHi);
 
+// Whether the replay splits the logged battery current over the motors by their outputs: a battery
+// current, no per-motor currents, and an output per rotor.
+inline bool SplitsBatteryCurrent(const LogInputs& in, const vehicle::VehicleParams& v) {
+  return in.current != nullptr && in.motor_A.empty() && !v.rotors.empty() && in.motor_u.size() == v.rotors.size();
+}
+
 // How a compass is replayed: its timing, which rows, how much is built.
 struct CompassReplayOptions {
   double latency_s = 0.0;        // the sample stamped t measured the field at t − latency_s

@@ -73,14 +73,12 @@ CompassSampler::CompassSampler(const logs::FlightLog& log, const vehicle::Vehicl
   }
   samples_ = NewSamples(log, MagPrefix(c), &undone_);
   // How the motors share the battery current when the log has no per-motor currents, from the motor
-  // outputs u_i: I_i ∝ u_i^p (kShareExponent: the static law p = 3 damped by the motors' dynamics). A row without
+  // outputs u_i: I_i ∝ u_i^p (kShareExponent; p fitted by Diagnose). A row without
   // (finite) outputs has none: the motors share equally there. A manoeuvre that spins two motors up
   // and two down moves the per-motor wiring fields while the battery current barely changes; an
   // equal split cannot predict that.
   // Only needed where the log has a battery current and no per-motor currents.
-  if (in.motor_u.size() == v.rotors.size() && !v.rotors.empty() && in.current && in.motor_A.empty()) {
-    n_motor_ = v.rotors.size();
-  }
+  if (SplitsBatteryCurrent(in, v)) n_motor_ = v.rotors.size();
   const size_t rows = t_row_.size();
   row_share_.assign(rows * n_motor_, 0.0);
   row_share_ok_.assign(rows, false);

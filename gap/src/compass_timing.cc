@@ -149,8 +149,7 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
     pairs.emplace_back(lo, hi);
   }
   // The split matters only where the replay splits a battery current over configured motor wiring.
-  if (in.motor_A.empty() && in.current != nullptr && in.motor_u.size() == v.rotors.size() && !v.rotors.empty() &&
-      (!v.wiring.segments.empty() || !v.wiring.dipoles.empty())) {
+  if (SplitsBatteryCurrent(in, v) && (!v.wiring.segments.empty() || !v.wiring.dipoles.empty())) {
     CompassReplayOptions lo = used, hi = used;
     lo.share_exponent = kShareExponentLo;
     hi.share_exponent = kShareExponentHi;

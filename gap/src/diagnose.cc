@@ -137,7 +137,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
                              ? std::max(0.0, stale.value_s)
                              : 0.0;
   // The motors' current law's exponent, where the replay splits a battery current over them.
-  const bool splits = rr.inputs.motor_A.empty() && rr.inputs.current != nullptr && !rr.inputs.motor_u.empty();
+  const bool splits = internal::SplitsBatteryCurrent(rr.inputs, vehicle);
   const double share_exponent =
       splits ? internal::FitShareExponent(log, rr.inputs, vehicle, fw.row_kind, shift_s) : internal::kShareExponent;
   double flight_s = 0;

@@ -207,7 +207,7 @@ realdata::LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::ve
 
 double FitShareExponent(const logs::FlightLog& log, const LogInputs& in, const vehicle::VehicleParams& v,
                         const std::vector<realdata::RowKind>& kinds, double shift_s) {
-  if (in.current == nullptr || in.motor_u.empty() || in.motor_u.size() != v.rotors.size()) return kShareExponent;
+  if (!SplitsBatteryCurrent(in, v)) return kShareExponent;
   const auto& t = log.Column("t_s");
   const std::vector<double>& I = *in.current;
   constexpr size_t kMinRows = 100;
