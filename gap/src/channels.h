@@ -99,8 +99,8 @@ struct LogInputs {
 // and the rotors' inflow all lower it (measured on hexsim's quad: the cubic split's per-motor error
 // grows with tilt², exactly the shape of the baseline's vertical-field column, which absorbed it,
 // 0.27 µT in D; the equal split, 0.05 µT). Diagnose fits p to the logged battery current against
-// the outputs (FitShareExponent: the law's common mode; hexsim's quad reads 2.0); kShareExponent,
-// the middle of the range, where it cannot. PropagatePlugIns refits at both ends of the range.
+// the outputs (FitShareExponent: the law's common mode; hexsim's quad reads 2.0, log171 1.7);
+// kShareExponent, the middle of the range, where it cannot. PropagatePlugIns refits at both ends of the range.
 constexpr double kShareExponentLo = 0.0, kShareExponentHi = 3.0;
 constexpr double kShareExponent = 0.5 * (kShareExponentLo + kShareExponentHi);
 

@@ -137,9 +137,8 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
                              ? std::max(0.0, stale.value_s)
                              : 0.0;
   // The motors' current law's exponent, where the replay splits a battery current over them.
-  const bool splits = internal::SplitsBatteryCurrent(rr.inputs, vehicle);
-  const double share_exponent =
-      splits ? internal::FitShareExponent(log, rr.inputs, vehicle, fw.row_kind, shift_s) : internal::kShareExponent;
+  const double fitted_share_exponent = internal::FitShareExponent(log, rr.inputs, vehicle, fw.row_kind, shift_s);
+  const double share_exponent = std::isfinite(fitted_share_exponent) ? fitted_share_exponent : internal::kShareExponent;
   double flight_s = 0;
   for (const auto& w : fw.windows) flight_s += w.kind == "flight" ? w.end_s - w.start_s : 0.0;
 
@@ -184,7 +183,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
     if (options.timing_scan) {
       internal::PropagatePlugIns(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro, timing, stale, options, &r);
     }
-    if (splits) r.nuisance["current_split_exponent"] = share_exponent;
+    if (std::isfinite(fitted_share_exponent)) r.nuisance["current_split_exponent"] = fitted_share_exponent;
     for (CandidateResult& k : r.candidates) {
       if (k.effect == "throttle_hard_iron") AddCurrentEquivalent(ch, &k);
       if (k.effect == "per_motor_current_hard_iron") AddPerMotorEquivalent(ch, &k);

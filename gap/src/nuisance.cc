@@ -149,7 +149,14 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
     // the field as well, so it is named before the scale (one cause for both parts).
     const bool anomaly_out = perp_norm - t975 * perp_sd > an->normal_hi;
     const double scale_h = 1.0 + s_along;  // the scale term's (horizontal field)
-    if (scale_h < sc->normal_lo || scale_h > sc->normal_hi) {
+    if (scale_h < sc->lo || scale_h > sc->hi) {
+      // Beyond what a compass reads of the Earth field: never a finding to act on.
+      nr.findings.push_back(fmt::format("{}: fitted field {:.1f} % {} the WMM field (horizontal part; norm {:+.1f} %), "
+                                        "outside the physical range {}: implausible, model mismatch (the field "
+                                        "model's place or date, or the log's compass units)",
+                                        ch.name, 100 * std::fabs(s_along), s_along < 0 ? "below" : "above",
+                                        100 * (scale - 1), plausibility::RangeText("field_scale")));
+    } else if (scale_h < sc->normal_lo || scale_h > sc->normal_hi) {
       if (nr.out_of_range.empty() && !anomaly_out) nr.out_of_range = "scale_error";
       nr.findings.push_back(fmt::format("{}: fitted field {:.1f} % {} the WMM field (horizontal part; norm {:+.1f} %): "
                                         "recalibrate (scale) or check for a local anomaly",
@@ -207,7 +214,7 @@ realdata::LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::ve
 
 double FitShareExponent(const logs::FlightLog& log, const LogInputs& in, const vehicle::VehicleParams& v,
                         const std::vector<realdata::RowKind>& kinds, double shift_s) {
-  if (!SplitsBatteryCurrent(in, v)) return kShareExponent;
+  if (!SplitsBatteryCurrent(in, v)) return std::nan("");
   const auto& t = log.Column("t_s");
   const std::vector<double>& I = *in.current;
   constexpr size_t kMinRows = 100;
@@ -233,12 +240,18 @@ double FitShareExponent(const logs::FlightLog& log, const LogInputs& in, const v
     y.push_back(Ii);
     logu.push_back(std::move(lu));
   }
-  if (y.size() < kMinRows) return kShareExponent;
+  if (y.size() < kMinRows) return std::nan("");
+  // The motors must draw a current that varies: a log without a power monitor (0 A) has none.
+  double yy = 0, ysum = 0;
+  for (double yi : y) {
+    yy += yi * yi;
+    ysum += yi;
+  }
+  const double ymean = ysum / static_cast<double>(y.size());
+  if (!(ymean > 0) || !(yy - ysum * ymean > 1e-12 * yy)) return std::nan("");
   // Profile over p: c = Σxy/Σxx in closed form at each p.
   constexpr double kStep = 0.05;
   double best_p = kShareExponent, best_sse = std::numeric_limits<double>::infinity();
-  double yy = 0;
-  for (double yi : y) yy += yi * yi;
   const int steps = static_cast<int>(std::lround((kShareExponentHi - kShareExponentLo) / kStep));
   for (int g = 0; g <= steps; ++g) {
     const double p = kShareExponentLo + kStep * g;

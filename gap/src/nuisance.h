@@ -16,8 +16,9 @@ realdata::LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::ve
 // The exponent p of the motors' current law I_i = c·u_i^p (kShareExponent), fitted to the logged
 // battery current (less the avionics', shifted by `shift_s`) against the outputs over the flight rows:
 // the law's common mode, which the split of the current then uses. In [kShareExponentLo,
-// kShareExponentHi] (a best fit beyond the range is read at its edge); kShareExponent where the log
-// lacks the outputs or the current, or has fewer than 100 flight rows with both.
+// kShareExponentHi] (a best fit beyond the range is read at its edge); NaN where the replay does not
+// split the current (SplitsBatteryCurrent), with fewer than 100 flight rows, or where the motors draw
+// no varying current above the avionics' (no power monitor: 0 A logged).
 double FitShareExponent(const logs::FlightLog& log, const LogInputs& in, const vehicle::VehicleParams& v,
                         const std::vector<realdata::RowKind>& kinds, double shift_s);
 // The compass latency against the attitude (and its held-out share), on the rows `base` selects.

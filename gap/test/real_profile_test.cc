@@ -92,5 +92,23 @@ TEST(GapRealProfile, GivenAScaleErrorOnALogWithoutPerMotorCurrents_WhenDiagnosed
   EXPECT_GE(named, kTrials - 1);
 }
 
+// A field read 35 % below WMM is beyond what a compass reads of the Earth field (field_scale's
+// physical range 0.7-1.3): "model mismatch", never "recalibrate", and never the verdict.
+TEST(GapRealProfile, GivenAFieldReadFarBelowWmm_WhenDiagnosed_ThenTheScaleIsAModelMismatchNotAFinding) {
+  gaptest::Flown f = gaptest::FlyInjected({{"scale_error", -0.35}}, 1101, "real_profile_mismatch");
+  auto rep = Diagnose(f.log, f.trial.configured);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr) << Summary(*rep);
+  bool mismatch = false, recalibrate = false;
+  for (const std::string& s : mag2->findings) {
+    mismatch = mismatch || (s.find("fitted field") != std::string::npos && s.find("model mismatch") != std::string::npos);
+    recalibrate = recalibrate || s.find("recalibrate (scale)") != std::string::npos;
+  }
+  EXPECT_TRUE(mismatch) << Summary(*rep);
+  EXPECT_FALSE(recalibrate) << Summary(*rep);
+  EXPECT_NE(mag2->verdict, "scale_error") << Summary(*rep);
+}
+
 }  // namespace
 }  // namespace hexsim::gap
