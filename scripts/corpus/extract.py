@@ -1,0 +1,291 @@
+"""Standard flight series from a DataFlash or ULog log (own readers, numpy only).
+
+Everything in SI: seconds, micro-tesla, volts, amperes; attitude as body->NED rotations.
+"""
+
+import numpy as np
+
+import logread
+
+FRAME_MOTORS = {"QUAD": 4, "HEXA": 6, "OCTA": 8, "OCTA_QUAD": 8, "Y6": 6, "TRI": 3}
+FRAME_CLASS_MOTORS = {1: 4, 2: 6, 3: 8, 4: 8, 5: 6, 7: 3, 10: 1, 12: 4, 14: 4}
+# flight = armed and normalised mean motor output above this (ArduCopter spins armed motors
+# at 0.0-0.15 of the PWM range and hovers at 0.3-0.7)
+FLIGHT_OUTPUT_MIN = 0.25
+EDGE_S = 2.0          # seconds cut at each end of a flight segment (take-off, landing)
+MIN_SEGMENT_S = 5.0   # shorter airborne segments are not flight
+
+
+def euler_to_r(roll, pitch, yaw):
+    """Body->NED rotation matrices (N, 3, 3) from ZYX Euler angles in radians."""
+    cr, sr, cp, sp, cy, sy = (np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch),
+                              np.cos(yaw), np.sin(yaw))
+    r = np.empty((len(roll), 3, 3))
+    r[:, 0, 0] = cp * cy
+    r[:, 0, 1] = sr * sp * cy - cr * sy
+    r[:, 0, 2] = cr * sp * cy + sr * sy
+    r[:, 1, 0] = cp * sy
+    r[:, 1, 1] = sr * sp * sy + cr * cy
+    r[:, 1, 2] = cr * sp * sy - sr * cy
+    r[:, 2, 0] = -sp
+    r[:, 2, 1] = sr * cp
+    r[:, 2, 2] = cr * cp
+    return r
+
+
+def quat_to_r(w, x, y, z):
+    n = np.sqrt(w * w + x * x + y * y + z * z)
+    n[n == 0] = 1
+    w, x, y, z = w / n, x / n, y / n, z / n
+    r = np.empty((len(w), 3, 3))
+    r[:, 0, 0] = 1 - 2 * (y * y + z * z)
+    r[:, 0, 1] = 2 * (x * y - w * z)
+    r[:, 0, 2] = 2 * (x * z + w * y)
+    r[:, 1, 0] = 2 * (x * y + w * z)
+    r[:, 1, 1] = 1 - 2 * (x * x + z * z)
+    r[:, 1, 2] = 2 * (y * z - w * x)
+    r[:, 2, 0] = 2 * (x * z - w * y)
+    r[:, 2, 1] = 2 * (y * z + w * x)
+    r[:, 2, 2] = 1 - 2 * (x * x + y * y)
+    return r
+
+
+def segments(t, mask):
+    """[start, end) time pairs where mask holds for at least MIN_SEGMENT_S, edges cut."""
+    out = []
+    i, n = 0, len(t)
+    while i < n:
+        if not mask[i]:
+            i += 1
+            continue
+        j = i
+        while j + 1 < n and mask[j + 1]:
+            j += 1
+        if t[j] - t[i] >= MIN_SEGMENT_S + 2 * EDGE_S:
+            out.append((t[i] + EDGE_S, t[j] - EDGE_S))
+        i = j + 1
+    return out
+
+
+def in_segments(t, segs):
+    m = np.zeros(len(t), bool)
+    for a, b in segs:
+        m |= (t >= a) & (t <= b)
+    return m
+
+
+class Flight:
+    """Fields: kind, version, vehicle, motors, duration_s, compasses [dict], att_t, att_r,
+    cur_t, cur_a, volt_v, cells, thr_t, thr, segs (flight windows), params."""
+
+
+def _df_version(log):
+    for _, s in log.texts:
+        for key in ("ArduCopter", "APM:Copter"):
+            if key in s:
+                return s.strip()
+    return "ArduPilot (version not logged)"
+
+
+def _df_frame(log):
+    for _, s in log.texts:
+        if s.startswith("Frame:"):
+            name = s.split(":", 1)[1].strip().split()[0].upper()
+            return name, FRAME_MOTORS.get(name)
+    fc = log.params.get("FRAME_CLASS")
+    if fc is not None:
+        return "FRAME_CLASS %d" % fc, FRAME_CLASS_MOTORS.get(int(fc))
+    return None, None
+
+
+def _df_outputs(log, motors):
+    rc = log.msgs.get("RCOU")
+    if rc is None:
+        return None, None
+    t = np.array(log.time_s("RCOU"))
+    chans = []
+    for k in range(1, 15):
+        for name in ("C%d" % k, "Chan%d" % k, "Ch%d" % k):
+            if name in rc:
+                v = np.array(rc[name], float)
+                chans.append(v)
+                break
+    lo = log.params.get("MOT_PWM_MIN") or log.params.get("RC3_MIN") or 1100.0
+    hi = log.params.get("MOT_PWM_MAX") or log.params.get("RC3_MAX") or 1900.0
+    if lo <= 0 or hi <= lo:
+        lo, hi = 1100.0, 1900.0
+    good = [c for c in chans if np.mean((c > 800) & (c < 2200)) > 0.9]
+    if motors:
+        good = good[:motors]
+    if not good:
+        return t, None
+    out = (np.vstack(good).mean(axis=0) - lo) / (hi - lo)
+    return t, out
+
+
+def _df_armed(log, t):
+    ev = log.msgs.get("EV")
+    if ev is None:
+        return np.ones(len(t), bool)
+    et = np.array(log.time_s("EV"))
+    ids = np.array(ev["Id"])
+    armed = np.zeros(len(t), bool)
+    state, last = None, 0.0
+    events = [(a, b) for a, b in zip(et, ids) if b in (10, 11)]
+    if not events:
+        return np.ones(len(t), bool)
+    if events[0][1] == 11:   # first event a disarm: armed from the start
+        state = True
+    for a, b in events:
+        if state:
+            armed |= (t >= last) & (t < a)
+        state, last = (b == 10), a
+    if state:
+        armed |= t >= last
+    return armed
+
+
+def read_dataflash(path):
+    log = logread.DataFlash(path)
+    f = Flight()
+    f.kind, f.params, f.damaged_bytes = "DataFlash", log.params, log.bad_bytes
+    f.version = _df_version(log)
+    f.frame, f.motors = _df_frame(log)
+    tt = [np.array(log.time_s(m)) for m in ("ATT", "IMU", "MAG") if m in log.msgs]
+    f.t0 = min(x[0] for x in tt if len(x)) if tt else 0.0
+    f.duration_s = max(x[-1] for x in tt if len(x)) - f.t0 if tt else 0.0
+    a = log.msgs["ATT"]
+    f.att_t = np.array(log.time_s("ATT"))
+    d2r = np.pi / 180
+    f.att_r = euler_to_r(np.array(a["Roll"]) * d2r, np.array(a["Pitch"]) * d2r,
+                         np.array(a["Yaw"]) * d2r)
+    f.compasses = []
+    names = [m for m in ("MAG", "MAG2", "MAG3") if m in log.msgs]
+    for idx, m in enumerate(names):
+        mm = log.msgs[m]
+        t = np.array(log.time_s(m))
+        xyz = np.vstack([mm["MagX"], mm["MagY"], mm["MagZ"]]).T * 100.0  # gauss -> uT
+        if "I" in mm:   # one MAG table with instances (ArduPilot 4.x)
+            ids = np.array(mm["I"])
+            for k in sorted(set(ids.tolist())):
+                sel = ids == k
+                f.compasses.append(_df_compass(log, "MAG[%d]" % k, k, t[sel], xyz[sel]))
+            break
+        f.compasses.append(_df_compass(log, m, idx, t, xyz))
+    f.cur_t = f.cur_a = f.volt_v = None
+    for m in ("CURR", "BAT", "BATT"):
+        if m in log.msgs and "Curr" in log.msgs[m]:
+            c = log.msgs[m]
+            t = np.array(log.time_s(m))
+            sel = np.ones(len(t), bool)
+            if "Instance" in c:
+                sel = np.array(c["Instance"]) == 0
+            f.cur_t, f.cur_a = t[sel], np.array(c["Curr"], float)[sel]
+            f.volt_v = np.array(c["Volt"], float)[sel]
+            break
+    vmax = log.params.get("MOT_BAT_VOLT_MAX")
+    f.cells = int(round(vmax / 4.2)) if vmax else None
+    f.thr_t, f.thr = _df_outputs(log, f.motors)
+    if f.motors is None and f.thr is not None:
+        f.motors = None
+    if f.thr is not None:
+        flying = _df_armed(log, f.thr_t) & (f.thr > FLIGHT_OUTPUT_MIN)
+        f.segs = segments(f.thr_t, flying)
+    else:
+        f.segs = []
+    return f
+
+
+def _df_compass(log, name, idx, t, xyz):
+    suffix = "" if idx == 0 else str(idx + 1)
+    ext = log.params.get("COMPASS_EXTERNAL" if idx == 0 else "COMPASS_EXTERN%d" % (idx + 1))
+    use = log.params.get("COMPASS_USE" + suffix)
+    motct = log.params.get("COMPASS_MOTCT")
+    mot = [log.params.get("COMPASS_MOT%s_%s" % (suffix, a)) for a in "XYZ"]
+    return {"name": name, "t": t, "xyz": xyz,
+            "external": None if ext is None else bool(ext),
+            "use": use, "motct": motct, "mot": mot}
+
+
+def read_ulog(path):
+    log = logread.ULog(path)
+    f = Flight()
+    f.kind, f.params, f.damaged_bytes = "ULog", log.params, 0
+    f.truncated = log.truncated
+    ver = log.info.get("ver_sw_release")
+    if isinstance(ver, int) or isinstance(ver, float):
+        v = int(ver)
+        f.version = "PX4 %d.%d.%d" % ((v >> 24) & 0xFF, (v >> 16) & 0xFF, (v >> 8) & 0xFF)
+    else:
+        f.version = "PX4 " + str(log.info.get("ver_sw", "?"))[:8]
+    f.hw = log.info.get("ver_hw", "?")
+    ac = log.params.get("SYS_AUTOSTART")
+    f.frame = "SYS_AUTOSTART %s" % ac
+    f.motors = None
+    t_all = [np.array(v["timestamp"]) * 1e-6 for v in log.topics.values() if "timestamp" in v
+             and len(v["timestamp"])]
+    f.t0 = min(x.min() for x in t_all)
+    f.duration_s = max(x.max() for x in t_all) - f.t0
+    va = log.topic("vehicle_attitude")
+    f.att_t = np.array(va["timestamp"]) * 1e-6
+    f.att_r = quat_to_r(*(np.array(va["q[%d]" % k]) for k in range(4)))
+    f.compasses = []
+    for multi in range(4):
+        sm = log.topic("sensor_mag", multi)
+        if sm is None:
+            continue
+        t = np.array(sm["timestamp"]) * 1e-6
+        xyz = np.vstack([sm["x"], sm["y"], sm["z"]]).T * 100.0  # gauss -> uT
+        ext = None
+        if "is_external" in sm:
+            ext = bool(sm["is_external"][0])
+        else:
+            rot = log.params.get("CAL_MAG%d_ROT" % multi)
+            if rot is not None:
+                ext = rot >= 0
+        dev = sm.get("device_id", [None])[0]
+        f.compasses.append({"name": "sensor_mag[%d]" % multi, "t": t, "xyz": xyz,
+                            "external": ext, "device_id": dev, "use": None, "motct": None,
+                            "mot": [None] * 3})
+    bs = log.topic("battery_status")
+    f.cur_t = f.cur_a = f.volt_v = None
+    f.cells = None
+    if bs is not None:
+        f.cur_t = np.array(bs["timestamp"]) * 1e-6
+        f.cur_a = np.array(bs["current_a"], float)
+        f.volt_v = np.array(bs.get("voltage_v", bs.get("voltage_filtered_v")), float)
+        if "cell_count" in bs:
+            f.cells = int(np.median(bs["cell_count"])) or None
+    if f.cells is None and log.params.get("BAT_N_CELLS"):
+        f.cells = int(log.params["BAT_N_CELLS"])
+    ao = log.topic("actuator_outputs")
+    f.thr_t = f.thr = None
+    if ao is not None:
+        n = int(np.median(ao["noutputs"]))
+        chans = [np.array(ao["output[%d]" % k], float) for k in range(min(n, 8))]
+        good = [c for c in chans if np.mean((c > 800) & (c < 2200)) > 0.9]
+        if good:
+            f.motors = len(good)
+            f.thr_t = np.array(ao["timestamp"]) * 1e-6
+            f.thr = (np.vstack(good).mean(axis=0) - 1000.0) / 1000.0
+    ld = log.topic("vehicle_land_detected")
+    if ld is not None:
+        t = np.array(ld["timestamp"]) * 1e-6
+        air = np.array(ld["landed"]) == 0
+        # hold each state until the next message, sampled at 10 Hz
+        grid = np.arange(t[0], f.t0 + f.duration_s, 0.1)
+        idx = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, len(t) - 1)
+        f.segs = segments(grid, air[idx])
+    elif f.thr is not None:
+        f.segs = segments(f.thr_t, f.thr > FLIGHT_OUTPUT_MIN)
+    else:
+        f.segs = []
+    return f
+
+
+def read(path):
+    with open(path, "rb") as fh:
+        magic = fh.read(4)
+    if magic == b"ULog":
+        return read_ulog(path)
+    return read_dataflash(path)
