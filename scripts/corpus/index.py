@@ -52,7 +52,10 @@ def main(root):
             f.frame or "not logged", f.motors or "?", f.duration_s, fl, cur["text"],
             "; ".join(comps) or "none logged"))
     out += ["", "Sources: %d logs from %d repositories." % (
-        len(sources), len(set(s["repo"] for s in sources)))]
+        len(sources), len(set(s["repo"] for s in sources))), "",
+            "Beside this file, written by `bash scripts/corpus/run.sh HEXSIM`: `reference.md`/`.json` "
+            "(the independent reference per compass), `check.md`/`.json` (hexsim against it) and "
+            "`STATUS.md` (the failures only; `STATUS-main.md` is the run on main 45f04d0)."]
     with open(os.path.join(root, "README.md"), "w") as fh:
         fh.write("\n".join(out) + "\n")
 
