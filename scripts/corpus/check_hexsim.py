@@ -9,7 +9,8 @@ and PASS/FAIL against issue 29's "Done when":
   * external compass: no material current effect, or one whose interval includes 0;
   * no printed number outside its physical range (a selected implausible candidate, a mG/A
     beyond the reference's physical range);
-  * calibrate and gap: each absolute current term inside the other's interval;
+  * calibrate and gap: each absolute current term inside the other's interval; calibrate's
+    point inside the reference's widened interval too (both must match the reference);
   * unusable current (issue 29 item 1): no current-based verdict or calibration term at all;
   * every command exits 0 (or 1/2/3 with one clear line), never by a signal.
 
@@ -171,6 +172,11 @@ def judge(c, ref_c, usable, gaps, cal):
             if not (glo <= cp <= ghi and clo <= gp <= chi):
                 fails.append("%s vs calibrate: %.1f [%.1f, %.1f] vs %.1f [%.1f, %.1f] mG/A" % (
                     path, gp, glo, ghi, cp, clo, chi))
+    if cal and cal.get("fitted") and usable and rc_.get("status") == "fitted" and \
+            None not in cal["mg"] and \
+            not inside(cal["mg"][0], rc_["k_norm_lo_mg"], rc_["k_norm_hi_mg"], SLACK):
+        fails.append("calibrate: %.1f mG/A outside reference [%.1f, %.1f] +-0.2w" % (
+            cal["mg"][0], rc_["k_norm_lo_mg"], rc_["k_norm_hi_mg"]))
     if cal is None:
         pass   # calibrate refused the compass: its exit and line are checked by the caller
     elif cal.get("fitted") and not usable:

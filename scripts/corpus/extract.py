@@ -229,24 +229,7 @@ def read_ulog(path):
     va = log.topic("vehicle_attitude")
     f.att_t = np.array(va["timestamp"]) * 1e-6
     f.att_r = quat_to_r(*(np.array(va["q[%d]" % k]) for k in range(4)))
-    f.compasses = []
-    for multi in range(4):
-        sm = log.topic("sensor_mag", multi)
-        if sm is None:
-            continue
-        t = np.array(sm["timestamp"]) * 1e-6
-        xyz = np.vstack([sm["x"], sm["y"], sm["z"]]).T * 100.0  # gauss -> uT
-        ext = None
-        if "is_external" in sm:
-            ext = bool(sm["is_external"][0])
-        else:
-            rot = log.params.get("CAL_MAG%d_ROT" % multi)
-            if rot is not None:
-                ext = rot >= 0
-        dev = sm.get("device_id", [None])[0]
-        f.compasses.append({"name": "sensor_mag[%d]" % multi, "t": t, "xyz": xyz,
-                            "external": ext, "device_id": dev, "use": None, "motct": None,
-                            "mot": [None] * 3})
+    f.compasses = _ulog_compasses(log)
     bs = log.topic("battery_status")
     f.cur_t = f.cur_a = f.volt_v = None
     f.cells = None
@@ -258,12 +241,20 @@ def read_ulog(path):
             f.cells = int(np.median(bs["cell_count"])) or None
     if f.cells is None and log.params.get("BAT_N_CELLS"):
         f.cells = int(log.params["BAT_N_CELLS"])
-    ao = log.topic("actuator_outputs")
     f.thr_t = f.thr = None
-    if ao is not None:
+    best = []
+    for multi in range(4):     # the instance driving the motors: most PWM-range channels
+        ao = log.topic("actuator_outputs", multi)
+        if ao is None:
+            continue
         n = int(np.median(ao["noutputs"]))
         chans = [np.array(ao["output[%d]" % k], float) for k in range(min(n, 8))]
-        good = [c for c in chans if np.mean((c > 800) & (c < 2200)) > 0.9]
+        good = [c for c in chans if np.mean((c > 800) & (c < 2200)) > 0.9 and np.ptp(c) > 50]
+        if len(good) > len(best):
+            best, best_ao = good, ao
+    rotors = log.params.get("CA_ROTOR_COUNT") or log.params.get("MOT_COUNT")
+    if best:
+        good, ao = best[:int(rotors)] if rotors else best, best_ao
         if good:
             f.motors = len(good)
             f.thr_t = np.array(ao["timestamp"]) * 1e-6
@@ -281,6 +272,54 @@ def read_ulog(path):
     else:
         f.segs = []
     return f
+
+
+# PX4 enum Rotation, first 16 entries: (roll, yaw) in degrees (pitch 0)
+PX4_ROTATIONS = {k: (0, 45 * k) for k in range(8)}
+PX4_ROTATIONS.update({8 + k: (180, 45 * k) for k in range(8)})
+
+
+def _ulog_external(log, dev, multi):
+    """External flag of a magnetometer device: its CAL_MAGn slot's ROT (-1 = internal)."""
+    slot = [n for n in range(4) if log.params.get("CAL_MAG%d_ID" % n) == dev]
+    n = slot[0] if slot else multi
+    rot = log.params.get("CAL_MAG%d_ROT" % n)
+    return (None if rot is None else rot >= 0), rot
+
+
+def _ulog_compasses(log):
+    """Body-frame compass series. vehicle_magnetometer (PX4's own rotated, calibrated stream)
+    where logged, else sensor_mag turned into the body frame by CAL_MAGn_ROT."""
+    out = []
+    for multi in range(4):
+        vm = log.topic("vehicle_magnetometer", multi)
+        if vm is None:
+            continue
+        dev = vm["device_id"][0]
+        ext, _ = _ulog_external(log, dev, multi)
+        xyz = np.vstack([vm["magnetometer_ga[%d]" % k] for k in range(3)]).T * 100.0
+        out.append({"name": "vehicle_magnetometer[%d]" % multi,
+                    "t": np.array(vm["timestamp"]) * 1e-6, "xyz": xyz, "external": ext,
+                    "device_id": dev, "use": None, "motct": None, "mot": [None] * 3})
+    if out:
+        return out
+    for multi in range(4):
+        sm = log.topic("sensor_mag", multi)
+        if sm is None:
+            continue
+        dev = sm.get("device_id", [None])[0]
+        xyz = np.vstack([sm["x"], sm["y"], sm["z"]]).T * 100.0  # gauss -> uT
+        ext, rot = _ulog_external(log, dev, multi)
+        if "is_external" in sm:
+            ext = bool(sm["is_external"][0])
+        if ext and rot in PX4_ROTATIONS:
+            roll, yaw = (np.radians(a) for a in PX4_ROTATIONS[rot])
+            r = euler_to_r(np.array([roll]), np.array([0.0]), np.array([yaw]))[0]
+            xyz = xyz @ r.T
+        out.append({"name": "sensor_mag[%d]" % multi, "t": np.array(sm["timestamp"]) * 1e-6,
+                    "xyz": xyz, "external": ext, "device_id": dev, "use": None,
+                    "motct": None, "mot": [None] * 3})
+    return out
 
 
 def read(path):

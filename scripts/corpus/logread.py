@@ -241,6 +241,8 @@ class ULog:
                 multi, mid = struct.unpack_from("<BH", body, 0)
                 name = body[3:].decode("latin-1")
                 lay = self._layout(name)
+                while lay and lay[-1][0] is None:   # trailing padding is not logged
+                    lay.pop()
                 st = struct.Struct("<" + "".join(c for _, c, _ in lay))
                 self.subs[mid] = (name, multi, lay, st)
             elif t == "D":
@@ -257,8 +259,10 @@ class ULog:
                 typ_s, kname = key.split(" ", 1)
                 if typ_s == "float":
                     v = struct.unpack("<f", val[:4])[0]
-                elif typ_s == "int32_t":
-                    v = struct.unpack("<i", val[:4])[0]
+                elif typ_s in ("int32_t", "uint32_t", "int64_t", "uint64_t"):
+                    code = {"int32_t": "<i", "uint32_t": "<I", "int64_t": "<q",
+                            "uint64_t": "<Q"}[typ_s]
+                    v = struct.unpack(code, val[:struct.calcsize(code)])[0]
                 elif typ_s.startswith("char"):
                     v = val.decode("latin-1", "replace")
                 else:

@@ -31,7 +31,7 @@ MIN_VOLTS_UNKNOWN_CELLS = 3.0
 # spread over the pack current; beyond 200 mG/A the fit is a model mismatch, not a finding
 K_RANGE_MG_PER_A = (0.0, 200.0)
 K_RANGE_MG_PER_OUTPUT = (0.0, 5000.0)   # per unit motor output (0..1)
-MIN_FIT_SAMPLES = 200
+MIN_FIT_SAMPLES = 40       # 120 equations for 9 unknowns (PX4 logs sensor_mag at 1 Hz)
 
 
 def current_usability(f):
@@ -164,11 +164,13 @@ def fmt_interval(r):
     if not r or r.get("status") != "fitted":
         return (r or {}).get("status", "-")
     flag = "" if r["in_range"] else " (outside range: model mismatch)"
-    return "%.1f [%.1f, %.1f]%s" % (r["k_norm_mg"], r["k_norm_lo_mg"], r["k_norm_hi_mg"], flag)
+    zero = ", 0 inside" if r["zero_inside"] else ""
+    return "%.1f [%.1f, %.1f]%s%s" % (r["k_norm_mg"], r["k_norm_lo_mg"], r["k_norm_hi_mg"], zero,
+                                      flag)
 
 
 def markdown(results):
-    rows = ["| log | compass | ext | current in flight | reference k mG/A [95 %] | share | "
+    rows = ["| log | compass | ext | current in flight | reference |k| mG/A [95 %] | share | "
             "output form mG/unit [95 %] |", "|---|---|---|---|---|---|---|"]
     for res in results:
         if "error" in res:
