@@ -13,6 +13,7 @@ readme=${3:-$here/../../README.md}
 py=/usr/bin/python3
 work=$(mktemp -d /tmp/hexsim-corpus.XXXXXX)
 trap 'rm -rf "$work"' EXIT
+"$py" "$here/reference.py" --selftest
 "$py" "$here/index.py" "$corpus"
 mapfile -t logs < <("$py" -c 'import json,sys; [print(sys.argv[1]+"/"+s["file"]) for s in json.load(open(sys.argv[2]))]' "$corpus" "$here/sources.json")
 "$py" "$here/reference.py" --json "$corpus/reference.json" --md "$corpus/reference.md" "${logs[@]}" > /dev/null
