@@ -27,6 +27,7 @@ import os
 import re
 import subprocess
 import sys
+import time
 
 import reference
 
@@ -35,14 +36,23 @@ SLACK = 0.2                    # issue 29: the point may lie 0.2 interval widths
 CURRENT_WORDS = ("current", "throttle")
 
 
+WALL = {}   # command kind -> [(log, seconds)]
+
+
 def run(cmd, log_to):
+    start = time.monotonic()
     try:
         p = subprocess.run(cmd, capture_output=True, text=True, timeout=TIMEOUT_S)
         out, rc = p.stdout + p.stderr, p.returncode
     except subprocess.TimeoutExpired:
         out, rc = "timeout after %d s" % TIMEOUT_S, "timeout"
+    wall = time.monotonic() - start
+    kind = " ".join(c for c in cmd[1:3] if not c.startswith("/"))
+    if "--sim" in cmd:
+        kind += " --sim"
+    WALL.setdefault(kind, []).append((os.path.basename(os.path.dirname(log_to)), wall))
     with open(log_to, "w") as fh:
-        fh.write("$ %s\n%s\nexit %s\n" % (" ".join(cmd), out, rc))
+        fh.write("$ %s\n%s\nexit %s (%.2f s wall)\n" % (" ".join(cmd), out, rc, wall))
     return rc, out
 
 
@@ -251,6 +261,11 @@ def check_log(hexsim, log, work, sim, ref):
         for p, g in gaps.items():
             if g and g.get("not_diagnosed"):
                 notes.append("%s: %s" % (p, g["verdict"]))
+            bad = [f.split(" fits ")[0] for f in (g or {}).get("findings", [])
+                   if "implausible" in f and " fits " in f]
+            if bad:
+                notes.append("%s prints %d implausible fit(s) as findings (%s)" % (
+                    p, len(bad), ", ".join(bad)))
         fails += import_units(csv, ref)
         if re.search(r"damaged log: 0\.0 %", out_imp):
             fails.append("import: prints 'damaged log: 0.0 %'")
@@ -330,6 +345,10 @@ def main():
     head = ("hexsim %s (%s), corpus %s, %s; --sim %s. %d of %d compass rows pass.\n\n" % (
         a.hexsim, commit_of(a.hexsim), a.corpus, datetime.date.today().isoformat(), a.sim,
         sum(1 for r in rows if not r["fails"]), len(rows)))
+    walls = "; ".join("%s max %.2f s (%s)" % (k, max(v, key=lambda x: x[1])[1],
+                                               max(v, key=lambda x: x[1])[0])
+                      for k, v in sorted(WALL.items()) if k.startswith("gap"))
+    head += "Wall time per run (shared 2-core machine, not the bench): %s.\n\n" % walls
     md = head + table(rows)
     if a.json:
         with open(a.json, "w") as fh:
