@@ -165,6 +165,8 @@ def read_dataflash(path):
         mm = log.msgs[m]
         t = np.array(log.time_s(m))
         xyz = np.vstack([mm["MagX"], mm["MagY"], mm["MagZ"]]).T * 100.0  # gauss -> uT
+        if "MOfsX" in mm:   # undo the autopilot's own motor compensation (COMPASS_MOTCT 1/2):
+            xyz -= np.vstack([mm["MOfsX"], mm["MOfsY"], mm["MOfsZ"]]).T * 100.0  # absolute k
         if "I" in mm:   # one MAG table with instances (ArduPilot 4.x)
             ids = np.array(mm["I"])
             for k in sorted(set(ids.tolist())):

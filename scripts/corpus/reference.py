@@ -2,7 +2,8 @@
 
 Model over the flight window, stacked over the three axes (9 unknowns, ordinary least squares):
     m(t) = R_NB(t)^T B_N + c + k * I(t)
-m the logged compass vector (body, uT), R_NB the logged attitude, B_N the earth field in NED
+m the logged compass vector (body, uT; ArduPilot's logged motor compensation MOfs taken back out, so
+k is the absolute current effect whatever COMPASS_MOTCT was), R_NB the logged attitude, B_N the earth field in NED
 (fitted), c a body offset, k a 3-vector (uT/A) and I the logged battery current (A).
 Where the current is unusable the same fit is made with the normalised mean motor output u in
 place of I (k then in uT per unit output, ArduPilot's COMPASS_MOTCT 1 form).
