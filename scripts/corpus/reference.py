@@ -174,7 +174,7 @@ def fmt_interval(r):
 
 
 def markdown(results):
-    rows = ["| log | compass | ext | current in flight | reference |k| mG/A [95 %] | share | "
+    rows = ["| log | compass | ext | current in flight | reference norm of k, mG/A [95 %] | share | "
             "output form mG/unit [95 %] |", "|---|---|---|---|---|---|---|"]
     for res in results:
         if "error" in res:
