@@ -156,7 +156,7 @@ Status Env::BeginEpisode(double* obs) {
   setup_.options.seed = sim_seed_;
   setup_.options.duration_s = options_.settle_s + options_.time_limit_s + 1.0;
   *action_ = Action{};
-  action_->mode = ActMode::kPosition;
+  action_->mode = ActMode::kBuiltin;  // on the ground until the estimator has aligned
   action_->p_sp_N_m = options_.target_N_m + offset_m;
   action_->motors.assign(layout_.rotors, 0.0);
   auto created = sim::Simulation::Create(setup_, ActPlugins(setup_, action_.get()));
@@ -165,6 +165,7 @@ Status Env::BeginEpisode(double* obs) {
   ground_D_m_ = sim_->true_state().p_N_m.z();
   const auto settle_steps = std::lround(options_.settle_s / setup_.options.physics_dt_s);
   for (long i = 0; i < settle_steps; ++i) {
+    if (i > 0 && action_->mode == ActMode::kBuiltin && sim_->estimate().healthy) action_->mode = ActMode::kPosition;
     if (!sim_->Step()) {
       return Status::Numerical("settle: the simulation ended while settling at the start point (seed " +
                                std::to_string(sim_seed_) + ")");

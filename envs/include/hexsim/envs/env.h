@@ -1,9 +1,10 @@
 // One environment: the episode logic behind hexsim's Python environments (HoverEnv, WaypointEnv,
 // CompassWaypointEnv), so that a vector of them steps in C++ and Python holds none of it.
 //
-// An episode: a fresh sim::Simulation from the episode's simulation seed; the built-in cascade takes
-// off and settles at the start point (target_N_m plus an offset drawn in ±start_offset_m per axis;
-// settle_s, not part of the episode); then the agent acts every control_period_s.
+// An episode: a fresh sim::Simulation from the episode's simulation seed; once the estimator has
+// aligned on the ground (at once on truth), the built-in cascade takes off and settles at the start
+// point (target_N_m plus an offset drawn in ±start_offset_m per axis; settle_s in all, not part of
+// the episode); then the agent acts every control_period_s.
 // Seeding: Reset(seed) starts the env's episode stream RngStream(seed, "envs.episode"); every
 // episode (Reset(seed) or the next Reset()) draws its simulation seed and its start offset from it.
 // The same seed gives the same episodes, whichever vector or thread steps the env.
@@ -121,6 +122,7 @@ class Env {
   const sim::Simulation* simulation() const { return sim_.get(); }
   sim::Simulation* simulation() { return sim_.get(); }
   int steps_per_action() const { return steps_per_action_; }
+  double agent_dt_s() const { return steps_per_action_ * setup_.options.physics_dt_s; }
 
  private:
   Env(const sim::RunSetup& setup, const EnvOptions& options);
