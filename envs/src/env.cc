@@ -98,6 +98,7 @@ VehicleLayout LayoutOf(const sim::RunSetup& setup) {
   out.mixer = control::AllocationMatrix(geometry);
   const control::VehicleModelForControl model = sim::ControlModelFor(v);
   out.mass_kg = model.mass_kg;
+  out.inertia_kgm2 = model.inertia_kgm2;
   out.hover_thrust_N = model.mass_kg * kGravity_mps2;
   out.max_thrust_N = model.max_thrust_N;
   // Bisection on the equal command (the total thrust rises with it); 1 when even full command is short.

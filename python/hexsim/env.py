@@ -59,6 +59,7 @@ class _Layout:
         self.hover_thrust_N = float(layout["hover_thrust_N"])
         self.max_thrust_N = float(layout["max_thrust_N"])
         self.mass_kg = float(layout["mass_kg"])
+        self.inertia_kgm2 = layout["inertia_kgm2"]  # 3×3, body FRD
 
 
 class HoverEnv(_EnvBase, _Layout):

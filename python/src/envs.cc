@@ -164,6 +164,7 @@ class VectorCore {
     d["spin"] = py::array_t<int>(static_cast<py::ssize_t>(l.spin.size()), l.spin.data());
     d["mixer"] = mixer;
     d["mass_kg"] = l.mass_kg;
+    d["inertia_kgm2"] = ToArray(l.inertia_kgm2);
     d["hover_thrust_N"] = l.hover_thrust_N;
     d["max_thrust_N"] = l.max_thrust_N;
     d["hover_command"] = l.hover_command;

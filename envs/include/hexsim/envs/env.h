@@ -64,6 +64,7 @@ struct VehicleLayout {
   std::vector<int> spin;                     // +1 counter-clockwise seen from above
   Eigen::MatrixXd mixer;                     // A, 4×N
   double mass_kg = 0.0;
+  Eigen::Matrix3d inertia_kgm2 = Eigen::Matrix3d::Zero();  // body FRD, about the centre of mass
   double hover_thrust_N = 0.0;  // m·g
   double max_thrust_N = 0.0;    // largest collective at full charge
   double hover_command = 0.0;   // the equal motor command (0..1) whose thrust is m·g at full charge
