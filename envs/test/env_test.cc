@@ -65,14 +65,14 @@ TEST(EnvTest, GivenOneSeedWhenFlownTwiceThenTheEpisodesAreIdenticalAndAnotherSee
 
 TEST(EnvTest, GivenAVectorOnTwoThreadsThenEachEnvMatchesTheSameEnvSteppedAlone) {
   const int n = 5, steps = 25;  // 0.1 s episodes: every env auto-resets twice
-  std::vector<std::unique_ptr<Env>> envs;
-  for (int i = 0; i < n; ++i) envs.push_back(Make(ShortHover()));
+  std::vector<std::unique_ptr<Env>> envs(n);
+  for (auto& e : envs) e = Make(ShortHover());
   VectorEnv vec(std::move(envs), 2, true);
   const size_t no = vec.observation_size(), na = vec.action_size();
   std::vector<double> obs(n * no), info(n * kInfoSize), rewards(n);
   std::vector<uint8_t> term(n), trunc(n);
-  std::vector<uint64_t> seeds;
-  for (int i = 0; i < n; ++i) seeds.push_back(100 + i);
+  std::vector<uint64_t> seeds(n);
+  for (int i = 0; i < n; ++i) seeds[i] = 100 + i;
   ASSERT_TRUE(vec.Reset(seeds.data(), obs.data(), info.data()).ok());
   std::vector<Trace> got(n);
   for (int i = 0; i < n; ++i) got[i].obs.assign(obs.begin() + i * no, obs.begin() + (i + 1) * no);

@@ -28,7 +28,8 @@ envs::EnvOptions ParseOptions(const py::dict& kw) {
   envs::EnvOptions o;
   for (const auto& [key_handle, value] : kw) {
     const std::string key = py::str(key_handle).cast<std::string>();
-    auto number = [&] { return value.cast<double>(); };
+    const py::handle item = value;
+    auto number = [item] { return item.cast<double>(); };
     if (key == "task") {
       const std::string t = value.cast<std::string>();
       if (t == "hover") o.task = envs::Task::kHover;
