@@ -42,7 +42,22 @@ def batch_box(space, n):
     return Box(np.repeat(space.low[None], n, axis=0), np.repeat(space.high[None], n, axis=0), dtype=space.dtype)
 
 
-class Env:
+class _Closing:
+    """unwrapped, and `with env:` closing it."""
+
+    @property
+    def unwrapped(self):
+        return self
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *args):
+        self.close()
+        return False
+
+
+class Env(_Closing):
     """gymnasium.Env's interface: reset(seed=, options=) seeds np_random; close, unwrapped, spec."""
 
     metadata = {"render_modes": []}
@@ -60,19 +75,8 @@ class Env:
     def close(self):
         pass
 
-    @property
-    def unwrapped(self):
-        return self
 
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *args):
-        self.close()
-        return False
-
-
-class VectorEnv:
+class VectorEnv(_Closing):
     """gymnasium.vector.VectorEnv's interface."""
 
     metadata = {}
@@ -85,14 +89,3 @@ class VectorEnv:
 
     def close(self, **kwargs):
         self.closed = True
-
-    @property
-    def unwrapped(self):
-        return self
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *args):
-        self.close()
-        return False
