@@ -1,6 +1,7 @@
 // _hexsim.VectorCore: n envs::Env stepped by envs::VectorEnv (C++ episode logic, a thread pool,
 // the GIL released), with numpy arrays in and out; and render_tracks, the off-screen track figure
 // the environments' render() returns. hexsim/env.py builds the Gymnasium classes on it.
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -132,6 +133,13 @@ class VectorCore {
     const size_t n = vec_->size(), na = vec_->action_size();
     if (!a || static_cast<size_t>(a.size()) != n * na || (a.ndim() != 2 && !(a.ndim() == 1 && n == 1))) {
       RaiseBadInput("step: actions: expected shape (" + std::to_string(n) + ", " + std::to_string(na) + ")");
+    }
+    const double* data = a.data();
+    for (size_t i = 0; i < n * na; ++i) {
+      if (!std::isfinite(data[i])) {
+        RaiseBadInput("step: actions: env " + std::to_string(i / na) + ", value " + std::to_string(i % na) +
+                      ": not a finite number");
+      }
     }
     Status status;
     {

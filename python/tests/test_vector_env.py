@@ -62,5 +62,9 @@ def test_given_a_vector_then_spaces_are_batched_and_infos_carry_masks():
     assert info["_cross_track_m"].all() and info["cross_track_m"].shape == (3,)
     with pytest.raises(hexsim.BadInputError, match="actions"):
         vec.step(np.zeros((2, 4)))
+    bad = np.zeros((3, 4))
+    bad[2, 1] = np.nan
+    with pytest.raises(hexsim.BadInputError, match="env 2, value 1: not a finite number"):
+        vec.step(bad)
     with pytest.raises(hexsim.BadInputError, match="task"):
         hexsim.VectorEnv(2, "hover_upside_down")
