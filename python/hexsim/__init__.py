@@ -13,7 +13,7 @@ and frames (NED earth frame, FRD body frame, ``q_NB`` as w, x, y, z, units in ev
 
 Errors raise hexsim.BadInputError (a ValueError), NumericalError or CheckFailedError, all
 hexsim.Error, carrying the one-line message the CLI prints after "hexsim: ".
-The gym-style environments are in hexsim.env (HoverEnv, WaypointEnv).
+The Gymnasium environments (hexsim.env): HoverEnv, WaypointEnv, CompassWaypointEnv and VectorEnv.
 """
 import os as _os
 import types as _types
@@ -48,3 +48,7 @@ gap.__doc__ = "Sim-to-real gap: diagnose(log, vehicle, seed=1, from_s=0, to_s=0,
 
 __all__ = ["Simulation", "Error", "BadInputError", "NumericalError", "CheckFailedError", "calibrate", "wmm",
            "gap", "STATE_VECTOR_FIELDS", "__version__"]
+
+from .env import HoverEnv, WaypointEnv, CompassWaypointEnv, VectorEnv  # noqa: E402  (registers the gym ids)
+
+__all__ += ["HoverEnv", "WaypointEnv", "CompassWaypointEnv", "VectorEnv"]

@@ -55,8 +55,12 @@ py::array_t<double> ToArray(const Eigen::Matrix3d& m);  // 3×3, row-major as wr
 // An (N, 3) float array → rows; BadInputError naming `what` for any other shape or a non-finite value.
 std::vector<Eigen::Vector3d> Rows3(const py::handle& array, const std::string& what);
 
+// A Python dict {KEY: VALUE} as --set's "KEY=VALUE" strings (None: none).
+std::vector<std::string> SetStrings(const py::object& sets);
+
 // The parts of the module, each in its own translation unit.
 void BindSimulation(py::module_& m);
 void BindAnalysis(py::module_& m);  // wmm, calibration fits, gap diagnosis
+void BindEnvs(py::module_& m);      // VectorCore (the environments' C++ core), render_tracks
 
 }  // namespace hexsim::python

@@ -174,4 +174,5 @@ PYBIND11_MODULE(_hexsim, m) {
   hp::DefineExceptions(m);
   hp::BindSimulation(m);
   hp::BindAnalysis(m);
+  hp::BindEnvs(m);
 }

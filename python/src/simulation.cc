@@ -1,11 +1,7 @@
 // hexsim.Simulation: sim::Simulation as `hexsim run` sets it up (LoadRunSetup, AttachCalibration),
-// with the choice of where Python acts, through the run loop's Plugins:
-//   builtin   the mission flown by the built-in cascade (run() = `hexsim run`, byte for byte)
-//   position  the built-in cascade flies to [N, E, D(, yaw_rad)] (setpoint hook)
-//   attitude  [q_w, q_x, q_y, q_z, thrust_N]: the cascade's attitude and rate loops (plug-in controller)
-//   rates     [p, q, r (rad/s, body), thrust_N]: the cascade's rate loop (plug-in controller)
-//   motors    one command per motor in [0, 1], after the mixer and the slew (command hook)
-// The action is held: it acts on every autopilot tick until changed.
+// with the choice of where Python acts (envs/act.h: builtin, position [N, E, D(, yaw_rad)],
+// attitude [q_w, q_x, q_y, q_z, thrust_N], rates [p, q, r (rad/s, body), thrust_N], motors [0..1 each]);
+// builtin flies the mission as `hexsim run` does, byte for byte. The action is held until changed.
 #include <cmath>
 #include <cstdint>
 #include <optional>
@@ -16,6 +12,7 @@
 #include "bindings.h"
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/rotation.h"
+#include "hexsim/envs/act.h"
 #include "hexsim/experiments/ground_calibration.h"
 #include "hexsim/experiments/point_runner.h"
 #include "hexsim/sim/run_config.h"
@@ -25,57 +22,8 @@ namespace hexsim::python {
 
 namespace {
 
-enum class ActMode { kBuiltin, kPosition, kAttitude, kRates, kMotors };
-
-// What Python asked for last; read by the plug-ins on every autopilot tick.
-struct Action {
-  ActMode mode = ActMode::kBuiltin;
-  Eigen::Vector3d p_sp_N_m = Eigen::Vector3d::Zero();
-  double yaw_sp_rad = 0.0;
-  Eigen::Quaterniond q_sp_NB = Eigen::Quaterniond::Identity();
-  Eigen::Vector3d w_sp_B_radps = Eigen::Vector3d::Zero();
-  double thrust_N = 0.0;
-  std::vector<double> motors;
-};
-
-// The built-in cascade, entered at the loop the action names (the whole cascade otherwise).
-class ActController final : public control::Controller {
- public:
-  ActController(const control::ControllerParams& params, const control::VehicleModelForControl& model,
-                const Action* action)
-      : cascade_(params, model), action_(action) {}
-
-  control::ControlOutput Update(const control::NavState& state, const control::Setpoint& setpoint,
-                                double dt_s) override {
-    switch (action_->mode) {
-      case ActMode::kAttitude:
-        return cascade_.UpdateAttitude(state, action_->q_sp_NB, action_->thrust_N, 0.0, dt_s);
-      case ActMode::kRates: {
-        control::ControlOutput out;
-        out.thrust_N = action_->thrust_N;
-        out.torque_B_Nm = cascade_.UpdateRates(state, action_->w_sp_B_radps, dt_s);
-        return out;
-      }
-      default: return cascade_.Update(state, setpoint, dt_s);
-    }
-  }
-  void Reset() override { cascade_.Reset(); }
-
- private:
-  control::CascadedController cascade_;
-  const Action* action_;
-};
-
-const char* ModeName(ActMode mode) {
-  switch (mode) {
-    case ActMode::kBuiltin: return "builtin";
-    case ActMode::kPosition: return "position";
-    case ActMode::kAttitude: return "attitude";
-    case ActMode::kRates: return "rates";
-    case ActMode::kMotors: return "motors";
-  }
-  return "builtin";
-}
+using envs::Action;
+using envs::ActMode;
 
 std::vector<double> Values(const py::object& values, const std::string& what) {
   if (values.is_none()) return {};
@@ -108,26 +56,6 @@ void ExpectCount(const std::vector<double>& v, size_t n, const std::string& what
   }
 }
 
-// "KEY=VALUE" for --set: strings as they are, booleans as YAML's true/false, the rest by repr()
-// (floats round-trip; lists read as YAML flow sequences).
-std::vector<std::string> SetStrings(const py::object& sets) {
-  std::vector<std::string> out;
-  if (sets.is_none()) return out;
-  if (!py::isinstance<py::dict>(sets)) RaiseBadInput("set: expected a dict {KEY: VALUE}");
-  for (const auto& [key, value] : sets.cast<py::dict>()) {
-    std::string text;
-    if (py::isinstance<py::str>(value)) {
-      text = value.cast<std::string>();
-    } else if (py::isinstance<py::bool_>(value)) {
-      text = value.cast<bool>() ? "true" : "false";
-    } else {
-      text = py::repr(py::hasattr(value, "tolist") ? value.attr("tolist")() : value).cast<std::string>();
-    }
-    out.push_back(py::str(key).cast<std::string>() + "=" + text);
-  }
-  return out;
-}
-
 class PySimulation {
  public:
   PySimulation(const std::string& mission, const std::string& vehicle, const std::string& world, uint64_t seed,
@@ -145,24 +73,7 @@ class PySimulation {
     rq.allow_field_extrapolation = allow_field_extrapolation;
     sim::RunSetup setup = ValueOrRaise(sim::LoadRunSetup(rq));
     ThrowIfError(experiments::AttachCalibration(calibration, &setup));
-    const Action* action = action_.get();
-    sim::Plugins plugins;
-    plugins.controller = std::make_unique<ActController>(setup.control, sim::ControlModelFor(setup.vehicle), action);
-    plugins.setpoint_hook = [action](double, const control::NavState&, control::Setpoint* sp) {
-      if (action->mode == ActMode::kBuiltin || action->mode == ActMode::kMotors) return;
-      sp->idle = false;  // Python flies: the motors run whatever the mission's state
-      if (action->mode != ActMode::kPosition) return;
-      sp->p_N_m = action->p_sp_N_m;
-      sp->v_ff_N_mps.setZero();
-      sp->a_ff_N_mps2.setZero();
-      sp->yaw_rad = action->yaw_sp_rad;
-      sp->yaw_rate_ff_radps = 0.0;
-      sp->position_valid = true;
-    };
-    plugins.command_hook = [action](double, const control::NavState&, std::vector<double>* commands) {
-      if (action->mode == ActMode::kMotors) *commands = action->motors;
-    };
-    sim_ = ValueOrRaise(sim::Simulation::Create(setup, std::move(plugins)));
+    sim_ = ValueOrRaise(sim::Simulation::Create(setup, envs::ActPlugins(setup, action_.get())));
     rotors_ = setup.vehicle.rotors.size();
     action_->motors.assign(rotors_, 0.0);
   }
@@ -313,7 +224,7 @@ class PySimulation {
   double time_s() const { return sim_->time_s(); }
   bool finished() const { return out_.has_value() || sim_->finished(); }
   size_t rotors() const { return rotors_; }
-  std::string act_mode() const { return ModeName(action_->mode); }
+  std::string act_mode() const { return envs::ActModeName(action_->mode); }
   double hover_thrust_N() const { return sim_->control_model().mass_kg * kGravity_mps2; }
   double max_thrust_N() const { return sim_->control_model().max_thrust_N; }
 
@@ -336,6 +247,26 @@ class PySimulation {
 };
 
 }  // namespace
+
+// "KEY=VALUE" for --set: strings as they are, booleans as YAML's true/false, the rest by repr()
+// (floats round-trip; lists read as YAML flow sequences).
+std::vector<std::string> SetStrings(const py::object& sets) {
+  std::vector<std::string> out;
+  if (sets.is_none()) return out;
+  if (!py::isinstance<py::dict>(sets)) RaiseBadInput("set: expected a dict {KEY: VALUE}");
+  for (const auto& [key, value] : sets.cast<py::dict>()) {
+    std::string text;
+    if (py::isinstance<py::str>(value)) {
+      text = value.cast<std::string>();
+    } else if (py::isinstance<py::bool_>(value)) {
+      text = value.cast<bool>() ? "true" : "false";
+    } else {
+      text = py::repr(py::hasattr(value, "tolist") ? value.attr("tolist")() : value).cast<std::string>();
+    }
+    out.push_back(py::str(key).cast<std::string>() + "=" + text);
+  }
+  return out;
+}
 
 void BindSimulation(py::module_& m) {
   py::class_<PySimulation>(m, "Simulation", R"doc(
