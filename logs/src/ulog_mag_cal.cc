@@ -88,7 +88,10 @@ nlohmann::json Px4MagCalibration(const ULog& u, double device_id, int instance, 
   if (frame == MagFrame::kRaw && device_id <= 0) return nullptr;
   int slot = -1;
   std::string matched_by = "device_id";
-  for (int n = 0; n < kCalSlots && device_id > 0; ++n) {
+  // The first slot that holds the device id, as PX4 itself picks it (calibration::FindCurrentCalibrationIndex
+  // returns the first match): a stale slot further on (a sensor moved between ports, same id, rotation 0
+  // and zero offsets) must not override the calibration in force.
+  for (int n = 0; n < kCalSlots && device_id > 0 && slot < 0; ++n) {
     if (Param(u, fmt::format("CAL_MAG{}_ID", n), -1) == device_id) slot = n;
   }
   // No device id (old topics): the first instance is the primary magnetometer PX4 selected, the one

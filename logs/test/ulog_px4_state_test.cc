@@ -263,5 +263,32 @@ TEST(ULogPx4State, GivenOldSensorCombinedMagnetometer_WhenRead_ThenTheCalMagPrim
   EXPECT_EQ(in->px4_index, 2);
 }
 
+TEST(ULogPx4State, GivenTheDeviceIdInTwoSlots_WhenImported_ThenTheFirstSlotCalibratesAsInPx4) {
+  // PX4 1.14 logs seen in the wild hold the same CAL_MAGn_ID twice: the calibration in force in slot 0
+  // (rotation, offsets) and a stale one further on (rotation 0, zero offsets). PX4 uses the first.
+  ULogWriter w;
+  w.ParamInt("CAL_MAG0_ID", 9);
+  w.ParamInt("CAL_MAG0_ROT", 10);
+  w.ParamInt("CAL_MAG1_ID", 9);
+  w.ParamInt("CAL_MAG1_ROT", 0);
+  const char* axes[3] = {"X", "Y", "Z"};
+  for (int k = 0; k < 3; ++k) {
+    w.Param(std::string("CAL_MAG0_") + axes[k] + "OFF", 0.1f * static_cast<float>(k + 1));
+    w.Param(std::string("CAL_MAG1_") + axes[k] + "OFF", 0.0f);
+  }
+  Attitude(&w);
+  w.Format("sensor_mag:uint64_t timestamp;uint32_t device_id;float x;float y;float z;");
+  const uint16_t mag = w.Subscribe("sensor_mag", 0);
+  for (int k = 0; k < 20; ++k) {
+    w.Data(mag, Pack<uint64_t>(1050000 + 100000ull * static_cast<uint64_t>(k)) + Pack<uint32_t>(9) + Pack(0.2f) +
+                    Pack(0.0f) + Pack(0.4f));
+  }
+  auto r = ImportULog(w.bytes(), "twice.ulg");
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  const auto& c = r->log.meta["compasses"][0]["px4_calibration"];
+  EXPECT_EQ(c["index"], 0);
+  EXPECT_EQ(c["matched_by"], "device_id");
+}
+
 }  // namespace
 }  // namespace hexsim::logs
