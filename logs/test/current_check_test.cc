@@ -7,10 +7,13 @@
 #include <cmath>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
+#include "hexsim/common/atomic_file.h"
 #include "hexsim/logs/dataflash_import.h"
+#include "hexsim/logs/read_log.h"
 #include "hexsim/logs/ulog_import.h"
 #include "support/dataflash_writer.h"
 #include "support/ulog_writer.h"
@@ -210,6 +213,34 @@ TEST(CurrentCheck, GivenAULogWithoutAPowerMonitor_WhenImported_ThenTheCurrentIsU
   ASSERT_TRUE(cut.ok()) << cut.status().message();
   ASSERT_EQ(cut->warnings.size(), 1u);
   EXPECT_NE(cut->warnings[0].find("truncated"), std::string::npos) << cut->warnings[0];
+}
+
+// gap and identify take a .bin or .ulg as they take a FlightLog CSV (before: "column name has control
+// character 0x00").
+TEST(ReadAnyFlightLog, GivenADataFlashOrULogFile_WhenRead_ThenItIsImportedInMemoryAndSaysSo) {
+  const std::string dir = ::testing::TempDir() + "/read_any_" + std::to_string(::getpid());
+  std::filesystem::create_directories(dir);
+  ASSERT_TRUE(WriteFileAtomic(dir + "/hover.bin", HoverLog(CurrForm::kFloat34, 0.14, 0.152).bytes()).ok());
+  ASSERT_TRUE(WriteFileAtomic(dir + "/px.ulg", PxFlight(12.0f, 15.8f)).ok());
+  std::vector<std::string> notes;
+  auto bin = ReadAnyFlightLog(dir + "/hover.bin", &notes);
+  ASSERT_TRUE(bin.ok()) << bin.status().message();
+  EXPECT_EQ(bin->rows(), 200u);
+  EXPECT_EQ(bin->meta["source"], "hover.bin");
+  ASSERT_EQ(notes.size(), 2u);
+  EXPECT_NE(notes[0].find("imported in memory"), std::string::npos) << notes[0];
+  EXPECT_NE(notes[1].find("current sensor unusable"), std::string::npos) << notes[1];
+  notes.clear();
+  auto ulg = ReadAnyFlightLog(dir + "/px.ulg", &notes);
+  ASSERT_TRUE(ulg.ok()) << ulg.status().message();
+  EXPECT_EQ(ulg->rows(), 100u);
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_NE(notes[0].find("PX4 ULog, imported in memory"), std::string::npos) << notes[0];
+  ASSERT_TRUE(WriteFlightLog(*bin, dir + "/hover.csv").ok());
+  auto csv = ReadAnyFlightLog(dir + "/hover.csv");
+  ASSERT_TRUE(csv.ok()) << csv.status().message();
+  EXPECT_EQ(csv->rows(), 200u);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
