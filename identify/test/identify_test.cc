@@ -173,6 +173,20 @@ TEST(Identify, GivenACurrentFarBelowTheFlightPower_WhenIdentified_ThenTheBattery
   EXPECT_EQ(clean->params.at("battery_resistance_ohm").source, "fitted");
 }
 
+// The import's current check (logs/current_check.h) switches the current-based battery fit off.
+TEST(Identify, GivenACurrentTheImportFoundUnusable_WhenIdentified_ThenTheBatteryIsKeptFromTheBaseWithThatReason) {
+  const Flight& f = QuadFlight();
+  logs::FlightLog log = f.log;
+  log.meta["current_usable"] = false;
+  log.meta["current_unusable_why"] = "current sensor unusable: units or no power monitor: as the import found";
+  auto r = Identify(log, f.setup.vehicle, {});
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_EQ(r->params.at("battery_resistance_ohm").source, "base");
+  bool said = false;
+  for (const auto& n : r->notes) said = said || n.find("as the import found; battery kept from the base") != std::string::npos;
+  EXPECT_TRUE(said);
+}
+
 TEST(Identify, GivenFrameParameters_WhenTheFrameIsAsked_ThenClassAndTypeDecide) {
   logs::FlightLog log;
   log.meta["params"] = {{"FRAME_CLASS", 2}, {"FRAME_TYPE", 0}};
