@@ -1,9 +1,10 @@
-// hexsim gap diagnose --real LOG.csv [--sim VEHICLE_OR_CONFIG] --out DIR [--from S --to S]
+// hexsim gap diagnose --real LOG.csv|LOG.bin|LOG.ulg [--sim VEHICLE_OR_CONFIG] --out DIR [--from S --to S]
 // hexsim gap selftest [--profile real|ideal] [--trials N] [--seed S] [--jobs N] [--json FILE]
 #include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 #include <unistd.h>
 
 #include "cli_util.h"
@@ -12,7 +13,7 @@
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/experiments/log_diagnosis.h"
 #include "hexsim/gap/selftest.h"
-#include "hexsim/logs/flight_log.h"
+#include "hexsim/logs/read_log.h"
 #include "hexsim/reports/gap_report.h"
 
 namespace hexsim::app {
@@ -24,8 +25,10 @@ struct DiagnoseArgs {
 };
 
 Status DiagnoseCommand(const DiagnoseArgs& a) {
-  auto log = logs::ReadFlightLog(a.real);
+  std::vector<std::string> notes;
+  auto log = logs::ReadAnyFlightLog(a.real, &notes);
   if (!log.ok()) return log.status();
+  for (const auto& line : notes) std::printf("log: %s\n", line.c_str());
   experiments::LogDiagnosisOptions options = a.options;
   options.log_name = a.real;
   auto d = experiments::DiagnoseLog(*log, options);
@@ -81,7 +84,8 @@ void AddGapCommand(CLI::App& app, int* exit_code) {
   gap->require_subcommand(1);
   auto d = std::make_shared<DiagnoseArgs>();
   CLI::App* diag = gap->add_subcommand("diagnose", "Where the gap lies, which effect causes it, how much it shrinks");
-  diag->add_option("--real", d->real, "FlightLog CSV (its .meta.json beside it)")->required();
+  diag->add_option("--real", d->real, "FlightLog CSV (its .meta.json beside it), or an ArduPilot .bin / PX4 .ulg "
+                                      "(imported in memory)")->required();
   diag->add_option("--sim", d->options.vehicle, "Vehicle name under worlds/vehicles or a vehicle YAML (default: the vehicle identified from the log on "
                  "fitting blocks, diagnosed on held-out blocks)");
   diag->add_option("--out", d->out, "Output directory (gap.json, gap.html, <vehicle>.updated.yaml)")->required();

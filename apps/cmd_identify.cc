@@ -1,18 +1,17 @@
-// hexsim identify LOG.csv [--frame auto|quad-x|...] [--base VEHICLE] --out vehicle.yaml
-// Beside vehicle.yaml: identify.json (hexsim.identify/1), identify.html and its plots.
+// hexsim identify LOG.csv|LOG.bin|LOG.ulg [--frame auto|quad-x|...] [--base VEHICLE] --out vehicle.yaml
+// Beside vehicle.yaml: identify.json (hexsim.identify/1), identify.html and its plots. An
+// identification whose held-out residual is not below its base's exits 1 and writes no vehicle.
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "cli_util.h"
 #include "commands.h"
 #include "hexsim/common/atomic_file.h"
-#include "hexsim/common/paths.h"
 #include "hexsim/identify/identify.h"
-#include "hexsim/logs/flight_log.h"
+#include "hexsim/logs/read_log.h"
 #include "hexsim/reports/identify_report.h"
-#include "hexsim/vehicle/vehicle_io.h"
-#include "hexsim/vehicle/vehicle_params.h"
 
 namespace hexsim::app {
 namespace {
@@ -27,36 +26,36 @@ std::string DirOf(const std::string& path) {
   return slash == std::string::npos ? "." : path.substr(0, slash);
 }
 
-Status IdentifyCommand(const IdentifyArgs& a) {
+Status IdentifyCommand(const IdentifyArgs& a, int* exit_code) {
   if (const std::string why = a.options.IsValid(); !why.empty()) return Status::BadInput(why);
-  auto log = logs::ReadFlightLog(a.log);
+  std::vector<std::string> notes;
+  auto log = logs::ReadAnyFlightLog(a.log, &notes);
   if (!log.ok()) return log.status();
-  std::string base_name = a.base;
-  if (base_name.empty()) {
-    std::string source;
-    const std::string frame = a.options.frame != "auto" ? a.options.frame : identify::FrameOfLog(*log, &source);
-    base_name = identify::DefaultBaseFor(frame);
-    if (base_name.empty()) {
-      return Status::BadInput(a.log + ": frame: not determined or no shipped vehicle for '" + frame +
-                              "' (give --frame or --base)");
-    }
-  }
-  auto path = ResolveWorldFile("vehicles", base_name);
-  if (!path.ok()) return path.status();
-  auto text = ReadFile(*path);
-  if (!text.ok()) return text.status();
-  auto base = vehicle::LoadVehicleFile(*path);
+  for (const auto& line : notes) std::printf("log: %s\n", line.c_str());
+  auto base = identify::ChooseBaseVehicle(*log, a.base, a.options.frame, a.log, "give --frame or --base");
   if (!base.ok()) return base.status();
-  auto r = identify::Identify(*log, *base, a.options);
-  if (!r.ok()) return r.status().WithContext(a.log);
-  auto yaml = identify::IdentifiedVehicleYaml(*text, *base, *r);
-  if (!yaml.ok()) return yaml.status();
+  auto r = identify::Identify(*log, base->params, a.options);
+  if (!r.ok()) {
+    // Identify names the log by its meta's source already; other errors get the path.
+    const std::string source = log->meta.value("source", std::string());
+    const bool named = !source.empty() && r.status().message().rfind(source + ":", 0) == 0;
+    return named ? r.status() : r.status().WithContext(a.log);
+  }
   const std::string dir = DirOf(a.out);
   HEXSIM_RETURN_IF_ERROR(EnsureDirectory(dir));
   HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(dir + "/identify.json", identify::ToJson(*r).dump(2) + "\n"));
   HEXSIM_RETURN_IF_ERROR(reports::WriteIdentifyHtml(*r, dir));
-  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(a.out, *yaml));  // last: the vehicle file means "done"
   std::fputs(identify::Summary(*r).c_str(), stdout);
+  if (!r->improves_on_base) {
+    // CONTRACTS exit 1: the check failed; the vehicle file, which means "done", is not written.
+    std::printf("identify: %s: %s not written\n", identify::ImprovementLine(*r).c_str(), a.out.c_str());
+    *exit_code = 1;
+    return Status::Ok();
+  }
+  auto yaml = identify::IdentifiedVehicleYaml(base->yaml, base->params, *r);
+  if (!yaml.ok()) return yaml.status();
+  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(a.out, *yaml));  // last: the vehicle file means "done"
+  *exit_code = 0;
   return Status::Ok();
 }
 
@@ -66,7 +65,8 @@ void AddIdentifyCommand(CLI::App& app, int* exit_code) {
   auto a = std::make_shared<IdentifyArgs>();
   CLI::App* c = app.add_subcommand("identify", "Identify the log's vehicle (thrust curve, hover output, motor lag, "
                                                "drag, yaw torque, battery, IMU noise) and write a vehicle file");
-  c->add_option("log", a->log, "FlightLog CSV (its .meta.json and stream files beside it)")->required();
+  c->add_option("log", a->log, "FlightLog CSV (its .meta.json and stream files beside it), or an ArduPilot .bin / "
+                               "PX4 .ulg (imported in memory)")->required();
   c->add_option("--frame", a->options.frame,
                 "auto, or an ArduPilot motor table: quad-x|quad-plus|quad-v|quad-h|quad-plus-rev|quad-bf-x|quad-dji-x|"
                 "quad-cw-x|quad-bf-x-rev|hex-x|hex-plus|hex-h|hex-dji-x|hex-cw-x|octo-x")
@@ -76,8 +76,9 @@ void AddIdentifyCommand(CLI::App& app, int* exit_code) {
   c->add_option("--seed", a->options.seed, "Bootstrap seed")->capture_default_str();
   c->add_option("--bootstrap", a->options.bootstrap_samples, "Block bootstrap resamples")->capture_default_str();
   c->callback([a, exit_code] {
-    const Status s = IdentifyCommand(*a);
-    *exit_code = s.ok() ? 0 : Report(s);
+    int code = 0;
+    const Status s = IdentifyCommand(*a, &code);
+    *exit_code = s.ok() ? code : Report(s);
   });
 }
 

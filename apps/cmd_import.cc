@@ -6,6 +6,7 @@
 #include "commands.h"
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/paths.h"
+#include "hexsim/logs/current_check.h"
 #include "hexsim/logs/dataflash_import.h"
 #include "hexsim/logs/ulog.h"
 #include "hexsim/logs/ulog_import.h"
@@ -41,14 +42,14 @@ Status ImportCommand(const ImportArgs& a) {
     HEXSIM_RETURN_IF_ERROR(logs::WriteFlightLog(u->log, a.out));
     udir.Commit();
     std::printf("import: PX4 ULog, %zu rows, %zu columns -> %s\n", u->log.rows(), u->log.columns().size(), a.out.c_str());
+    std::printf("%s\n", logs::CurrentCheckLine(logs::CurrentSensorOf(u->log)).c_str());
     return Status::Ok();
   }
   auto result = logs::ImportDataFlash(*bytes, a.log, logs::ImportOptions{});
   if (!result.ok()) return result.status();
   // Damage that did not refuse the log is still said, once, on stderr (the counts are in the meta).
-  if (result->damage.any() || result->records.dropped() > 0) {
-    std::fprintf(stderr, "hexsim: %s\n",
-                 logs::DamageSummaryLine(a.log, result->damage, result->records, result->records_accepted).c_str());
+  for (const auto& line : logs::DamageLines(a.log, result->damage, result->records, result->records_accepted)) {
+    std::fprintf(stderr, "hexsim: %s\n", line.c_str());
   }
   OutputDirectory dir;
   HEXSIM_RETURN_IF_ERROR(dir.Open(DirName(a.out)));
@@ -56,6 +57,7 @@ Status ImportCommand(const ImportArgs& a) {
   dir.Commit();
   std::printf("import: %zu rows, %zu columns -> %s (+ %zu native-rate streams <log>.<stream>.csv)\n", result->log.rows(),
               result->log.columns().size(), a.out.c_str(), result->log.stream_names().size());
+  std::printf("%s\n", logs::CurrentCheckLine(logs::CurrentSensorOf(result->log)).c_str());
   return Status::Ok();
 }
 

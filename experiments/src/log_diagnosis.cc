@@ -1,9 +1,7 @@
 #include "hexsim/experiments/log_diagnosis.h"
 
-#include "hexsim/common/atomic_file.h"
 #include "hexsim/common/paths.h"
 #include "hexsim/identify/identify.h"
-#include "hexsim/vehicle/vehicle_io.h"
 
 namespace hexsim::experiments {
 namespace {
@@ -11,59 +9,54 @@ namespace {
 // Fills the vehicle part of `d`: as given (compared with the one identified from the whole log), or
 // identified on the even blocks with d->log reduced to the odd (held-out) blocks.
 Status ChooseVehicle(const LogDiagnosisOptions& o, logs::FlightLog* log, LogDiagnosis* d) {
-  std::string base_name = o.vehicle;
-  if (o.vehicle.empty()) {
-    std::string source;
-    base_name = identify::DefaultBaseFor(identify::FrameOfLog(*log, &source));
-    if (base_name.empty()) {
-      return Status::BadInput(o.log_name + ": frame: not determined (" + source + "); give --sim VEHICLE");
-    }
-  }
-  auto path = ResolveWorldFile("vehicles", base_name);
-  if (!path.ok()) return path.status();
-  auto text = ReadFile(*path);
-  if (!text.ok()) return text.status();
-  auto base = vehicle::LoadVehicleFile(*path);
+  auto base = identify::ChooseBaseVehicle(*log, o.vehicle, "auto", o.log_name, "give --sim VEHICLE");
   if (!base.ok()) return base.status();
+  d->vehicle = base->params;
+  d->vehicle_yaml = base->yaml;
+  d->stem = FileStem(base->path);
   if (!o.vehicle.empty()) {
-    d->vehicle = *base;
-    d->vehicle_yaml = *text;
-    d->stem = FileStem(*path);
-    auto r = identify::Identify(*log, *base);
+    auto r = identify::Identify(*log, base->params);
     d->vehicle_source["mode"] = "given (--sim)";
     d->vehicle_source["distance_from_identified"] =
-        r.ok() ? identify::DistanceFromVehicle(*r, *base, &d->lines)
+        r.ok() ? identify::DistanceFromVehicle(*r, base->params, &d->lines)
                : nlohmann::json("not computed: " + r.status().message());
     return Status::Ok();
   }
+  d->lines.push_back("frame " + base->frame + " (" + base->frame_source + "): base " + base->params.name);
   identify::IdentifyOptions io;
   for (int b = 0; b < io.blocks; b += 2) io.fit_blocks.push_back(b);
-  auto r = identify::Identify(*log, *base, io);
+  auto r = identify::Identify(*log, base->params, io);
   if (!r.ok() && r.status().code() == StatusCode::kBadInput) {
     // A log too short (or without the streams) for identification is not bad input for the diagnosis
     // (CONTRACTS: diagnose what can be diagnosed): the whole log against the base vehicle, said so.
-    d->vehicle = *base;
-    d->vehicle_yaml = *text;
-    d->stem = FileStem(*path);
     d->vehicle_source["mode"] = "base (identification not possible)";
     d->vehicle_source["why"] = r.status().message();
     d->lines.push_back("no --sim, and the vehicle could not be identified from this log (" + r.status().message() +
-                       "): diagnosed against the shipped " + base->name + " on the whole log");
+                       "): diagnosed against the shipped " + base->params.name + " on the whole log");
     return Status::Ok();
   }
   if (!r.ok()) return r.status().WithContext("gap diagnose without --sim identifies the vehicle first");
-  d->vehicle = identify::ApplyIdentified(*base, *r);
-  auto yaml = identify::IdentifiedVehicleYaml(*text, *base, *r);
+  if (!r->improves_on_base) {
+    // An identification that improves nothing is not used: the whole log against the base, said so.
+    d->vehicle_source["mode"] = "base (identification improves nothing)";
+    d->vehicle_source["why"] = identify::ImprovementLine(*r);
+    d->vehicle_source["identify"] = identify::ToJson(*r);
+    d->lines.push_back("no --sim: the identification " + identify::ImprovementLine(*r) +
+                       "; diagnosed against the shipped " + base->params.name + " on the whole log");
+    return Status::Ok();
+  }
+  d->vehicle = identify::ApplyIdentified(base->params, *r);
+  auto yaml = identify::IdentifiedVehicleYaml(base->yaml, base->params, *r);
   if (!yaml.ok()) return yaml.status();
   d->vehicle_yaml = *yaml;
   d->stem = "identified";
   d->identified = true;
   *log = identify::HeldOutLog(*log, *r);
   d->vehicle_source["mode"] = "identified (no --sim)";
-  d->vehicle_source["how"] = "vehicle identified from this log (base " + base->name +
+  d->vehicle_source["how"] = "vehicle identified from this log (base " + base->params.name +
                              ") on the even time blocks of its flight windows; diagnosed on the odd (held-out) blocks only";
   d->vehicle_source["identify"] = identify::ToJson(*r);
-  d->lines.push_back("no --sim: the vehicle was identified from this log (base " + base->name +
+  d->lines.push_back("no --sim: the vehicle was identified from this log (base " + base->params.name +
                      ") on the even time blocks; this diagnosis uses the odd (held-out) blocks only");
   return Status::Ok();
 }

@@ -367,6 +367,7 @@ void DynamicsComparison(const FlightSamples& s, const vehicle::VehicleParams& ba
     res->dynamics_rms_base = std::sqrt(sb / n);
     res->dynamics_rms_identified = std::sqrt(si / n);
   }
+  res->improves_on_base = n > 0 && res->dynamics_rms_identified < res->dynamics_rms_base;
 }
 
 }  // namespace
@@ -402,6 +403,15 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
   }
   const std::vector<FrameRotor> table = FrameRotors(res.frame);
   res.motors = !table.empty() ? table.size() : base.rotors.size();
+  if (res.motors != base.rotors.size()) {
+    // The base's wiring, motor constants and mixer are per rotor: a vehicle of another rotor count
+    // written from it would not be a vehicle `run` accepts.
+    return Status::BadInput(fmt::format("{}: --base: '{}' has {} rotors, the log's frame {} ({}) has {}: give a base "
+                                        "with {} rotors{}",
+                                        name, base.name, base.rotors.size(), res.frame, res.frame_source, res.motors,
+                                        res.motors,
+                                        DefaultBaseFor(res.frame).empty() ? "" : " (e.g. " + DefaultBaseFor(res.frame) + ")"));
+  }
   HEXSIM_RETURN_IF_ERROR(internal::ChooseLayout(log, base, table, &res));
   auto built = BuildSamples(log, res.spins, options, (base.mass_kg + base.payload.mass_kg) * kGravity_mps2);
   if (res.layout_from_log) {

@@ -5,8 +5,11 @@
 
 #include <fmt/format.h>
 
+#include "hexsim/common/atomic_file.h"
+#include "hexsim/common/paths.h"
 #include "hexsim/common/rotation.h"
 #include "hexsim/identify/identify.h"
+#include "hexsim/vehicle/vehicle_io.h"
 #include "samples.h"
 
 namespace hexsim::identify {
@@ -104,32 +107,74 @@ Status ChooseLayout(const logs::FlightLog& log, const vehicle::VehicleParams& ba
 
 std::string FrameOfLog(const logs::FlightLog& log, std::string* source) {
   const double fc = ParamOr(log, "FRAME_CLASS", NAN), ft = ParamOr(log, "FRAME_TYPE", NAN);
+  std::string unnamed;  // what the parameters said that the motor tables do not name
   if (std::isfinite(fc) && std::isfinite(ft)) {
     std::string name = internal::FrameNameFor(static_cast<int>(fc), static_cast<int>(ft));
     if (!name.empty()) {
       *source = fmt::format("FRAME_CLASS {} / FRAME_TYPE {}", static_cast<int>(fc), static_cast<int>(ft));
       return name;
     }
+    unnamed = fmt::format("FRAME_CLASS {} / FRAME_TYPE {} is not in the motor tables", static_cast<int>(fc),
+                          static_cast<int>(ft));
   }
-  const double frame = ParamOr(log, "FRAME", NAN);  // 3.3: 0 plus, 1 X
+  // Before 3.5 the firmware build fixed the class and FRAME the layout: 0 plus, 1 X, 2 V, 3 H (then
+  // V-tail, A-tail, Y6 ...).
+  const double frame = ParamOr(log, "FRAME", NAN);
   const int motors = log.meta.value("motor_count", 0);
-  if (std::isfinite(frame) && (frame == 0 || frame == 1) && !ClassName(motors).empty()) {
-    *source = fmt::format("FRAME {} and {} motors ({})", static_cast<int>(frame), motors,
-                          log.meta.value("motor_count_source", std::string("meta")));
-    return ClassName(motors) + (frame == 0 ? "-plus" : "-x");
+  const std::string motors_from = log.meta.value("motor_count_source", std::string("meta"));
+  static const char* const kOldLayouts[] = {"plus", "x", "v", "h"};
+  if (std::isfinite(frame) && unnamed.empty()) {
+    const int f = static_cast<int>(frame);
+    const std::string name = f >= 0 && f < 4 && !ClassName(motors).empty() ? ClassName(motors) + "-" + kOldLayouts[f] : "";
+    if (!name.empty() && !internal::FrameRotors(name).empty()) {
+      *source = fmt::format("FRAME {} and {} motors ({})", f, motors, motors_from);
+      return name;
+    }
+    unnamed = fmt::format("FRAME {} with {} motors is not in the motor tables", f, motors);
   }
+  // A frame the tables do not name: its motor count, X layout assumed.
   const int active = ActiveMotorOutputs(log);
-  if (!ClassName(active).empty()) {
-    *source = fmt::format("{} active motor outputs (X layout assumed)", active);
-    return ClassName(active) + "-x";
+  const int n = !ClassName(motors).empty() ? motors : active;
+  if (!ClassName(n).empty()) {
+    *source = (unnamed.empty() ? std::string("no frame parameters") : unnamed) +
+              fmt::format(": {} motors ({}), X layout assumed", n,
+                          n == motors ? motors_from : fmt::format("{} active motor outputs", active));
+    return ClassName(n) + "-x";
   }
-  *source = "not determined";
+  *source = unnamed.empty() ? "not determined" : unnamed + ", and the motor count is not a quad, hex or octo";
   return "";
 }
 
 std::vector<std::string> FrameNames() {
   return {"quad-x",  "quad-plus", "quad-v",   "quad-h",    "quad-plus-rev", "quad-bf-x", "quad-dji-x", "quad-cw-x",
           "quad-bf-x-rev", "hex-x", "hex-plus", "hex-h", "hex-dji-x", "hex-cw-x", "octo-x"};
+}
+
+Result<BaseVehicle> ChooseBaseVehicle(const logs::FlightLog& log, const std::string& name, const std::string& frame,
+                                      const std::string& log_name, const std::string& what_to_give) {
+  BaseVehicle b;
+  std::string base_name = name;
+  if (base_name.empty()) {
+    b.frame_source = "--frame";
+    b.frame = frame.empty() || frame == "auto" ? FrameOfLog(log, &b.frame_source) : frame;
+    base_name = DefaultBaseFor(b.frame);
+    if (base_name.empty()) {
+      return Status::BadInput(b.frame.empty()
+                                  ? fmt::format("{}: frame: not determined ({}); {}", log_name, b.frame_source, what_to_give)
+                                  : fmt::format("{}: frame: no shipped vehicle for '{}' ({}); {}", log_name, b.frame,
+                                                b.frame_source, what_to_give));
+    }
+  }
+  auto path = ResolveWorldFile("vehicles", base_name);
+  if (!path.ok()) return path.status();
+  auto text = ReadFile(*path);
+  if (!text.ok()) return text.status();
+  auto params = vehicle::LoadVehicleFile(*path);
+  if (!params.ok()) return params.status();
+  b.params = std::move(params).value();
+  b.yaml = std::move(text).value();
+  b.path = *path;
+  return b;
 }
 
 std::string DefaultBaseFor(const std::string& frame) {

@@ -61,6 +61,7 @@ nlohmann::json ToJson(const IdentifyResult& r) {
       {"rms_base_vehicle", r.dynamics_rms_base},
       {"rms_identified_vehicle", r.dynamics_rms_identified},
       {"drop", r.dynamics_rms_base > 0 ? 1.0 - r.dynamics_rms_identified / r.dynamics_rms_base : 0.0},
+      {"improves_on_base", r.improves_on_base},
       {"how", "3-axis RMS about zero on the odd blocks; thrust from hexsim's steady powertrain at the logged outputs "
               "and voltage, drag from the vehicle; identified vehicle fitted on the even blocks"}};
   j["heldout_fit"] = held;
@@ -70,6 +71,7 @@ nlohmann::json ToJson(const IdentifyResult& r) {
   j["hover_check"] = {{"steady_hover_samples", r.hover_output.size()},
                       {"median_motor_output", Num(Median(r.hover_output))},
                       {"median_voltage_V", Num(Median(r.hover_voltage_V))}};
+  j["improves_on_base"] = r.improves_on_base;
   j["notes"] = r.notes;
   return j;
 }
@@ -92,7 +94,18 @@ std::string Summary(const IdentifyResult& r) {
                      Median(r.hover_output), Median(r.hover_voltage_V), r.hover_output.size());
   }
   for (const auto& note : r.notes) s += "  note: " + note + "\n";
+  s += "  " + ImprovementLine(r) + "\n";
   return s;
+}
+
+std::string ImprovementLine(const IdentifyResult& r) {
+  if (r.improves_on_base) {
+    return fmt::format("improves on its base: held-out dynamics residual {:.3g} m/s^2 against the base's {:.3g} m/s^2",
+                       r.dynamics_rms_identified, r.dynamics_rms_base);
+  }
+  return fmt::format("improves nothing on its base {}: held-out dynamics residual {:.3g} m/s^2, the base's {:.3g} m/s^2; "
+                     "the identified vehicle is not used",
+                     r.base_name, r.dynamics_rms_identified, r.dynamics_rms_base);
 }
 
 }  // namespace hexsim::identify

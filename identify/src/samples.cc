@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "hexsim/common/plausibility.h"
+#include "hexsim/logs/current_check.h"
 #include "hexsim/realdata/velocity_check.h"
 #include "hexsim/realdata/windows.h"
 
@@ -232,18 +233,21 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
       out.batt_block.push_back(b);
     }
     out.V_ref = vf.empty() ? 0.0 : Median(vf);
-    if (!vf.empty() && !plausibility::IsPlausible("bus_voltage_V", out.V_ref)) {
-      // No power monitor (e.g. 0.06 V logged): neither the voltage nor the current is a measurement.
-      out.notes.push_back(fmt::format("logged voltage_V (median {:.3g} V in flight) is outside {}: no power monitor; "
-                                      "motor outputs used without voltage scaling, battery kept from the base",
-                                      out.V_ref, plausibility::RangeText("bus_voltage_V")));
-      out.V_ref = 0.0;
+    auto drop_battery = [&out] {
       out.batt_t_s.clear();
       out.batt_V.clear();
       out.batt_I.clear();
       out.batt_Q_Ah.clear();
       out.batt_Q_right_Ah.clear();
       out.batt_block.clear();
+    };
+    if (!vf.empty() && !plausibility::IsPlausible("bus_voltage_V", out.V_ref)) {
+      // No power monitor (e.g. 0.06 V logged): neither the voltage nor the current is a measurement.
+      out.notes.push_back(fmt::format("logged voltage_V (median {:.3g} V in flight) is outside {}: no power monitor; "
+                                      "motor outputs used without voltage scaling, battery kept from the base",
+                                      out.V_ref, plausibility::RangeText("bus_voltage_V")));
+      out.V_ref = 0.0;
+      drop_battery();
     }
     // Electrical power in flight per newton of the base vehicle's weight (the log does not give the
     // mass): a current below what the induced power needs is not a measurement (an uncalibrated
@@ -257,12 +261,12 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
                                       "BATT_AMP_PERVOLT); battery kept from the base, the voltage still scales the "
                                       "motor outputs", Median(P_W), P_per_N,
                                       plausibility::RangeText("flight_power_per_weight_W_per_N")));
-      out.batt_t_s.clear();
-      out.batt_V.clear();
-      out.batt_I.clear();
-      out.batt_Q_Ah.clear();
-      out.batt_Q_right_Ah.clear();
-      out.batt_block.clear();
+      drop_battery();
+    }
+    // The import's data-level check (logs/current_check.h): a current it found unusable fits nothing.
+    if (const logs::CurrentSensorCheck current = logs::CurrentSensorOf(log); !current.usable && !out.batt_I.empty()) {
+      out.notes.push_back(current.why + "; battery kept from the base");
+      drop_battery();
     }
   }
   const bool has_V = out.V_ref > 0;

@@ -173,6 +173,20 @@ TEST(Identify, GivenACurrentFarBelowTheFlightPower_WhenIdentified_ThenTheBattery
   EXPECT_EQ(clean->params.at("battery_resistance_ohm").source, "fitted");
 }
 
+// The import's current check (logs/current_check.h) switches the current-based battery fit off.
+TEST(Identify, GivenACurrentTheImportFoundUnusable_WhenIdentified_ThenTheBatteryIsKeptFromTheBaseWithThatReason) {
+  const Flight& f = QuadFlight();
+  logs::FlightLog log = f.log;
+  log.meta["current_usable"] = false;
+  log.meta["current_unusable_why"] = "current sensor unusable: units or no power monitor: as the import found";
+  auto r = Identify(log, f.setup.vehicle, {});
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_EQ(r->params.at("battery_resistance_ohm").source, "base");
+  bool said = false;
+  for (const auto& n : r->notes) said = said || n.find("as the import found; battery kept from the base") != std::string::npos;
+  EXPECT_TRUE(said);
+}
+
 TEST(Identify, GivenFrameParameters_WhenTheFrameIsAsked_ThenClassAndTypeDecide) {
   logs::FlightLog log;
   log.meta["params"] = {{"FRAME_CLASS", 2}, {"FRAME_TYPE", 0}};
@@ -204,6 +218,77 @@ TEST(Identify, GivenFrameTypesBeyondPlusAndX_WhenTheFrameIsAsked_ThenTheMotorTab
   EXPECT_EQ(o.IsValid(), "");
   o.frame = "quad-y";
   EXPECT_NE(o.IsValid().find("quad-bf-x"), std::string::npos);
+}
+
+// Frames the motor tables do not name fall back to the motor count with an X layout, and say so; the
+// old FRAME parameter (ArduCopter before 3.5) names plus, X, V and H of the class the motors give.
+TEST(Identify, GivenAFrameTheTablesDoNotName_WhenTheFrameIsAsked_ThenTheMotorCountDecidesAndTheSourceSaysSo) {
+  logs::FlightLog log;
+  std::string source;
+  log.meta["motor_count"] = 4;
+  log.meta["motor_count_source"] = "frame not named: 4 leading RCOU channels move with channel 1, taken as 4 motors";
+  log.meta["params"] = {{"FRAME", 2}};  // ArduCopter 3.2: V
+  EXPECT_EQ(FrameOfLog(log, &source), "quad-v");
+  log.meta["params"] = {{"FRAME", 4}};  // V-tail: no motor table
+  EXPECT_EQ(FrameOfLog(log, &source), "quad-x");
+  EXPECT_NE(source.find("FRAME 4 with 4 motors is not in the motor tables"), std::string::npos) << source;
+  EXPECT_NE(source.find("X layout assumed"), std::string::npos) << source;
+  log.meta["params"] = {{"FRAME_CLASS", 1}, {"FRAME_TYPE", 99}};
+  EXPECT_EQ(FrameOfLog(log, &source), "quad-x");
+  EXPECT_NE(source.find("FRAME_CLASS 1 / FRAME_TYPE 99 is not in the motor tables"), std::string::npos) << source;
+  // gap diagnose and identify without --sim/--base then take the quad's shipped vehicle.
+  auto base = ChooseBaseVehicle(log, "", "auto", "v.bin", "give --sim VEHICLE");
+  ASSERT_TRUE(base.ok()) << base.status().message();
+  EXPECT_EQ(base->params.rotors.size(), 4u);
+  EXPECT_EQ(base->frame, "quad-x");
+  logs::FlightLog none;
+  auto refused = ChooseBaseVehicle(none, "", "auto", "v.bin", "give --sim VEHICLE");
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.status().message(), "v.bin: frame: not determined (not determined); give --sim VEHICLE");
+}
+
+TEST(Identify, GivenABaseWithAnotherRotorCount_WhenIdentified_ThenItIsRefusedNamingBothCounts) {
+  auto hex = vehicle::LoadVehicleFile(*ResolveWorldFile("vehicles", "paper_hex"));
+  ASSERT_TRUE(hex.ok());
+  logs::FlightLog log = QuadFlight().log;
+  log.meta["source"] = "quad.csv";
+  log.meta["params"] = {{"FRAME_CLASS", 1}, {"FRAME_TYPE", 1}};
+  auto r = Identify(log, *hex);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.status().code(), StatusCode::kBadInput);
+  EXPECT_NE(r.status().message().find("has 6 rotors, the log's frame quad-x"), std::string::npos) << r.status().message();
+  EXPECT_NE(r.status().message().find("(e.g. quad_x)"), std::string::npos) << r.status().message();
+}
+
+// The fitting (even) blocks of a log whose motor outputs read 25 % high there: the thrust curve fitted
+// on them under-predicts the odd blocks, where the base (the flown vehicle) is right. An
+// identification worse than its base improves nothing and says so.
+TEST(Identify, GivenFitBlocksThatMisleadTheFit_WhenIdentified_ThenItImprovesNothingOnItsBaseAndSaysSo) {
+  const Flight& f = QuadFlight();
+  auto ref = Identify(f.log, f.setup.vehicle);
+  ASSERT_TRUE(ref.ok()) << ref.status().message();
+  // The same flight against a base whose rotors give 30 % less thrust: identification repairs it.
+  vehicle::VehicleParams weak = f.setup.vehicle;
+  for (auto& rotor : weak.rotors) rotor.k_T_Nprps2 *= 0.7;
+  auto repaired = Identify(f.log, weak);
+  ASSERT_TRUE(repaired.ok()) << repaired.status().message();
+  EXPECT_TRUE(repaired->improves_on_base) << ImprovementLine(*repaired);
+  logs::FlightLog log = f.log;
+  const auto& t = log.Column("t_s");
+  for (int m = 1; m <= 4; ++m) {
+    auto& u = log.MutableColumn(static_cast<size_t>(log.ColumnIndex(fmt::format("motor_{}_u", m))));
+    for (size_t k = 0; k < u.size(); ++k) {
+      for (const BlockSpan& b : ref->blocks) {
+        if (b.block % 2 == 0 && t[k] >= b.start_s && t[k] <= b.end_s) u[k] = std::min(1.0, 1.25 * u[k]);
+      }
+    }
+  }
+  auto r = Identify(log, f.setup.vehicle);
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_FALSE(r->improves_on_base);
+  EXPECT_GE(r->dynamics_rms_identified, r->dynamics_rms_base);
+  EXPECT_EQ(ImprovementLine(*r).rfind("improves nothing on its base", 0), 0u) << ImprovementLine(*r);
+  EXPECT_FALSE(ToJson(*r)["improves_on_base"].get<bool>());
 }
 
 // The simulated quad's motors renumbered as another autopilot order: motor k of the new log is the

@@ -9,7 +9,7 @@ namespace hexsim::logs {
 size_t DataFlashFormatCharSize(char c) {
   switch (c) {
     case 'b': case 'B': case 'M': return 1;
-    case 'h': case 'H': case 'c': case 'C': return 2;
+    case 'h': case 'H': case 'c': case 'C': case 'g': return 2;
     case 'i': case 'I': case 'e': case 'E': case 'L': case 'f': case 'n': return 4;
     case 'd': case 'q': case 'Q': return 8;
     case 'N': return 16;
@@ -39,6 +39,16 @@ T Load(const uint8_t* p) {
 }
 
 bool IsTextChar(char c) { return c == 'n' || c == 'N' || c == 'Z'; }
+
+// IEEE 754 binary16 ('g', ArduPilot 4.5+): sign, 5 exponent bits (bias 15), 10 fraction bits.
+double HalfToDouble(uint16_t h) {
+  const double sign = (h & 0x8000u) != 0 ? -1.0 : 1.0;
+  const int exponent = (h >> 10) & 0x1f;
+  const double fraction = static_cast<double>(h & 0x3ffu);
+  if (exponent == 0) return sign * std::ldexp(fraction, -24);  // subnormal: f·2^-10·2^-14
+  if (exponent == 0x1f) return fraction == 0 ? sign * std::numeric_limits<double>::infinity() : kNaN;
+  return sign * std::ldexp(1024.0 + fraction, exponent - 25);  // (1 + f·2^-10)·2^(e-15)
+}
 
 std::string FixedString(const uint8_t* p, size_t n) {
   size_t len = 0;
@@ -75,56 +85,86 @@ bool PrintableName(std::string_view s) {
   return true;
 }
 
-// Units and multipliers of integer fields in logs without FMTU (ArduCopter 3.x). The value after
-// the format char's own scale is multiplied by `multiplier` to give `unit`.
+// Units and multipliers of fields in logs without FMTU (ArduCopter 3.x). The value after the format
+// char's own scale is multiplied by `multiplier` to give `unit`, but only for a field whose format
+// char is one of `formats`: a multiplier is a statement about how one firmware stored a number in an
+// integer, and says nothing about the same label stored another way (ArduCopter 3.4 logs CURR Volt
+// and Curr as floats already in V and A; 3.3 logs them as int16 hundredths).
 struct ScaleEntry {
   const char* message;  // exact name, or a prefix ending in '*'
   const char* field;
-  char format;  // the field's format char, or 0 for any
+  const char* formats;  // the format chars the entry was written for
   double multiplier;
   const char* unit;
 };
+// Format chars stored as plain integers with no scale of their own (DataFlash: b/B int8, h/H int16,
+// i/I int32, q/Q int64, M flight mode). Only these take a multiplier from the table or from MULT.
+constexpr bool IsRawIntegerChar(char c) {
+  return c == 'b' || c == 'B' || c == 'h' || c == 'H' || c == 'i' || c == 'I' || c == 'q' || c == 'Q' || c == 'M';
+}
 constexpr ScaleEntry kScaleTable[] = {
-    // CURR (3.3): Volt and Curr in hundredths, Vcc in mV, CurrTot in mAh.
-    {"CURR", "Volt", 0, 0.01, "V"},
-    {"CURR", "Curr", 0, 0.01, "A"},
-    {"CURR", "Vcc", 0, 0.001, "V"},
-    {"CURR", "Volt2", 0, 0.01, "V"},
-    {"CURR", "CurrTot", 0, 1.0, "mAh"},
+    // CURR (3.2, 3.3, 3.4-dev): Volt and Curr as int16 hundredths, Vcc in mV, CurrTot float mAh.
+    {"CURR", "Volt", "hH", 0.01, "V"},
+    {"CURR", "Curr", "hH", 0.01, "A"},
+    {"CURR", "Vcc", "hH", 0.001, "V"},
+    {"CURR", "Volt2", "hH", 0.01, "V"},
+    // CURR 3.4 (Qfff) and BAT/BATT: floats in V, A, mAh as logged.
+    {"CURR", "Volt", "fd", 1.0, "V"},
+    {"CURR", "Curr", "fd", 1.0, "A"},
+    {"CURR", "CurrTot", "fd", 1.0, "mAh"},
     // MAG, MAG2, MAG3: milligauss counts.
-    {"MAG*", "MagX", 0, 0.001, "Gauss"},
-    {"MAG*", "MagY", 0, 0.001, "Gauss"},
-    {"MAG*", "MagZ", 0, 0.001, "Gauss"},
-    {"MAG*", "OfsX", 0, 0.001, "Gauss"},
-    {"MAG*", "OfsY", 0, 0.001, "Gauss"},
-    {"MAG*", "OfsZ", 0, 0.001, "Gauss"},
-    {"MAG*", "MOfsX", 0, 0.001, "Gauss"},
-    {"MAG*", "MOfsY", 0, 0.001, "Gauss"},
-    {"MAG*", "MOfsZ", 0, 0.001, "Gauss"},
+    {"MAG*", "MagX", "hH", 0.001, "Gauss"},
+    {"MAG*", "MagY", "hH", 0.001, "Gauss"},
+    {"MAG*", "MagZ", "hH", 0.001, "Gauss"},
+    {"MAG*", "OfsX", "hH", 0.001, "Gauss"},
+    {"MAG*", "OfsY", "hH", 0.001, "Gauss"},
+    {"MAG*", "OfsZ", "hH", 0.001, "Gauss"},
+    {"MAG*", "MOfsX", "hH", 0.001, "Gauss"},
+    {"MAG*", "MOfsY", "hH", 0.001, "Gauss"},
+    {"MAG*", "MOfsZ", "hH", 0.001, "Gauss"},
     // Attitude ('c'/'C' already in degrees after the format scale).
-    {"ATT", "Roll", 0, 1.0, "deg"},
-    {"ATT", "Pitch", 0, 1.0, "deg"},
-    {"ATT", "Yaw", 0, 1.0, "deg"},
+    {"ATT", "Roll", "cCf", 1.0, "deg"},
+    {"ATT", "Pitch", "cCf", 1.0, "deg"},
+    {"ATT", "Yaw", "cCf", 1.0, "deg"},
     // GPS (3.3): Alt/RelAlt 'e' -> m, Spd 'E' -> m/s, GCrs 'e' -> deg, VZ float m/s (down).
-    {"GPS", "Alt", 'e', 1.0, "m"},
-    {"GPS", "Alt", 'i', 0.01, "m"},  // 3.4-3.6: int32 cm without FMTU
-    {"GPS", "RelAlt", 'e', 1.0, "m"},
-    {"GPS", "RelAlt", 'i', 0.01, "m"},
-    {"GPS", "Spd", 'E', 1.0, "m/s"},
-    {"GPS", "Spd", 'f', 1.0, "m/s"},
-    {"GPS", "GCrs", 0, 1.0, "deg"},
-    {"GPS", "VZ", 0, 1.0, "m/s"},
-    {"GPS", "Lat", 0, 1.0, "deg"},
-    {"GPS", "Lng", 0, 1.0, "deg"},
-    {"BARO", "Alt", 0, 1.0, "m"},
-    {"IMU*", "GyrX", 0, 1.0, "rad/s"},
-    {"IMU*", "GyrY", 0, 1.0, "rad/s"},
-    {"IMU*", "GyrZ", 0, 1.0, "rad/s"},
-    {"IMU*", "AccX", 0, 1.0, "m/s/s"},
-    {"IMU*", "AccY", 0, 1.0, "m/s/s"},
-    {"IMU*", "AccZ", 0, 1.0, "m/s/s"},
-    {"IMU*", "Temp", 0, 1.0, "degC"},
+    {"GPS", "Alt", "e", 1.0, "m"},
+    {"GPS", "Alt", "i", 0.01, "m"},  // 3.4-3.6: int32 cm without FMTU
+    {"GPS", "RelAlt", "e", 1.0, "m"},
+    {"GPS", "RelAlt", "i", 0.01, "m"},
+    {"GPS", "Spd", "E", 1.0, "m/s"},
+    {"GPS", "Spd", "f", 1.0, "m/s"},
+    {"GPS", "GCrs", "eEcCf", 1.0, "deg"},
+    {"GPS", "VZ", "fe", 1.0, "m/s"},
+    {"GPS", "Lat", "L", 1.0, "deg"},
+    {"GPS", "Lng", "L", 1.0, "deg"},
+    {"BARO", "Alt", "f", 1.0, "m"},
+    {"IMU*", "GyrX", "f", 1.0, "rad/s"},
+    {"IMU*", "GyrY", "f", 1.0, "rad/s"},
+    {"IMU*", "GyrZ", "f", 1.0, "rad/s"},
+    {"IMU*", "AccX", "f", 1.0, "m/s/s"},
+    {"IMU*", "AccY", "f", 1.0, "m/s/s"},
+    {"IMU*", "AccZ", "f", 1.0, "m/s/s"},
+    {"IMU*", "Temp", "fcC", 1.0, "degC"},
 };
+
+// Every entry that scales names only raw integer chars (checked when compiled).
+constexpr bool ScaleTableScalesOnlyIntegers() {
+  for (const auto& e : kScaleTable) {
+    if (e.multiplier == 1.0) continue;
+    for (const char* c = e.formats; *c != 0; ++c) {
+      if (!IsRawIntegerChar(*c)) return false;
+    }
+  }
+  return true;
+}
+static_assert(ScaleTableScalesOnlyIntegers(), "a scale-table multiplier must name integer format chars only");
+
+bool FormatListed(const char* formats, char c) {
+  for (const char* p = formats; *p != 0; ++p) {
+    if (*p == c) return true;
+  }
+  return false;
+}
 
 bool NameMatches(std::string_view pattern, std::string_view name) {
   // First char first: a FMT is checked against every entry, and most names differ there.
@@ -138,13 +178,11 @@ void ApplyScaleTable(DataFlashFormat* fmt) {
     if (!NameMatches(e.message, fmt->name)) continue;
     const int i = fmt->FieldIndex(e.field);
     if (i < 0) continue;
-    if (e.format != 0 && fmt->format[static_cast<size_t>(i)] != e.format) continue;
+    if (!FormatListed(e.formats, fmt->format[static_cast<size_t>(i)])) continue;
     fmt->multipliers[static_cast<size_t>(i)] = e.multiplier;
     fmt->units[static_cast<size_t>(i)] = e.unit;
   }
 }
-
-bool IsCharScaled(char c) { return DataFlashFormatCharScale(c) != 1.0; }
 
 }  // namespace
 
@@ -175,6 +213,7 @@ double DataFlashMessage::GetIndex(size_t field) const {
     case 'I': case 'E': v = Load<uint32_t>(p); break;
     case 'f': v = Load<float>(p); break;
     case 'd': v = Load<double>(p); break;
+    case 'g': v = HalfToDouble(Load<uint16_t>(p)); break;
     case 'q': v = static_cast<double>(Load<int64_t>(p)); break;
     case 'Q': v = static_cast<double>(Load<uint64_t>(p)); break;
     default: return kNaN;
@@ -311,7 +350,10 @@ void DataFlashReader::ApplyUnits(DataFlashFormat* fmt) const {
       const auto u = unit_by_id_.find(id);
       if (u != unit_by_id_.end() && !u->second.empty()) fmt->units[i] = u->second;
     }
-    if (i < mult_ids.size() && !IsCharScaled(c) && !IsTextChar(c)) {
+    // A logged multiplier applies to raw integers only: c/C/e/E/L carry their own scale (the MULT
+    // beside them restates it), and floats are stored in their unit (pymavlink's DFReader applies
+    // no MULT to either).
+    if (i < mult_ids.size() && IsRawIntegerChar(c)) {
       const auto id = static_cast<uint8_t>(mult_ids[i]);
       // '-' (0: no multiplier) and unknown ids leave the value as stored.
       const auto mu = mult_by_id_.find(id);

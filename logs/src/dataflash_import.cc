@@ -12,6 +12,7 @@
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/rotation.h"
 #include "dataflash_streams.h"
+#include "hexsim/logs/current_check.h"
 #include "hexsim/logs/dataflash_plausibility.h"
 
 namespace hexsim::logs {
@@ -25,6 +26,7 @@ using internal::MagToMicroTesla;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kThrottleScale = 1000.0;  // control_u: 0..1000
 constexpr int kGps3dFix = 3;
+constexpr size_t kMaxOutputs = 14;  // RCOU C1..C14
 // WGS-84.
 constexpr double kWgs84A_m = 6378137.0;
 constexpr double kWgs84E2 = 6.69437999014e-3;
@@ -175,6 +177,7 @@ struct Collected {
   std::vector<Channel> mags;  // mag, mag2, mag3
   Channel batt{"batt_t_s", {"current_A", "voltage_V"}};
   Channel rcou{"rcou_t_s", {}};  // raw PWM, converted later
+  std::vector<size_t> rcou_fields;  // RCOU field index of each output channel, in channel order
   Channel ctun{"ctun_t_s", {"control_u"}};
   Channel gps{"gps_t_s", {"lat_deg", "lon_deg", "alt_m", "gps_vel_N_mps", "gps_vel_E_mps", "gps_vel_D_mps"}};
   Channel baro{"baro_t_s", {"baro_alt_m"}};
@@ -249,25 +252,22 @@ void CollectMessage(const DataFlashMessage& m, Collected* c) {
     if (name != "CURR" && InstanceOf(m, name) > 0) return;
     c->batt.Add(m.BootTime_s(), {m.Get("Curr"), m.Get("Volt")});
   } else if (name == "RCOU") {
-    // Output channels: C1..C14 (3.4+) or Ch1..Ch14 (3.3), looked up once.
-    static const std::vector<std::pair<std::string, std::string>> kLabels = [] {
-      std::vector<std::pair<std::string, std::string>> v;
-      for (int i = 1; i <= 14; ++i) v.emplace_back(fmt::format("C{}", i), fmt::format("Ch{}", i));
-      return v;
-    }();
-    if (c->rcou.columns.empty()) {
-      for (size_t i = 0; i < kLabels.size(); ++i) {
-        if (m.Has(kLabels[i].first) || m.Has(kLabels[i].second)) c->rcou.columns.push_back(fmt::format("pwm_{}", i + 1));
+    // Output channels: C1..C14 (3.4+), Ch1..Ch14 (3.3) or Chan1..Chan8 (3.2), looked up once.
+    if (c->rcou_fields.empty()) {
+      for (size_t i = 1; i <= kMaxOutputs; ++i) {
+        const int f = internal::RcouField(m.format(), i);
+        if (f < 0) continue;
+        c->rcou_fields.push_back(static_cast<size_t>(f));
+        c->rcou.columns.push_back(fmt::format("pwm_{}", i));
       }
-      if (c->rcou.columns.empty()) return;
+      if (c->rcou_fields.empty()) return;
     }
-    double pwm[14];
-    const size_t n = std::min<size_t>(c->rcou.columns.size(), 14);
-    for (size_t i = 0; i < n; ++i) {
-      pwm[i] = m.Has(kLabels[i].first) ? m.Get(kLabels[i].first) : m.Get(kLabels[i].second);
+    std::vector<double> pwm(c->rcou_fields.size());
+    for (size_t i = 0; i < pwm.size(); ++i) {
+      pwm[i] = m.GetIndex(c->rcou_fields[i]);
       if (!IsPlausiblePwm_us(pwm[i])) pwm[i] = kNaN;  // an unused channel's garbage: absent
     }
-    c->rcou.AddValues(m.BootTime_s(), std::vector<double>(pwm, pwm + n));
+    c->rcou.AddValues(m.BootTime_s(), pwm);
   } else if (name == "CTUN") {
     double u = kNaN;
     if (m.Has("ThrOut")) {
@@ -429,10 +429,82 @@ nlohmann::json CompassMeta(const Collected& c, size_t k, const std::string& pref
   return j;
 }
 
+
+double Quantile(std::vector<double> v, double q) {
+  if (v.empty()) return kNaN;
+  const auto k = v.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(v.size() - 1));
+  std::nth_element(v.begin(), k, v.end());
+  return *k;
+}
+
+// A motor output's swing over a flight is hundreds of µs (idle to climb); a channel moving less than
+// this is an unused output or a fixed servo.
+constexpr double kMinMotorSwing_us = 50.0;
+// Motors share the collective: in flight they differ from motor 1 by the attitude corrections, a small
+// part of the collective's swing (median |pwm_i − pwm_1| well under a quarter of it); a servo or an RC
+// pass-through does not follow it.
+constexpr double kMaxMotorSpread = 0.25;
+
+// Motors of a log whose frame is not named: the leading output channels that move with channel 1,
+// rounded down to a multirotor's motor count (3, 4, 6, 8, 10, 12); 0 when channel 1 does not move.
+int MotorsFromOutputs(const Channel& rcou, std::string* source) {
+  const size_t channels = rcou.columns.size();
+  auto swing = [&](size_t ch) {
+    std::vector<double> v;
+    for (size_t s = 0; s < rcou.size(); ++s) {
+      if (std::isfinite(rcou.At(s, ch))) v.push_back(rcou.At(s, ch));
+    }
+    return Quantile(v, 0.95) - Quantile(v, 0.05);
+  };
+  if (channels == 0 || !(swing(0) >= kMinMotorSwing_us)) return 0;
+  const double swing1_us = swing(0);
+  size_t following = 1;
+  for (size_t ch = 1; ch < channels; ++ch) {
+    std::vector<double> d;
+    for (size_t s = 0; s < rcou.size(); ++s) {
+      const double a = rcou.At(s, 0), b = rcou.At(s, ch);
+      if (std::isfinite(a) && std::isfinite(b)) d.push_back(std::fabs(b - a));
+    }
+    if (d.empty() || !(swing(ch) >= kMinMotorSwing_us) || !(Median(d) <= kMaxMotorSpread * swing1_us)) break;
+    ++following;
+  }
+  for (const int n : {12, 10, 8, 6, 4, 3}) {
+    if (following >= static_cast<size_t>(n)) {
+      *source = fmt::format("frame not named: {} leading RCOU channels move with channel 1, taken as {} motors", following, n);
+      return n;
+    }
+  }
+  return 0;
+}
+
+// Motor count: FRAME_CLASS (3.5+), else the "Frame: QUAD" message, else the outputs that move together.
+int MotorCount(const Collected& c, const std::string& frame_name, std::string* source) {
+  if (auto fc = Param(c, "FRAME_CLASS"); fc && MotorsForFrameClass(static_cast<int>(*fc)) > 0) {
+    *source = "FRAME_CLASS";
+    return MotorsForFrameClass(static_cast<int>(*fc));
+  }
+  if (MotorsForFrameName(frame_name) > 0) {
+    *source = "MSG Frame: " + frame_name;
+    return MotorsForFrameName(frame_name);
+  }
+  if (const int n = MotorsFromOutputs(c.rcou, source); n > 0) return n;
+  // No channels moving together (a bench log): the leading channels that ever hold a plausible
+  // output (a multirotor's motors take the first outputs; unused ones log nothing plausible).
+  int active = 0;
+  for (size_t ch = 0; ch < c.rcou.columns.size(); ++ch, ++active) {
+    bool any = false;
+    for (size_t s = 0; s < c.rcou.size() && !any; ++s) any = std::isfinite(c.rcou.At(s, ch));
+    if (!any) break;
+  }
+  *source = active > 0 ? "frame not named and no outputs moving together: the leading RCOU channels with plausible "
+                         "outputs"
+                       : "not determined: no FRAME_CLASS, no Frame message, no motor outputs";
+  return active;
+}
 }  // namespace
 
 bool IsParameterOfInterest(const std::string& n) {
-  static const char* kPrefixes[] = {"COMPASS_", "MOT_PWM_", "RC3_", "BATT", "FRAME", "AHRS_ORIENTATION",
+  static const char* kPrefixes[] = {"COMPASS_", "MOT_PWM_", "MOT_BAT_", "RC3_", "BATT", "FRAME", "AHRS_ORIENTATION",
                                     "MOT_SPIN_", "MOT_THST_", "INS_GYROFFS", "INS_ACCOFFS"};
   for (const char* p : kPrefixes) {
     if (StartsWith(n, p)) return true;
@@ -581,15 +653,8 @@ Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string
   // Motors: PWM -> 0..1.
   const std::vector<std::string> texts = c.texts;
   const std::string frame_name = FrameNameOf(texts);
-  int motors = 0;
   std::string motors_source;
-  if (auto fc = Param(c, "FRAME_CLASS"); fc && MotorsForFrameClass(static_cast<int>(*fc)) > 0) {
-    motors = MotorsForFrameClass(static_cast<int>(*fc));
-    motors_source = "FRAME_CLASS";
-  } else if (MotorsForFrameName(frame_name) > 0) {
-    motors = MotorsForFrameName(frame_name);
-    motors_source = "MSG Frame: " + frame_name;
-  }
+  const int motors = MotorCount(c, frame_name, &motors_source);
   double pwm_min = 1000.0, pwm_max = 2000.0;
   std::string pwm_source = "default 1000..2000";
   if (options.pwm_min_us > 0 && options.pwm_max_us > options.pwm_min_us) {
@@ -605,18 +670,8 @@ Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string
     pwm_max = *Param(c, "RC3_MAX");
     pwm_source = "RC3_MIN/MAX";
   }
-  if (c.rcou.size() > 0) {
-    // Frame unknown: the leading channels that ever hold a plausible output are the motors (a
-    // multirotor's motors take the first outputs; unused ones log nothing plausible).
-    size_t active = 0;
-    while (active < c.rcou.columns.size()) {
-      bool any = false;
-      for (size_t s = 0; s < c.rcou.size() && !any; ++s) any = std::isfinite(c.rcou.At(s, active));
-      if (!any) break;
-      ++active;
-    }
-    const size_t n = motors > 0 ? std::min<size_t>(static_cast<size_t>(motors), c.rcou.columns.size()) : active;
-    if (motors == 0) motors_source = "the leading RCOU channels with plausible outputs (frame unknown)";
+  if (c.rcou.size() > 0 && motors > 0) {
+    const size_t n = std::min<size_t>(static_cast<size_t>(motors), c.rcou.columns.size());
     Channel u("rcou_t_s", {});
     for (size_t i = 0; i < n; ++i) u.columns.push_back(fmt::format("motor_{}_u", i + 1));
     for (size_t s = 0; s < c.rcou.size(); ++s) {
@@ -715,6 +770,7 @@ Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string
   damage.update(RecordDamageJson(records));
   damage["damaged_record_share"] = DamagedRecordShare(result.damage, records, data_messages);
   meta["damage"] = damage;
+  WriteCurrentCheck(CheckCurrentSensor(log), &meta);
   return result;
 }
 

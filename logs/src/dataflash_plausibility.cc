@@ -191,13 +191,28 @@ std::string DamageSummaryLine(const std::string& name, const DataFlashDamage& re
   const size_t lost = LostRecords(reader);
   std::string by;
   for (const auto& [msg, n] : records.by_message) by += fmt::format("{}{} {}", by.empty() ? "" : ", ", msg, n);
+  const double share = DamagedRecordShare(reader, records, accepted_records);
   return fmt::format(
-      "{}: damaged log: {:.1f} % of records ({} of {}; refused above {:.0f} %): {} bytes skipped in {} garbage runs, "
+      "{}: damaged log: {} % of records ({} of {}; refused above {:.0f} %): {} bytes skipped in {} garbage runs, "
       "{} records lost (misaligned {}, unknown type {}), dropped {} for type, {} for range{}, {} for time",
-      name, 100.0 * DamagedRecordShare(reader, records, accepted_records), lost + records.dropped(),
+      name, 100.0 * share < 0.1 ? fmt::format("{:.2g}", 100.0 * share) : fmt::format("{:.1f}", 100.0 * share), lost + records.dropped(),
       lost + accepted_records, 100.0 * kMaxDamagedRecordShare, reader.skipped_bytes, reader.bad_header_runs, lost,
       reader.misaligned_messages,
       reader.unknown_type_messages, records.type, records.range, by.empty() ? "" : " (" + by + ")", records.time);
+}
+
+std::vector<std::string> DamageLines(const std::string& name, const DataFlashDamage& reader, const RecordDamage& records,
+                                     size_t accepted_records) {
+  std::vector<std::string> lines;
+  if (reader.truncated_tail_bytes > 0) {
+    lines.push_back(fmt::format("{}: truncated: the file ends inside a message ({} bytes of it, dropped); everything "
+                                "before that imported",
+                                name, reader.truncated_tail_bytes));
+  }
+  if (LostRecords(reader) + records.dropped() > 0) {
+    lines.push_back(DamageSummaryLine(name, reader, records, accepted_records));
+  }
+  return lines;
 }
 
 }  // namespace hexsim::logs

@@ -85,6 +85,14 @@ double MagToMicroTesla(const DataFlashMessage& m, const char* field) {
   return v * kUTPerMilliGauss;  // older logs without units: milligauss counts
 }
 
+int RcouField(const DataFlashFormat& format, size_t channel) {
+  for (const char* prefix : {"C", "Ch", "Chan"}) {
+    const int i = format.FieldIndex(fmt::format("{}{}", prefix, channel));
+    if (i >= 0) return i;
+  }
+  return -1;
+}
+
 double GpsBootTime_s(const DataFlashMessage& m) {
   if (m.Has("TimeUS")) return m.BootTime_s();
   if (m.Has("T")) return static_cast<double>(m.GetRawInt("T")) * 1e-3;  // 3.3: TimeMS is GPS time of week
@@ -100,7 +108,7 @@ std::vector<std::pair<std::string, FlightLog>> DataFlashStreams(std::string_view
     if (x.columns.empty()) x.columns.assign(cols.begin(), cols.end());
     return x;
   };
-  std::vector<std::pair<std::string, std::string>> rcou_labels;  // C<i> / Ch<i> present, in order
+  std::vector<size_t> rcou_fields;  // field index of each output channel present, in order
   DataFlashReader reader(bytes);
   DataFlashMessage m;
   RecordPlausibility plausibility;  // the same records as the table drops (dataflash_plausibility.h)
@@ -125,22 +133,22 @@ std::vector<std::pair<std::string, FlightLog>> DataFlashStreams(std::string_view
       if (name != "CURR" && InstanceOf(m, name) > 0) continue;
       stream("batt", {"current_A", "voltage_V"}).Add(m.BootTime_s(), {m.Get("Curr"), m.Get("Volt")});
     } else if (name == "RCOU") {
-      if (rcou_labels.empty()) {
+      if (rcou_fields.empty()) {
         for (size_t i = 1; i <= kMaxOutputs; ++i) {
-          const std::string a = fmt::format("C{}", i), b = fmt::format("Ch{}", i);
-          if (m.Has(a) || m.Has(b)) rcou_labels.emplace_back(a, b);
+          const int f = RcouField(m.format(), i);
+          if (f >= 0) rcou_fields.push_back(static_cast<size_t>(f));
         }
-        if (rcou_labels.empty()) continue;
+        if (rcou_fields.empty()) continue;
         Samples& x = s["rcou"];
-        const size_t n = motors.motors > 0 ? std::min(motors.motors, rcou_labels.size()) : rcou_labels.size();
+        const size_t n = motors.motors > 0 ? std::min(motors.motors, rcou_fields.size()) : rcou_fields.size();
         for (size_t i = 0; i < n; ++i) x.columns.push_back(fmt::format("motor_{}_u", i + 1));
-        for (size_t i = 0; i < rcou_labels.size(); ++i) x.columns.push_back(fmt::format("pwm_{}_us", i + 1));
+        for (size_t i = 0; i < rcou_fields.size(); ++i) x.columns.push_back(fmt::format("pwm_{}_us", i + 1));
       }
       Samples& x = s["rcou"];
-      const size_t n_u = x.columns.size() - rcou_labels.size();
+      const size_t n_u = x.columns.size() - rcou_fields.size();
       std::vector<double> v(x.columns.size(), kNaN);
-      for (size_t i = 0; i < rcou_labels.size(); ++i) {
-        double pwm = m.Has(rcou_labels[i].first) ? m.Get(rcou_labels[i].first) : m.Get(rcou_labels[i].second);
+      for (size_t i = 0; i < rcou_fields.size(); ++i) {
+        double pwm = m.GetIndex(rcou_fields[i]);
         if (!IsPlausiblePwm_us(pwm)) pwm = kNaN;  // an unused channel's garbage: absent
         v[n_u + i] = pwm;
         if (i < n_u && std::isfinite(pwm)) {

@@ -39,6 +39,9 @@ std::vector<std::pair<std::string, FlightLog>> DataFlashStreams(std::string_view
 int InstanceOf(const DataFlashMessage& m, const std::string& base);
 // Field value in µT from a decoded MAG field (Gauss when the unit is known, else milligauss counts).
 double MagToMicroTesla(const DataFlashMessage& m, const char* field);
+// Field index of output channel `channel` (1-based) in an RCOU format: C<i> (3.4+), Ch<i> (3.3) or
+// Chan<i> (3.2); -1 when the format has none.
+int RcouField(const DataFlashFormat& format, size_t channel);
 // Boot time of a GPS message (3.3 logs carry GPS time of week in TimeMS; T is the boot time).
 double GpsBootTime_s(const DataFlashMessage& m);
 

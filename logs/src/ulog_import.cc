@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "hexsim/logs/current_check.h"
 #include "hexsim/logs/dataflash_import.h"
 #include "hexsim/logs/ulog.h"
 #include "ulog_mag_cal.h"
@@ -407,7 +408,8 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
   // KM > 0 for a counter-clockwise rotor), the airframe, the PWM range and the thrust model factor.
   nlohmann::json params = nlohmann::json::object();
   for (const auto& [k, v] : u.params) {
-    for (const char* prefix : {"CA_ROTOR", "CA_AIRFRAME", "SYS_AUTOSTART", "PWM_MAIN_MIN", "PWM_MAIN_MAX", "THR_MDL_FAC"}) {
+    for (const char* prefix : {"CA_ROTOR", "CA_AIRFRAME", "SYS_AUTOSTART", "PWM_MAIN_MIN", "PWM_MAIN_MAX", "THR_MDL_FAC",
+                               "BAT_N_CELLS", "BAT1_N_CELLS"}) {
       if (k.rfind(prefix, 0) == 0) params[k] = v;
     }
   }
@@ -427,7 +429,13 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
   meta["messages_text"] = u.messages;
   meta["bytes_skipped"] = u.bytes_skipped;
   meta["stream_samples_dropped"] = dropped;
+  if (u.bytes_skipped > 0) {
+    out.warnings.push_back(fmt::format("{}: truncated: the file ends inside a record ({} bytes of it); everything before "
+                                       "that imported",
+                                       name, u.bytes_skipped));
+  }
   meta["warnings"] = out.warnings;
+  WriteCurrentCheck(CheckCurrentSensor(log), &meta);
   // The log's own strings (ver_sw, logged messages, warnings quoting names) are bytes, not always
   // UTF-8; JSON requires UTF-8, so invalid sequences become U+FFFD once, here, and every later
   // dump() of the meta succeeds (fuzz finding: an 0x80 byte in a logged message).

@@ -32,31 +32,69 @@ Status Png(const render::Plot2D& p, const std::string& path) {
   return WriteFileAtomic(path, *png);
 }
 
+// What became of a parameter in the vehicle written, in the words stdout uses.
+std::string InTheVehicle(const identify::Param& p) {
+  if (p.source == "base") return "kept from the base";
+  if (p.source == "model mismatch") return "not applied: outside its physical range (model mismatch), base kept";
+  if (!p.applied) return "not applied: the interval leaves the physical range, base kept";
+  return "applied";
+}
+
+std::string Head() {
+  // Fits the viewport: no fixed widths, long text wraps, tables scroll inside themselves if ever wider.
+  return "<!doctype html><html><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width, "
+         "initial-scale=1\"><title>hexsim identify</title><style>body{font-family:sans-serif;max-width:1150px;margin:"
+         "auto;padding:0 8px;overflow-wrap:anywhere}.wide{overflow-x:auto}table{border-collapse:collapse}td,th{border:"
+         "1px solid #ccc;padding:3px 6px;vertical-align:top}td.n{text-align:right;white-space:nowrap}img{max-width:"
+         "100%;height:auto}.warn{background:#fde;padding:6px;border:1px solid #c99}</style></head><body>";
+}
+
+std::string ParamTable(const identify::IdentifyResult& r) {
+  using render::HtmlEscape;
+  std::string html = "<div class=\"wide\"><table><tr><th>parameter</th><th>value</th><th>95 % interval</th>"
+                     "<th>physical range</th><th>unit</th><th>source</th><th>in the vehicle</th><th>definition</th></tr>";
+  for (const auto& k : r.param_order) {
+    const identify::Param& p = r.params.at(k);
+    html += fmt::format("<tr><td>{}</td><td class=\"n\">{:.5g}</td><td class=\"n\">[{:.5g}, {:.5g}]</td><td class=\"n\" "
+                        "title=\"{}\">[{:.4g}, {:.4g}]</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                        k, p.value, p.ci95[0], p.ci95[1], HtmlEscape(p.range_reason), p.range[0], p.range[1],
+                        HtmlEscape(p.unit), HtmlEscape(p.source), InTheVehicle(p), HtmlEscape(p.note));
+  }
+  return html + "</table></div>";
+}
+
+std::string HeldOutTable(const identify::IdentifyResult& r) {
+  using render::HtmlEscape;
+  std::string html = "<h2>Held-out fit (fitted on even time blocks, scored on odd ones)</h2><div class=\"wide\"><table>"
+                     "<tr><th>output</th><th>unit</th><th>RMS measured</th><th>RMS residual</th><th>R²</th>"
+                     "<th>samples</th></tr>";
+  for (const auto& h : r.heldout) {
+    html += fmt::format("<tr><td>{}</td><td>{}</td><td class=\"n\">{:.4g}</td><td class=\"n\">{:.4g}</td><td "
+                        "class=\"n\">{:.3f}</td><td class=\"n\">{}</td></tr>",
+                        h.output, HtmlEscape(h.unit), h.rms_measured, h.rms_residual, h.r2, h.samples);
+  }
+  html += fmt::format("<tr><td>dynamics (3 axes, RMS about zero)</td><td>m/s^2</td><td class=\"n\">base vehicle "
+                      "{:.3g}</td><td class=\"n\">identified {:.3g}</td><td></td><td></td></tr></table></div>",
+                      r.dynamics_rms_base, r.dynamics_rms_identified);
+  return html;
+}
+
 }  // namespace
 
 Status WriteIdentifyHtml(const identify::IdentifyResult& r, const std::string& dir) {
   using render::HtmlEscape;
-  std::string html = "<!doctype html><html><head><meta charset=\"utf-8\"><title>hexsim identify</title>"
-                     "<style>body{font-family:sans-serif;max-width:1150px;margin:auto}table{border-collapse:collapse}"
-                     "td,th{border:1px solid #ccc;padding:3px 6px}img{max-width:100%}</style></head><body>";
+  std::string html = Head();
   html += "<h1>Vehicle identification</h1><p>Frame " + HtmlEscape(r.frame) + " (" + HtmlEscape(r.frame_source) +
           "), base vehicle " + HtmlEscape(r.base_name) + ".<br>" + HtmlEscape(r.data_source) + ".</p>";
-  html += "<table><tr><th>parameter</th><th>value</th><th>95 % interval</th><th>unit</th><th>source</th><th>physical "
-          "range</th><th>definition</th></tr>";
-  for (const auto& k : r.param_order) {
-    const identify::Param& p = r.params.at(k);
-    html += fmt::format("<tr><td>{}</td><td>{:.5g}</td><td>[{:.5g}, {:.5g}]</td><td>{}</td><td>{}</td><td title=\"{}\">"
-                        "[{:.4g}, {:.4g}]</td><td>{}</td></tr>",
-                        k, p.value, p.ci95[0], p.ci95[1], HtmlEscape(p.unit), HtmlEscape(p.source),
-                        HtmlEscape(p.range_reason), p.range[0], p.range[1], HtmlEscape(p.note));
-  }
-  html += "</table><h2>Held-out fit (fitted on even time blocks, scored on odd ones)</h2><table><tr><th>output</th>"
-          "<th>RMS measured</th><th>RMS residual</th><th>R²</th><th>samples</th></tr>";
-  for (const auto& h : r.heldout) {
-    html += fmt::format("<tr><td>{}</td><td>{:.4g} {}</td><td>{:.4g}</td><td>{:.3f}</td><td>{}</td></tr>", h.output,
-                        h.rms_measured, HtmlEscape(h.unit), h.rms_residual, h.r2, h.samples);
-  }
-  html += "</table>";
+  html += r.improves_on_base ? "<p>" + HtmlEscape(identify::ImprovementLine(r)) + ".</p>"
+                             : "<p class=\"warn\">" + HtmlEscape(identify::ImprovementLine(r)) +
+                                   ": no vehicle file was written.</p>";
+  size_t applied = 0;
+  for (const auto& [k, p] : r.params) applied += p.applied ? 1 : 0;
+  html += fmt::format("<p>{} of {} parameters applied to the vehicle written; the others keep the base's values "
+                      "(column \"in the vehicle\").</p>",
+                      applied, r.params.size());
+  html += ParamTable(r) + HeldOutTable(r);
   for (size_t i = 0; i < r.traces.size(); ++i) {
     const identify::Trace& tr = r.traces[i];
     render::Plot2D p;
@@ -84,6 +122,11 @@ Status WriteIdentifyHtml(const identify::IdentifyResult& r, const std::string& d
     }
     HEXSIM_RETURN_IF_ERROR(Png(p, dir + "/identify_hover.png"));
     html += "<p><img src=\"identify_hover.png\"></p>";
+  }
+  if (!r.notes.empty()) {
+    html += "<h2>Notes</h2><ul>";
+    for (const auto& n : r.notes) html += "<li>" + HtmlEscape(n) + "</li>";
+    html += "</ul>";
   }
   html += "<h2>Windows</h2><ul>";
   for (const auto& w : r.windows) {

@@ -98,6 +98,10 @@ struct IdentifyResult {
   // against (−Σ_i T_i(u_i, V)·ẑ + F_drag(v_B))/m through hexsim's steady powertrain, for the base
   // vehicle and for the identified one (fitted on the even blocks).
   double dynamics_rms_base = 0.0, dynamics_rms_identified = 0.0;
+  // The identified vehicle's held-out residual is below the base's. When it is not, the
+  // identification improves nothing: `hexsim identify` exits 1 without writing the vehicle, and
+  // `gap diagnose` without --sim diagnoses against the base instead.
+  bool improves_on_base = false;
   std::vector<Trace> traces;
   std::vector<double> hover_voltage_V, hover_output;  // steady-hover samples (for the plot)
   double v_ref_V = 0.0;       // reference bus voltage (median in flight; 0 when not logged)
@@ -130,6 +134,21 @@ std::vector<std::string> FrameNames();
 // The shipped vehicle of a frame class: quad_* -> quad_x, hex_* -> default_hex, else empty.
 std::string DefaultBaseFor(const std::string& frame);
 
+// The base vehicle of an identification, and how it was chosen: the sequence `hexsim identify` and
+// `gap diagnose` without --sim share.
+struct BaseVehicle {
+  vehicle::VehicleParams params;
+  std::string yaml;          // the vehicle file's text
+  std::string path;          // the file it was read from
+  std::string frame;         // the log's frame when the base was chosen by it, else ""
+  std::string frame_source;  // what decided that frame
+};
+// `name` (a name under worlds/vehicles, or a YAML path) when not empty; else the shipped vehicle of the
+// frame class of `frame` ("auto" or "": FrameOfLog). Bad input when no base can be chosen:
+// "LOG: frame: not determined (...); <what_to_give>", or when the vehicle does not load.
+Result<BaseVehicle> ChooseBaseVehicle(const logs::FlightLog& log, const std::string& name, const std::string& frame,
+                                      const std::string& log_name, const std::string& what_to_give);
+
 // The vehicle YAML: the base vehicle's document with the fitted values applied (k_T, k_Q, rotor
 // inertia, drag, battery), a header comment listing what was fitted and what kept.
 Result<std::string> IdentifiedVehicleYaml(const std::string& base_yaml_text, const vehicle::VehicleParams& base,
@@ -152,5 +171,7 @@ nlohmann::json DistanceFromVehicle(const IdentifyResult& result, const vehicle::
 nlohmann::json ToJson(const IdentifyResult& result);
 // A plain-text summary (one line per parameter).
 std::string Summary(const IdentifyResult& result);
+// One line saying whether the identification improves on its base, with both held-out residuals.
+std::string ImprovementLine(const IdentifyResult& result);
 
 }  // namespace hexsim::identify

@@ -20,6 +20,7 @@
 #include <cstddef>
 #include <map>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -67,5 +68,11 @@ nlohmann::json RecordDamageJson(const RecordDamage& records);
 // One line for stderr: "NAME: damaged log: 1.2 % of records (412 of 34811): 3 garbage runs, ...".
 std::string DamageSummaryLine(const std::string& name, const DataFlashDamage& reader, const RecordDamage& records,
                               size_t accepted_records);
+// What a command says about damage that did not refuse the log, one line each, nothing for a clean
+// log: "NAME: truncated: ..." when the file ends inside a message, and the summary line above when
+// records were lost or dropped. (A FMT the reader rejected costs no line by itself: its messages,
+// if any, are counted as lost.)
+std::vector<std::string> DamageLines(const std::string& name, const DataFlashDamage& reader, const RecordDamage& records,
+                                     size_t accepted_records);
 
 }  // namespace hexsim::logs
