@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 namespace {
 
@@ -154,6 +155,46 @@ TEST(Cli, GivenBadSampleFilesWhenCalibratingThenExit2WithReason) {
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("nan.csv:3"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(d / "c.yaml"));
+}
+
+// `compare` with a calib.yaml path among its calibrations used to fly every run and then die with
+// "unexpected error: map::at" (the runs were filed under the path, their summaries under its stem).
+// The run is filed, grouped and shown under the file's stem; naming a calibration twice is bad input.
+TEST(Cli, GivenACalibrationFileAmongCompareCalibrationsWhenComparedThenItFinishesUnderTheFilesStem) {
+  const fs::path d = TempDir("compare_file");
+  CmdResult r = Hexsim("turntable --vehicle paper_hex --out " + (d / "tt").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = Hexsim("calibrate " + (d / "tt" / "samples.csv").string() + " --method adaptive --out " +
+             (d / "tt" / "mine.yaml").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = Hexsim("compare square --vehicle paper_hex --world changchun --seeds 1 --duration 5 --no-report --calibrations " +
+             (d / "tt" / "mine.yaml").string() + ",none --out " + (d / "cmp").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(d / "cmp" / "mine" / "seed_1" / "summary.json"));
+  const auto cmp = nlohmann::json::parse(Slurp(d / "cmp" / "comparison.json"));
+  ASSERT_EQ(cmp["groups"].size(), 2u);
+  EXPECT_EQ(cmp["groups"][0]["calibration"], "mine");
+  EXPECT_EQ(cmp["groups"][1]["calibration"], "none");
+
+  r = Hexsim("compare square --seeds 1 --calibrations none,adaptive,none --out " + (d / "twice").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(Lines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find("--calibrations: 'none' listed twice"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(d / "twice"));
+}
+
+// A batch of 10^8 seeds threw std::bad_alloc while its seed list was filled, also with --list.
+TEST(Cli, GivenABatchOfAHundredMillionSeedsWhenListedOrRunThenOneLineAndExit2) {
+  const fs::path d = TempDir("batch_huge");
+  Write(d / "huge.yaml", "missions: [square]\nseeds: {first: 1, count: 100000000}\n");
+  for (const std::string& tail : {std::string(" --list"), " --out " + (d / "out").string()}) {
+    const CmdResult r = Hexsim("batch " + (d / "huge.yaml").string() + tail);
+    EXPECT_EQ(r.code, 2) << tail;
+    EXPECT_EQ(Lines(r.err), 1) << r.err;
+    EXPECT_NE(r.err.find("huge.yaml:2: seeds.count:"), std::string::npos) << r.err;
+    EXPECT_EQ(r.out, "");
+  }
+  EXPECT_FALSE(fs::exists(d / "out"));
 }
 
 }  // namespace

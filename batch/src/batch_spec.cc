@@ -114,6 +114,11 @@ Status ReadSeeds(const std::string& file, const YAML::Node& root, std::vector<ui
     if (n["first"].IsDefined()) HEXSIM_RETURN_IF_ERROR(as_seed(n["first"], "seeds.first", &first));
     HEXSIM_RETURN_IF_ERROR(as_seed(n["count"], "seeds.count", &count));
     if (count == 0) return BadAt(file, n["count"], "seeds.count", "must be at least 1 (nothing to sweep)");
+    if (count > kMaxBatchRuns) {
+      return BadAt(file, n["count"], "seeds.count",
+                   fmt::format("{} seeds: a batch holds at most {} runs (split it into several batch files)", count,
+                               kMaxBatchRuns));
+    }
     for (uint64_t i = 0; i < count; ++i) out->push_back(first + i);
     return Status::Ok();
   }
@@ -273,7 +278,23 @@ Result<BatchSpec> LoadBatchFile(const std::string& path) {
   return ParseBatch(*node, *resolved);
 }
 
+namespace {
+Result<BatchSpec> ParseBatchOrThrow(const YAML::Node& root, const std::string& file);
+}  // namespace
+
 Result<BatchSpec> ParseBatch(const YAML::Node& root, const std::string& file) {
+  // yaml-cpp throws where a node is not what a conversion expects (a key that is itself a list or a
+  // map, `[a]: 1`): bad input at that node's line, not an escaping exception.
+  try {
+    return ParseBatchOrThrow(root, file);
+  } catch (const YAML::Exception& e) {
+    if (e.mark.line >= 0) return Status::BadInput(fmt::format("{}:{}: {}", file, e.mark.line + 1, e.msg));
+    return Status::BadInput(fmt::format("{}: {}", file, e.msg));
+  }
+}
+
+namespace {
+Result<BatchSpec> ParseBatchOrThrow(const YAML::Node& root, const std::string& file) {
   if (!root.IsMap()) return Status::BadInput(file + ": expected a map (missions, vehicles, ..., grid, random)");
   static const std::set<std::string> kKeys = {"name",   "missions", "vehicles", "worlds",     "calibrations", "estimators",
                                               "seeds",  "duration_s", "set",    "grid",       "random"};
@@ -334,7 +355,29 @@ Result<BatchSpec> ParseBatch(const YAML::Node& root, const std::string& file) {
     }
   }
   if (const YAML::Node r = root["random"]; r.IsDefined()) HEXSIM_RETURN_IF_ERROR(ReadRandom(file, r, &spec));
+  const double runs = CountRuns(spec);
+  if (runs > static_cast<double>(kMaxBatchRuns)) {
+    return BadAt(file, root, "batch",
+                 fmt::format("{:.0f} runs (missions x vehicles x worlds x calibrations x estimators x seeds x "
+                             "(grid points + random samples)): at most {} (split it into several batch files)",
+                             runs, kMaxBatchRuns));
+  }
   return spec;
+}
+}  // namespace
+
+double CountRuns(const BatchSpec& spec) {
+  double base = 1.0;
+  for (size_t n : {spec.missions.size(), spec.vehicles.size(), spec.worlds.size(), spec.calibrations.size(),
+                   spec.estimators.size(), spec.seeds.size()}) {
+    base *= static_cast<double>(n);
+  }
+  double grid_points = 0.0;
+  if (!spec.grid.empty() || spec.random_samples == 0) {
+    grid_points = 1.0;
+    for (const auto& axis : spec.grid) grid_points *= static_cast<double>(axis.second.size());
+  }
+  return base * (grid_points + static_cast<double>(spec.random_samples));
 }
 
 std::vector<RunPoint> ExpandBatch(const BatchSpec& spec) {
