@@ -36,9 +36,20 @@ bool ParseDouble(const std::string& s, double* out) {
   return true;
 }
 
+// Run parameters become canonical JSON, which must be valid UTF-8 (nlohmann::json throws on dump).
+Status CheckUtf8(const std::string& file, const YAML::Node& at, const std::string& field, const json& v) {
+  try {
+    (void)v.dump();
+  } catch (const json::type_error&) {
+    return BadAt(file, at, field, "not valid UTF-8 text");
+  }
+  return Status::Ok();
+}
+
 const std::set<std::string> kSetRoots = {"mission", "vehicle", "world", "control", "nav", "sim"};
 
 Status CheckSetKey(const std::string& file, const YAML::Node& at, const std::string& field, const std::string& key) {
+  HEXSIM_RETURN_IF_ERROR(CheckUtf8(file, at, field, json(key)));
   const std::string root = key.substr(0, key.find('.'));
   if (key.find('.') == std::string::npos || key.back() == '.' || !kSetRoots.count(root)) {
     return BadAt(file, at, field,
@@ -63,6 +74,10 @@ Status ReadNames(const std::string& file, const YAML::Node& root, const std::str
     }
   } else {
     return BadAt(file, n, field, "expected a name or a list of names");
+  }
+  for (size_t i = 0; i < out->size(); ++i) {
+    const YAML::Node at = n.IsSequence() ? n[i] : n;
+    HEXSIM_RETURN_IF_ERROR(CheckUtf8(file, at, n.IsSequence() ? fmt::format("{}[{}]", field, i) : field, json((*out)[i])));
   }
   if (kind.empty()) return Status::Ok();
   for (size_t i = 0; i < out->size(); ++i) {
@@ -172,7 +187,10 @@ Status ReadRandom(const std::string& file, const YAML::Node& n, BatchSpec* spec)
     if (kind == "choice") {
       p.kind = RandomParam::Kind::kChoice;
       if (!args.IsSequence() || args.size() == 0) return BadAt(file, args, field + ".choice", "expected a non-empty list");
-      for (const auto& c : args) p.choices.push_back(CanonicalValue(YamlToJson(c)));
+      for (const auto& c : args) {
+        p.choices.push_back(CanonicalValue(YamlToJson(c)));
+        HEXSIM_RETURN_IF_ERROR(CheckUtf8(file, c, field + ".choice", p.choices.back()));
+      }
     } else if (kind == "uniform" || kind == "normal") {
       if (!args.IsSequence() || args.size() != 2) {
         return BadAt(file, args, field_kind, kind == "uniform" ? "expected [lo, hi]" : "expected [mean, std]");
@@ -336,6 +354,7 @@ Result<BatchSpec> ParseBatchOrThrow(const YAML::Node& root, const std::string& f
       const std::string k = kv.first.as<std::string>();
       HEXSIM_RETURN_IF_ERROR(CheckSetKey(file, kv.first, "set." + k, k));
       spec.sets[k] = CanonicalValue(YamlToJson(kv.second));
+      HEXSIM_RETURN_IF_ERROR(CheckUtf8(file, kv.second, "set." + k, spec.sets[k]));
     }
   }
   if (const YAML::Node g = root["grid"]; g.IsDefined()) {
@@ -347,7 +366,10 @@ Result<BatchSpec> ParseBatchOrThrow(const YAML::Node& root, const std::string& f
       if (!kv.second.IsSequence()) return BadAt(file, kv.second, field, "expected a list of values");
       if (kv.second.size() == 0) return BadAt(file, kv.second, field, "empty sweep (no values)");
       std::vector<json> values;
-      for (const auto& v : kv.second) values.push_back(CanonicalValue(YamlToJson(v)));
+      for (const auto& v : kv.second) {
+        values.push_back(CanonicalValue(YamlToJson(v)));
+        HEXSIM_RETURN_IF_ERROR(CheckUtf8(file, v, field, values.back()));
+      }
       for (const auto& [prev, unused] : spec.grid) {
         if (prev == k) return BadAt(file, kv.first, field, "listed twice");
       }

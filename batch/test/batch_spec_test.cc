@@ -178,6 +178,10 @@ TEST(ParseBatch, GivenEmptySweepsOrUnknownKeysWhenParsedThenEachIsBadInputNaming
       // A key that is a list: yaml-cpp's conversion threw out of ParseBatch.
       {"missions: [square]\nset: {[a, b]: 1}\n", "test.yaml:2:"},
       {"missions: [square]\n[x]: 1\n", "test.yaml:2:"},
+      // Bytes that are not UTF-8 (found by fuzz_batch_yaml): the canonical JSON's dump threw.
+      {"missions: [square]\nset: {world.wind\xff: 1}\n", "test.yaml:2: set.world.wind"},
+      {"missions: [square]\ncalibrations: [\"none\xc3\"]\n", "calibrations[0]: not valid UTF-8"},
+      {"missions: [square]\ngrid: {sim.a: [\"\xff\"]}\n", "grid.sim.a: not valid UTF-8"},
   };
   for (const auto& [yaml, expected] : cases) {
     auto spec = Parse(yaml);
