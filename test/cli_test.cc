@@ -1,5 +1,7 @@
 // The hexsim command line as a user meets it: exit codes, one-line errors naming file and field,
 // nothing half-written, determinism.
+#include <fcntl.h>
+#include <signal.h>  // NOLINT(modernize-deprecated-headers): kill is POSIX
 #include <sys/wait.h>
 
 #include <cstdio>
@@ -195,6 +197,58 @@ TEST(Cli, GivenABatchOfAHundredMillionSeedsWhenListedOrRunThenOneLineAndExit2) {
     EXPECT_EQ(r.out, "");
   }
   EXPECT_FALSE(fs::exists(d / "out"));
+}
+
+// Ctrl-C during a batch (CONTRACTS: exit 130): the running run finishes and is recorded, nothing else
+// starts, no SQLite -wal/-shm file or empty run folder is left, stderr says how to --resume, and
+// --resume finishes the batch. It used to exit 130 silently, leaving both.
+TEST(Cli, GivenABatchInterruptedOnceWhenItStopsThenExit130WithAResumeLineAndResumeFinishesIt) {
+  const fs::path d = TempDir("batch_interrupt");
+  Write(d / "b.yaml", "missions: [square]\nvehicles: [default_hex]\nseeds: {first: 1, count: 6}\n");
+  const fs::path out = d / "out", err = d / "stderr.txt";
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const int fd = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    dup2(fd, STDERR_FILENO);
+    const int null_fd = ::open("/dev/null", O_WRONLY);
+    dup2(null_fd, STDOUT_FILENO);
+    const std::string file = (d / "b.yaml").string(), out_s = out.string();
+    execl(HEXSIM_BINARY, HEXSIM_BINARY, "batch", file.c_str(), "--jobs", "1", "--out", out_s.c_str(),
+          static_cast<char*>(nullptr));
+    std::_Exit(127);
+  }
+  // Interrupt once the first run has left its summary (the second is then running).
+  auto summaries = [&] {
+    int n = 0;
+    std::error_code ec;
+    if (!fs::is_directory(out / "runs", ec)) return 0;
+    for (const auto& e : fs::directory_iterator(out / "runs")) n += fs::exists(e.path() / "summary.json");
+    return n;
+  };
+  for (int i = 0; i < 600 && summaries() == 0; ++i) usleep(50000);
+  ASSERT_GT(summaries(), 0) << Slurp(err);
+  kill(pid, SIGINT);
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status)) << "died by a signal";
+  EXPECT_EQ(WEXITSTATUS(status), 130) << Slurp(err);
+  const std::string e = Slurp(err);
+  EXPECT_NE(e.find("interrupted"), std::string::npos) << e;
+  EXPECT_NE(e.find("--out " + out.string() + " --resume"), std::string::npos) << e;
+  EXPECT_FALSE(fs::exists(out / "results.sqlite-wal"));
+  EXPECT_FALSE(fs::exists(out / "results.sqlite-shm"));
+  int folders = 0;
+  for (const auto& entry : fs::directory_iterator(out / "runs")) {
+    ++folders;
+    EXPECT_TRUE(fs::exists(entry.path() / "summary.json")) << entry.path() << ": a partial run folder";
+  }
+  EXPECT_GE(folders, 1);
+  EXPECT_LT(folders, 6) << "the batch ran to its end: nothing was interrupted";
+
+  const CmdResult resumed = Hexsim("batch " + (d / "b.yaml").string() + " --jobs 1 --resume --out " + out.string());
+  EXPECT_EQ(resumed.code, 0) << resumed.err;
+  EXPECT_NE(resumed.out.find("6/6 runs recorded"), std::string::npos) << resumed.out;
 }
 
 }  // namespace

@@ -1,10 +1,12 @@
 #include "hexsim/batch/pool.h"
 
 #include <signal.h>  // NOLINT(modernize-deprecated-headers): POSIX header for kill(); <csignal> does not declare it
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <csignal>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -97,18 +99,28 @@ Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, co
 }
 
 Status ForkEach(size_t n, int jobs, double timeout_s, const std::function<Status(size_t)>& before_fork,
-                const std::function<int(size_t)>& child, const ReapFn& reaped) {
+                const std::function<int(size_t)>& child, const ReapFn& reaped, const volatile std::sig_atomic_t* stop,
+                const std::function<void(size_t index)>& killed) {
   if (jobs < 1) return Status::BadInput("--jobs: must be at least 1");
   struct Worker {
     size_t index = 0;
     double start_s = 0.0;
     bool timed_out = false;
+    bool killed = false;
   };
   size_t next = 0;
   std::map<pid_t, Worker> running;
   Status error;
-  while ((next < n && error.ok()) || !running.empty()) {
-    while (error.ok() && next < n && static_cast<int>(running.size()) < jobs) {
+  const pid_t parent = getpid();
+  auto stopping = [stop] { return stop != nullptr && *stop > 0; };
+  while ((next < n && error.ok() && !stopping()) || !running.empty()) {
+    if (stop != nullptr && *stop >= 2) {  // the second signal: kill what is running
+      for (auto& [wpid, r] : running) {
+        if (!r.killed) kill(wpid, SIGKILL);
+        r.killed = true;
+      }
+    }
+    while (error.ok() && !stopping() && next < n && static_cast<int>(running.size()) < jobs) {
       const size_t i = next++;
       error = before_fork(i);
       if (!error.ok()) break;
@@ -120,6 +132,13 @@ Status ForkEach(size_t n, int jobs, double timeout_s, const std::function<Status
         break;
       }
       if (pid == 0) {
+        if (stop != nullptr) {
+          // The parent handles interruption; the worker dies with it, never half-way on its own.
+          std::signal(SIGINT, SIG_IGN);
+          std::signal(SIGTERM, SIG_IGN);
+          prctl(PR_SET_PDEATHSIG, SIGKILL);
+          if (getppid() != parent) std::_Exit(kExitNoResult);  // the parent died before prctl
+        }
         int code = kExitNoResult;
         try {
           code = child(i);
@@ -133,12 +152,12 @@ Status ForkEach(size_t n, int jobs, double timeout_s, const std::function<Status
     if (running.empty()) break;
     int wait_status = 0;
     pid_t pid = 0;
-    if (timeout_s > 0) {
+    if (timeout_s > 0 || stop != nullptr) {  // poll: a timeout or a signal must not wait for a worker
       pid = waitpid(-1, &wait_status, WNOHANG);
       if (pid == 0) {
         const double now = NowS();
         for (auto& [wpid, r] : running) {
-          if (!r.timed_out && now - r.start_s > timeout_s) {
+          if (timeout_s > 0 && !r.timed_out && now - r.start_s > timeout_s) {
             r.timed_out = true;
             kill(wpid, SIGKILL);
           }
@@ -158,6 +177,10 @@ Status ForkEach(size_t n, int jobs, double timeout_s, const std::function<Status
     if (it == running.end()) continue;  // not one of ours
     const Worker r = it->second;
     running.erase(it);
+    if (r.killed) {
+      if (killed) killed(r.index);
+      continue;
+    }
     const Status s = reaped(r.index, wait_status, NowS() - r.start_s, r.timed_out);
     if (!s.ok() && error.ok()) error = s;
   }
@@ -191,8 +214,15 @@ Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, co
     progress.RunFinished(row);
     return s;
   };
-  const Status error = ForkEach(runs.size(), options.jobs, options.run_timeout_s, before_fork, child, reaped);
+  auto killed = [&](size_t i) {  // interrupted twice: nothing of the run is kept
+    std::error_code ec;
+    std::filesystem::remove_all(dirs[i], ec);
+  };
+  const Status error =
+      ForkEach(runs.size(), options.jobs, options.run_timeout_s, before_fork, child, reaped, options.stop, killed);
   progress.Finish();
+  stats.interrupted = options.stop != nullptr && *options.stop > 0;
+  stats.not_run = runs.size() - stats.finished;
   stats.wall_s = NowS() - start;
   if (!error.ok()) return error;
   return stats;

@@ -1,6 +1,11 @@
 #include "hexsim/batch/pool.h"
 
+#include <signal.h>  // NOLINT(modernize-deprecated-headers): sigaction, kill are POSIX
+#include <unistd.h>
+
 #include <chrono>
+#include <csignal>
+#include <filesystem>
 #include <cstdlib>
 #include <thread>
 
@@ -131,6 +136,97 @@ TEST(RunPool, GivenARunThatHangsWhenATimeoutIsSetThenItIsKilledAndRecordedAsTime
   ASSERT_TRUE(rows.ok());
   ASSERT_EQ(rows->size(), 2u);
   for (const auto& r : *rows) EXPECT_EQ(r.status, r.seed == 1 ? "timeout" : "completed");
+}
+
+// Interruption (CONTRACTS: exit 130). The handler counts signals as apps/cmd_batch.cc's does; a worker
+// plays the user's Ctrl-C by signalling its parent (and itself: a terminal signals the whole group).
+volatile std::sig_atomic_t g_test_interrupts = 0;
+extern "C" void CountInterrupt(int /*sig*/) { g_test_interrupts = g_test_interrupts + 1; }
+
+struct CountingHandler {
+  CountingHandler() {
+    g_test_interrupts = 0;
+    struct sigaction sa {};
+    sa.sa_handler = CountInterrupt;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, &old);
+  }
+  ~CountingHandler() { sigaction(SIGINT, &old, nullptr); }
+  struct sigaction old {};
+};
+
+Result<json> Completed() {
+  sim::RunSummary done;
+  done.status = sim::RunStatus::kCompleted;
+  return sim::ToJson(done);
+}
+
+TEST(RunPool, GivenOneInterruptWhenRunsAreGoingThenNoMoreStartAndTheRunningOnesFinishAndAreRecorded) {
+  const CountingHandler handler;
+  const std::string dir = testing::TempDir("pool_interrupt_once");
+  auto db = ResultsDb::Open(dir + "/results.sqlite", true);
+  ASSERT_TRUE(db.ok());
+  PoolOptions opt;
+  opt.jobs = 2;
+  opt.out_dir = dir;
+  opt.progress_stream = nullptr;
+  opt.stop = &g_test_interrupts;
+  auto run = [](const RunPoint& p) -> Result<json> {
+    if (p.seed == 1) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));  // both workers have started
+      kill(getppid(), SIGINT);
+      kill(getpid(), SIGINT);  // the worker ignores it and finishes
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    return Completed();
+  };
+  const std::vector<RunPoint> points = Points(6);
+  auto stats = RunPool(points, run, opt, &*db);
+  ASSERT_TRUE(stats.ok()) << stats.status().message();
+  EXPECT_TRUE(stats->interrupted);
+  EXPECT_EQ(stats->finished, 2u);
+  EXPECT_EQ(stats->not_run, 4u);
+  auto rows = db->ReadAll();
+  ASSERT_TRUE(rows.ok());
+  ASSERT_EQ(rows->size(), 2u);
+  for (const auto& r : *rows) EXPECT_EQ(r.status, "completed") << r.seed << ": " << r.reason;
+  for (size_t i = 2; i < points.size(); ++i) {
+    EXPECT_FALSE(std::filesystem::exists(dir + "/runs/" + points[i].RunId())) << "a run folder for an unstarted run";
+  }
+}
+
+TEST(RunPool, GivenASecondInterruptWhenRunsAreGoingThenTheyAreKilledNotRecordedAndTheirFoldersRemoved) {
+  const CountingHandler handler;
+  const std::string dir = testing::TempDir("pool_interrupt_twice");
+  auto db = ResultsDb::Open(dir + "/results.sqlite", true);
+  ASSERT_TRUE(db.ok());
+  PoolOptions opt;
+  opt.jobs = 2;
+  opt.out_dir = dir;
+  opt.progress_stream = nullptr;
+  opt.stop = &g_test_interrupts;
+  auto run = [](const RunPoint& p) -> Result<json> {
+    if (p.seed == 1) {
+      kill(getppid(), SIGINT);
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      kill(getppid(), SIGINT);
+    }
+    std::this_thread::sleep_for(std::chrono::seconds(30));
+    return Completed();
+  };
+  const std::vector<RunPoint> points = Points(4);
+  const auto t0 = std::chrono::steady_clock::now();
+  auto stats = RunPool(points, run, opt, &*db);
+  const double took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_TRUE(stats.ok()) << stats.status().message();
+  EXPECT_LT(took_s, 10.0);
+  EXPECT_TRUE(stats->interrupted);
+  EXPECT_EQ(stats->finished, 0u);
+  EXPECT_EQ(stats->not_run, 4u);
+  auto rows = db->ReadAll();
+  ASSERT_TRUE(rows.ok());
+  EXPECT_TRUE(rows->empty());
+  for (const auto& p : points) EXPECT_FALSE(std::filesystem::exists(dir + "/runs/" + p.RunId()));
 }
 
 // Task i sleeps longer the smaller i is, so with two workers the tasks end out of order.
