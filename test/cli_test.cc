@@ -251,4 +251,17 @@ TEST(Cli, GivenABatchInterruptedOnceWhenItStopsThenExit130WithAResumeLineAndResu
   EXPECT_NE(resumed.out.find("6/6 runs recorded"), std::string::npos) << resumed.out;
 }
 
+// A bad --set value was blamed on the vehicle file's line 1 (the replaced node has no line of its own).
+TEST(Cli, GivenABadSetValueWhenRunThenTheErrorNamesTheSetArgument) {
+  const fs::path d = TempDir("bad_set");
+  for (const std::string& set : {std::string("vehicle.mass_kg=abc"), std::string("control.rate.roll.kp=abc"),
+                                 std::string("world.wind.turbulence_std_mps=-1")}) {
+    const CmdResult r = Hexsim("run square --set " + set + " --out " + (d / "out").string());
+    EXPECT_EQ(r.code, 2) << set;
+    EXPECT_EQ(Lines(r.err), 1) << r.err;
+    EXPECT_EQ(r.err.rfind("hexsim: --set " + set + ": ", 0), 0u) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(d / "out"));
+}
+
 }  // namespace
