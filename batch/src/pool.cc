@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <set>
 #include <thread>
 
 #include <fmt/format.h>
@@ -192,6 +193,7 @@ Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, co
   if (options.jobs < 1) return Status::BadInput("--jobs: must be at least 1");
   PoolStats stats;
   const double start = NowS();
+  const std::vector<std::string> varied = VariedParameters(runs);
   Progress progress(options.progress_stream, options.progress_tty, runs.size() + options.already_done,
                     options.already_done);
   std::vector<std::string> dirs(runs.size());
@@ -211,7 +213,7 @@ Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, co
     Status s = record(row, summary);
     ++stats.finished;
     if (IsFailure(row.status)) ++stats.failed;
-    progress.RunFinished(row);
+    progress.RunFinished(row, VariedText(runs[i], varied));
     return s;
   };
   auto killed = [&](size_t i) {  // interrupted twice: nothing of the run is kept
@@ -288,7 +290,45 @@ std::string Progress::FormatDuration(double seconds) {
   return fmt::format("{}:{:02d}", s / 60, s % 60);
 }
 
-void Progress::RunFinished(const RunRow& row) {
+namespace {
+// A point's parameters as flat key → value: world, estimator, duration_s, and each --set key.
+std::map<std::string, json> FlatParams(const RunPoint& p) {
+  std::map<std::string, json> out = {{"world", p.world}, {"estimator", p.estimator}, {"duration_s", p.duration_s}};
+  for (const auto& [k, v] : p.sets) out[k] = v;
+  return out;
+}
+}  // namespace
+
+std::vector<std::string> VariedParameters(const std::vector<RunPoint>& runs) {
+  std::vector<std::string> out;
+  if (runs.empty()) return out;
+  std::map<std::string, json> first = FlatParams(runs.front());
+  std::set<std::string> varied;
+  for (const auto& p : runs) {
+    const auto flat = FlatParams(p);
+    for (const auto& [k, v] : flat) {
+      auto it = first.find(k);
+      if (it == first.end() || it->second != v) varied.insert(k);
+    }
+    for (const auto& [k, v] : first) {
+      if (!flat.count(k)) varied.insert(k);
+    }
+  }
+  return {varied.begin(), varied.end()};
+}
+
+std::string VariedText(const RunPoint& point, const std::vector<std::string>& keys) {
+  const auto flat = FlatParams(point);
+  std::string out;
+  for (const auto& k : keys) {
+    const auto it = flat.find(k);
+    if (it == flat.end()) continue;
+    out += " " + k + "=" + (it->second.is_string() ? it->second.get<std::string>() : it->second.dump());
+  }
+  return out;
+}
+
+void Progress::RunFinished(const RunRow& row, const std::string& varied) {
   ++done_;
   ++done_here_;
   if (IsFailure(row.status)) ++failed_;
@@ -304,10 +344,10 @@ void Progress::RunFinished(const RunRow& row) {
     std::fprintf(out_, "\r[%s] %zu/%zu runs  %.2f runs/s  %s left%s\x1b[K", bar.c_str(), done_, total_, rate,
                  FormatDuration(left).c_str(), failed_ ? fmt::format("  ({} failed)", failed_).c_str() : "");
   } else {
-    std::fprintf(out_, "hexsim batch: [%zu/%zu] %s %s %s %s seed %llu: %s%s%s (%.2f s)\n", done_, total_,
+    std::fprintf(out_, "hexsim batch: [%zu/%zu] %s %s %s %s seed %llu%s: %s%s%s (%.2f s)\n", done_, total_,
                  row.run_id.c_str(), row.mission.c_str(), row.vehicle.c_str(), row.calibration.c_str(),
-                 static_cast<unsigned long long>(row.seed), row.status.c_str(), row.reason.empty() ? "" : ": ",
-                 row.reason.c_str(), row.wall_s);
+                 static_cast<unsigned long long>(row.seed), varied.c_str(), row.status.c_str(),
+                 row.reason.empty() ? "" : ": ", row.reason.c_str(), row.wall_s);
   }
   std::fflush(out_);
 }

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <csignal>
 #include <filesystem>
+#include <fstream>
 #include <cstdlib>
 #include <thread>
 
@@ -306,6 +307,31 @@ TEST(ResultsDb, GivenOverlappingShardFilesWhenMergedThenEveryRunIsPresentExactly
   EXPECT_EQ(b, 3);  // point 0 was in both
   EXPECT_EQ(*merged->Count(), 6);
   EXPECT_FALSE(merged->MergeFrom(dir + "/missing.sqlite", &a).ok());
+}
+
+// In a grid "adaptive seed 1" appeared once per grid point with nothing to tell them apart: each
+// line now carries the parameters that vary across the batch (and only those).
+TEST(Progress, GivenAGridWhenARunFinishesThenItsLineShowsTheVariedParameters) {
+  std::vector<RunPoint> runs = Points(2);
+  for (auto& p : runs) p.sets["world.wind.mean_N_mps"] = json::array({0, 5, 0});
+  runs.push_back(runs[0]);
+  runs.back().sets["control.rate.roll.kp"] = 0.2;
+  runs[0].sets["control.rate.roll.kp"] = 0.1;
+  runs[1].sets["control.rate.roll.kp"] = 0.1;
+  const std::vector<std::string> varied = VariedParameters(runs);
+  EXPECT_EQ(varied, std::vector<std::string>{"control.rate.roll.kp"});
+  EXPECT_EQ(VariedText(runs[2], varied), " control.rate.roll.kp=0.2");
+
+  const std::string path = testing::TempDir("progress_grid") + "/progress.txt";
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  ASSERT_NE(f, nullptr);
+  Progress progress(f, /*tty=*/false, runs.size(), 0);
+  progress.RunFinished(FailedRow(runs[2], "completed", "", 0.5), VariedText(runs[2], varied));
+  std::fclose(f);
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_NE(line.find("none seed 1 control.rate.roll.kp=0.2: completed"), std::string::npos) << line;
 }
 
 TEST(Progress, GivenSecondsWhenFormattedThenMinutesAndHoursShow) {

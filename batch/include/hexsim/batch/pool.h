@@ -76,11 +76,19 @@ Result<std::vector<nlohmann::json>> RunForkedMap(size_t n, const std::function<R
                                                  int jobs,
                                                  const std::function<void(size_t done, size_t total)>& progress = {});
 
+// The parameters that differ between `runs` (world, estimator, duration and --set keys; mission,
+// vehicle, calibration and seed are always shown), in key order: what tells one progress line's
+// point from another's in a grid ("adaptive seed 1" appears once per grid point).
+std::vector<std::string> VariedParameters(const std::vector<RunPoint>& runs);
+// " key=value" for each of `keys` in the point's parameters.
+std::string VariedText(const RunPoint& point, const std::vector<std::string>& keys);
+
 // The progress display (exposed for tests).
 class Progress {
  public:
   Progress(std::FILE* out, bool tty, size_t total, size_t already_done);
-  void RunFinished(const RunRow& row);
+  // `varied`: VariedText of the run's point, printed after its calibration and seed.
+  void RunFinished(const RunRow& row, const std::string& varied = "");
   void Finish();
   // "0:07", "1:02:03"
   static std::string FormatDuration(double seconds);
