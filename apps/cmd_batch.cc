@@ -1,8 +1,10 @@
 // hexsim batch BATCH.yaml [--jobs N] [--shard i/N] [--resume] [--run-timeout S] [--keep-logs] [--list] --out DIR
 // hexsim batch-merge OUT SHARD_DIR...
+#include <signal.h>  // NOLINT(modernize-deprecated-headers): sigaction is POSIX, not in <csignal>
 #include <unistd.h>
 
 #include <algorithm>
+#include <csignal>
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -16,6 +18,44 @@
 namespace hexsim::app {
 
 namespace {
+
+// SIGINT/SIGTERM while a batch runs (CONTRACTS: exit 130): counted here, acted on by the pool.
+volatile std::sig_atomic_t g_interrupts = 0;
+
+extern "C" void OnInterrupt(int /*sig*/) {
+  g_interrupts = g_interrupts + 1;
+  static const char kFirst[] =
+      "\nhexsim batch: interrupted: starting no more runs; the running ones finish (interrupt again to kill them)\n";
+  static const char kSecond[] = "\nhexsim batch: interrupted again: killing the running runs\n";
+  // write(2) is async-signal-safe; a failed write has nowhere better to be reported.
+  const ssize_t ignored = g_interrupts == 1 ? write(STDERR_FILENO, kFirst, sizeof(kFirst) - 1)
+                                            : write(STDERR_FILENO, kSecond, sizeof(kSecond) - 1);
+  (void)ignored;
+}
+
+// Installs OnInterrupt for SIGINT and SIGTERM while it lives (no SA_RESTART: the pool polls anyway).
+class InterruptHandlers {
+ public:
+  InterruptHandlers() {
+    struct sigaction sa {};
+    sa.sa_handler = OnInterrupt;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, &old_int_);
+    sigaction(SIGTERM, &sa, &old_term_);
+  }
+  ~InterruptHandlers() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+  InterruptHandlers(const InterruptHandlers&) = delete;
+  InterruptHandlers& operator=(const InterruptHandlers&) = delete;
+
+ private:
+  struct sigaction old_int_ {};
+  struct sigaction old_term_ {};
+};
+
+constexpr int kExitInterrupted = 130;
 
 struct BatchArgs {
   std::string batch_file;
@@ -48,12 +88,23 @@ Status BatchCommand(const BatchArgs& args, int* exit_code) {
   o.keep_logs = args.keep_logs;
   o.run_timeout_s = args.run_timeout_s;
   o.progress_tty = isatty(STDERR_FILENO) == 1;
+  o.stop = &g_interrupts;
+  const InterruptHandlers handlers;
   auto r = experiments::RunBatch(spec->file, mine, o, [&](const experiments::BatchPlan& plan) {
     std::fprintf(stderr, "hexsim batch: %s: %zu runs (shard %d/%d of %zu), %zu finished before, %zu to run on %d jobs\n",
                  spec->name.c_str(), mine.size(), shard->index, shard->count, all.size(), plan.already_done,
                  plan.to_run, o.jobs);
   });
   if (!r.ok()) return r.status();
+  if (r->interrupted) {
+    std::fprintf(stderr,
+                 "hexsim batch: interrupted: %zu/%zu runs recorded in %s, %zu not run; continue with:\n"
+                 "  hexsim batch %s --out %s --resume%s\n",
+                 r->recorded, mine.size(), r->db_path.c_str(), r->not_run, args.batch_file.c_str(), args.out.c_str(),
+                 args.shard == "0/1" ? "" : (" --shard " + args.shard).c_str());
+    *exit_code = kExitInterrupted;
+    return Status::Ok();
+  }
   std::printf("%s: %zu/%zu runs recorded (%zu this time, %.1f s), %zu failed -> %s\n", spec->name.c_str(), r->recorded,
               mine.size(), r->finished, r->wall_s, r->failed, r->db_path.c_str());
   *exit_code = r->failed > 0 ? 1 : 0;

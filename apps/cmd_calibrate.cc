@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 
 #include "cli_util.h"
@@ -114,8 +115,17 @@ Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
   HEXSIM_RETURN_IF_ERROR(EnsureDirectory(DirName(a.out)));
   const std::string base = DirName(a.out) + "/" + FileStem(a.out);
   HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(base + ".report.json", o->report.dump(2) + "\n"));
-  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(base + ".parm", magnetics::ArduPilotParmText(o->ardupilot)));
-  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(base + ".params", magnetics::Px4ParamsText(o->px4)));
+  // Autopilot parameter files only for an accepted fit: a rejected one must not look loadable (one
+  // left by an earlier run at this path is removed too). calib.yaml and the report say what failed.
+  const bool accepted = o->exit_code == 0;
+  if (accepted) {
+    HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(base + ".parm", magnetics::ArduPilotParmText(o->ardupilot)));
+    HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(base + ".params", magnetics::Px4ParamsText(o->px4)));
+  } else {
+    std::error_code ec;
+    std::filesystem::remove(base + ".parm", ec);
+    std::filesystem::remove(base + ".params", ec);
+  }
   HEXSIM_RETURN_IF_ERROR(WriteBeforeAfterPng(*o, base + ".png"));
   HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(a.out, magnetics::CompensatorToYamlText(*o->compensator)));
   for (const auto& n : input->notes) std::printf("input: %s\n", n.c_str());
@@ -139,8 +149,8 @@ Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
     }
   }
   for (const auto& w : f.warnings) std::printf("warning: %s\n", w.c_str());
-  std::printf("calibrate: %s -> %s (+ .report.json .parm .params .png)\n",
-              o->exit_code == 0 ? "accepted" : "REJECTED by its gate", a.out.c_str());
+  std::printf("calibrate: %s -> %s (+ %s)\n", accepted ? "accepted" : "REJECTED by its gate", a.out.c_str(),
+              accepted ? ".report.json .parm .params .png" : ".report.json .png; no .parm/.params for a rejected fit");
   *exit_code = o->exit_code;
   return Status::Ok();
 }

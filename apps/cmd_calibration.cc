@@ -1,5 +1,6 @@
 // hexsim turntable | calibrate | heading-error: the paper's ground sampling, the fits, and Table 1.
 #include <cstdio>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -8,9 +9,7 @@
 #include "cli_util.h"
 #include "commands.h"
 #include "hexsim/common/atomic_file.h"
-#include "hexsim/common/paths.h"
-#include "hexsim/common/yaml_reader.h"
-#include "hexsim/magnetics/calib_io.h"
+#include "hexsim/experiments/ground_calibration.h"
 #include "hexsim/magnetics/compensator.h"
 #include "hexsim/magnetics/heading_error.h"
 #include "turntable_util.h"
@@ -34,7 +33,7 @@ Status TurntableCommand(const TurntableArgs& a) {
   if (!controls.ok()) return controls.status();
   opt.control_u = *controls;
   opt.step_deg = a.step_deg;
-  opt.seed = a.seed;
+  opt.seed = experiments::GroundSessionSeed(a.seed);  // the session `run`/`compare --seed N` learn from
   opt.soc = a.soc;
   HEXSIM_RETURN_IF_ERROR(opt.IsValid());
   auto rows = sim::RunTurntable(vw->vehicle, vw->world, opt);
@@ -52,23 +51,25 @@ struct HeadingErrorArgs {
   std::vector<std::string> calibs;
   std::string vehicle = "paper_hex", world = "changchun", control = "0,200,300", json;
   double step_deg = 5.0, soc = -1.0;
-  uint64_t seed = 7919;
+  uint64_t seed = experiments::kTable1TurnSeed;
 };
 
 Status HeadingErrorCommand(const HeadingErrorArgs& a) {
   struct Named {
     std::string name, method;
-    std::shared_ptr<magnetics::Compensator> comp;
+    std::shared_ptr<const magnetics::Compensator> comp;
   };
   std::vector<Named> rows_in;
   rows_in.push_back({"uncorrected", "none", magnetics::MakeNoneCompensator()});
   for (const auto& path : a.calibs) {
-    auto node = YamlReader::LoadFile(path);
-    if (!node.ok()) return node.status();
-    auto comp = magnetics::CompensatorFromYaml(*node, path);
-    if (!comp.ok()) return comp.status();
-    const std::string method = (*comp)->name();
-    rows_in.push_back({FileStem(path), method, std::shared_ptr<magnetics::Compensator>(std::move(*comp))});
+    // A file, read as run/compare read a --calibration file (named by its stem).
+    std::error_code ec;
+    if (experiments::IsCalibrationMethod(path) && !std::filesystem::is_regular_file(path, ec)) {
+      return Status::BadInput("--calib " + path + ": expects a calib.yaml (hexsim calibrate writes one), not a method");
+    }
+    auto cal = experiments::MakeCalibration(path, std::vector<magnetics::MagSample>{});
+    if (!cal.ok()) return cal.status();
+    rows_in.push_back({cal->name, cal->compensator->name(), cal->compensator});
   }
   auto vw = LoadVehicleAndWorld(a.vehicle, a.world);
   if (!vw.ok()) return vw.status();
@@ -124,7 +125,10 @@ void AddCalibrationCommands(CLI::App& app, int* exit_code) {
     c->add_option("--control", a->control, "Control amounts (0..1000), comma-separated")->capture_default_str();
     c->add_option("--step-deg", a->step_deg, "Table step between samples")->capture_default_str();
     c->add_option("--soc", a->soc, "Battery state of charge 0..1 (default: the vehicle's)");
-    c->add_option("--seed", a->seed, "Random seed")->capture_default_str();
+    c->add_option("--seed", a->seed,
+                  "Experiment seed: the ground session that `run`/`compare --seed N` learn their calibrations from "
+                  "(so turntable, calibrate and heading-error give compare's Table 1)")
+        ->capture_default_str();
     c->add_option("--out", a->out, "Output directory")->required();
     c->callback([a, exit_code] { *exit_code = Report(TurntableCommand(*a)); });
   }

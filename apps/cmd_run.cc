@@ -31,9 +31,11 @@ Status RunCommand(const RunArgs& args, int* exit_code) {
   HEXSIM_RETURN_IF_ERROR(experiments::WriteRunSummary(result, out.path()));
   out.Commit();
   const auto& s = result.summary;
-  std::fprintf(stdout, "%s: %s in %.1f s, cross-track rms %.2f m, yaw error rms %.2f deg, energy %.2f Wh -> %s\n",
-               s.mission.c_str(), sim::RunStatusName(s.status), s.duration_s, s.cross_track_m.rms, s.yaw_error_deg.rms,
-               s.energy_Wh, args.out.c_str());
+  // A run that did not finish says why on the same line: its figures are not a finished mission's.
+  const std::string why = s.status == sim::RunStatus::kCompleted || s.reason.empty() ? "" : " (" + s.reason + ")";
+  std::fprintf(stdout, "%s: %s%s in %.1f s, cross-track rms %.2f m, yaw error rms %.2f deg, energy %.2f Wh -> %s\n",
+               s.mission.c_str(), sim::RunStatusName(s.status), why.c_str(), s.duration_s, s.cross_track_m.rms,
+               s.yaw_error_deg.rms, s.energy_Wh, args.out.c_str());
   *exit_code = result.status.ok() ? 0 : Report(result.status);
   return Status::Ok();
 }

@@ -9,6 +9,7 @@
 # Build dir: build-fuzz beside the sources (HEXSIM_FUZZ_BUILD_DIR overrides). Seeds come from
 # fuzz/corpus/<target> (cut from the real log by fuzz/make_corpus.sh) and are only read; new inputs
 # go to a scratch corpus, crashes to build-fuzz/artifacts/. Exit status: non-zero on any finding.
+# Seeds for batch_yaml are the shipped batch file and a hand-written one using every key.
 # The mutation seed is fixed (HEXSIM_FUZZ_SEED, default 1) so that a CI run is repeatable: the same
 # sources explore the same inputs. Set HEXSIM_FUZZ_SEED=0 for a fresh random seed on long runs, and
 # keep every crash that one finds in fuzz/corpus/<target> as a regression seed.
@@ -27,7 +28,7 @@ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPI
   -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHEXSIM_BUILD_FUZZ=ON -DHEXSIM_BUILD_TESTS=ON \
   -DHEXSIM_BUILD_BENCH=OFF "${launcher[@]}" > "$build/configure.log" 2>&1 ||
   { cat "$build/configure.log"; exit 1; }
-ninja -C "$build" -j"${HEXSIM_FUZZ_JOBS:-2}" fuzz_dataflash fuzz_flightlog_csv fuzz_ulog
+ninja -C "$build" -j"${HEXSIM_FUZZ_JOBS:-2}" fuzz_dataflash fuzz_flightlog_csv fuzz_ulog fuzz_batch_yaml
 
 # A smaller ASan quarantine (default 256 MB) keeps reused memory hot: fresh pages for every freed
 # buffer cost ~15% of a run in page faults. Use-after-free within the last 64 MB is still caught.
@@ -38,7 +39,7 @@ mkdir -p "$build/artifacts"
 # between them so the target still gets N executions in all, in 1/jobs of the wall time.
 workers=${HEXSIM_FUZZ_WORKERS:-${HEXSIM_FUZZ_JOBS:-2}}
 seed=${HEXSIM_FUZZ_SEED:-1}
-for target in dataflash flightlog_csv ulog; do
+for target in dataflash flightlog_csv ulog batch_yaml; do
   wlimit=()
   for l in "${limit[@]}"; do
     if [[ $l =~ ^-runs=([0-9]+)$ ]]; then l=-runs=$(( (BASH_REMATCH[1] + workers - 1) / workers )); fi

@@ -2,6 +2,7 @@
 // exit codes, outputs, one-line errors, nothing half-written.
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -177,6 +178,63 @@ TEST(FieldCli, GivenOfficialTestPoints_WhenAskedPerModel_ThenWithin1nT) {
   const CliRun text = Hexsim("field 43.88 125.35 200 2016-07-02");
   EXPECT_EQ(text.code, 0) << text.err;
   EXPECT_NE(text.out.find("WMM-2015v2"), std::string::npos) << text.out;
+}
+
+// The ground methods given what they cannot use: a flight log (here a simulated run's log.csv) or a
+// plain dump. They used to exit 3 ("ellipsoid refinement did not converge", "sample 0: non-finite
+// field, control, current or angle"); now one line says what they need and what to use instead.
+TEST(CalibrateCli, GivenAFlightLogOrAPlainDump_WhenAGroundMethodIsAsked_ThenOneLineSaysWhatItNeedsAndExit2) {
+  const fs::path d = Dir("ground_methods");
+  ASSERT_EQ(Hexsim("run square --duration 8 --out " + (d / "run").string()).code, 0);
+  for (const char* method : {"adaptive", "adaptive-current", "compassmot", "px4-ls", "traditional"}) {
+    CliRun r = Hexsim("calibrate " + (d / "run" / "log.csv").string() + " --method " + method + " --out " +
+                      (d / "c.yaml").string());
+    EXPECT_EQ(r.code, 2) << method << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_NE(r.err.find("needs turntable samples"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("use --method flight"), std::string::npos) << r.err;
+    r = Hexsim("calibrate " + WriteDump(d, "full", 300).string() + " --method " + method + " --out " +
+               (d / "c.yaml").string());
+    EXPECT_EQ(r.code, 2) << method << ": " << r.err;
+    EXPECT_NE(r.err.find("plain field samples"), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(d / "c.yaml"));
+}
+
+// A fit its gate rejects (5 uT of noise against a 2 uT residual bound) writes calib.yaml and its
+// report (exit 1) but no .parm/.params that an autopilot could load, and removes those an earlier
+// run left at that path.
+TEST(CalibrateCli, GivenANoisyDump_WhenTheGateRejectsTheFit_ThenNoAutopilotParameterFileIsLeft) {
+  const fs::path d = Dir("rejected");
+  {
+    std::ofstream f(d / "noisy.txt");
+    for (int i = 0; i < 300; ++i) {
+      const double z = 1.0 - (2.0 * i + 1.0) / 300, rho = std::sqrt(1.0 - z * z), phi = 2.39996322972865332 * i;
+      const double noise = 8.0 * std::sin(7.3 * i);  // deterministic, ~5.7 uT RMS per axis
+      f << 50 * rho * std::cos(phi) + noise << " " << 50 * rho * std::sin(phi) - noise << " " << 50 * z + 0.5 * noise << "\n";
+    }
+  }
+  std::ofstream(d / "c.parm") << "COMPASS_OFS_X 1\n";
+  std::ofstream(d / "c.params") << "1\t1\tCAL_MAG0_XOFF\t0.1\t9\n";
+  const CliRun r = Hexsim("calibrate " + (d / "noisy.txt").string() + " --method ellipsoid --units uT --out " +
+                          (d / "c.yaml").string());
+  ASSERT_EQ(r.code, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("REJECTED"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(d / "c.yaml"));
+  EXPECT_TRUE(fs::exists(d / "c.report.json"));
+  EXPECT_FALSE(fs::exists(d / "c.parm"));
+  EXPECT_FALSE(fs::exists(d / "c.params"));
+}
+
+TEST(CalibrateCli, GivenAFieldNormOutsideTheEarthsField_WhenCalibrating_ThenExit2NamingTheFlag) {
+  const fs::path d = Dir("field_norm");
+  for (const char* norm : {"-5", "0.5", "500"}) {
+    const CliRun r = Hexsim("calibrate " + WriteDump(d, "full", 300).string() + " --field-norm " + norm + " --out " +
+                            (d / "c.yaml").string());
+    EXPECT_EQ(r.code, 2) << norm;
+    EXPECT_NE(r.err.find("--field-norm: "), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(d / "c.yaml"));
 }
 
 }  // namespace

@@ -36,9 +36,20 @@ bool ParseDouble(const std::string& s, double* out) {
   return true;
 }
 
+// Run parameters become canonical JSON, which must be valid UTF-8 (nlohmann::json throws on dump).
+Status CheckUtf8(const std::string& file, const YAML::Node& at, const std::string& field, const json& v) {
+  try {
+    (void)v.dump();
+  } catch (const json::type_error&) {
+    return BadAt(file, at, field, "not valid UTF-8 text");
+  }
+  return Status::Ok();
+}
+
 const std::set<std::string> kSetRoots = {"mission", "vehicle", "world", "control", "nav", "sim"};
 
 Status CheckSetKey(const std::string& file, const YAML::Node& at, const std::string& field, const std::string& key) {
+  HEXSIM_RETURN_IF_ERROR(CheckUtf8(file, at, field, json(key)));
   const std::string root = key.substr(0, key.find('.'));
   if (key.find('.') == std::string::npos || key.back() == '.' || !kSetRoots.count(root)) {
     return BadAt(file, at, field,
@@ -63,6 +74,10 @@ Status ReadNames(const std::string& file, const YAML::Node& root, const std::str
     }
   } else {
     return BadAt(file, n, field, "expected a name or a list of names");
+  }
+  for (size_t i = 0; i < out->size(); ++i) {
+    const YAML::Node at = n.IsSequence() ? n[i] : n;
+    HEXSIM_RETURN_IF_ERROR(CheckUtf8(file, at, n.IsSequence() ? fmt::format("{}[{}]", field, i) : field, json((*out)[i])));
   }
   if (kind.empty()) return Status::Ok();
   for (size_t i = 0; i < out->size(); ++i) {
@@ -114,6 +129,11 @@ Status ReadSeeds(const std::string& file, const YAML::Node& root, std::vector<ui
     if (n["first"].IsDefined()) HEXSIM_RETURN_IF_ERROR(as_seed(n["first"], "seeds.first", &first));
     HEXSIM_RETURN_IF_ERROR(as_seed(n["count"], "seeds.count", &count));
     if (count == 0) return BadAt(file, n["count"], "seeds.count", "must be at least 1 (nothing to sweep)");
+    if (count > kMaxBatchRuns) {
+      return BadAt(file, n["count"], "seeds.count",
+                   fmt::format("{} seeds: a batch holds at most {} runs (split it into several batch files)", count,
+                               kMaxBatchRuns));
+    }
     for (uint64_t i = 0; i < count; ++i) out->push_back(first + i);
     return Status::Ok();
   }
@@ -167,7 +187,10 @@ Status ReadRandom(const std::string& file, const YAML::Node& n, BatchSpec* spec)
     if (kind == "choice") {
       p.kind = RandomParam::Kind::kChoice;
       if (!args.IsSequence() || args.size() == 0) return BadAt(file, args, field + ".choice", "expected a non-empty list");
-      for (const auto& c : args) p.choices.push_back(CanonicalValue(YamlToJson(c)));
+      for (const auto& c : args) {
+        p.choices.push_back(CanonicalValue(YamlToJson(c)));
+        HEXSIM_RETURN_IF_ERROR(CheckUtf8(file, c, field + ".choice", p.choices.back()));
+      }
     } else if (kind == "uniform" || kind == "normal") {
       if (!args.IsSequence() || args.size() != 2) {
         return BadAt(file, args, field_kind, kind == "uniform" ? "expected [lo, hi]" : "expected [mean, std]");
@@ -273,7 +296,23 @@ Result<BatchSpec> LoadBatchFile(const std::string& path) {
   return ParseBatch(*node, *resolved);
 }
 
+namespace {
+Result<BatchSpec> ParseBatchOrThrow(const YAML::Node& root, const std::string& file);
+}  // namespace
+
 Result<BatchSpec> ParseBatch(const YAML::Node& root, const std::string& file) {
+  // yaml-cpp throws where a node is not what a conversion expects (a key that is itself a list or a
+  // map, `[a]: 1`): bad input at that node's line, not an escaping exception.
+  try {
+    return ParseBatchOrThrow(root, file);
+  } catch (const YAML::Exception& e) {
+    if (e.mark.line >= 0) return Status::BadInput(fmt::format("{}:{}: {}", file, e.mark.line + 1, e.msg));
+    return Status::BadInput(fmt::format("{}: {}", file, e.msg));
+  }
+}
+
+namespace {
+Result<BatchSpec> ParseBatchOrThrow(const YAML::Node& root, const std::string& file) {
   if (!root.IsMap()) return Status::BadInput(file + ": expected a map (missions, vehicles, ..., grid, random)");
   static const std::set<std::string> kKeys = {"name",   "missions", "vehicles", "worlds",     "calibrations", "estimators",
                                               "seeds",  "duration_s", "set",    "grid",       "random"};
@@ -315,6 +354,7 @@ Result<BatchSpec> ParseBatch(const YAML::Node& root, const std::string& file) {
       const std::string k = kv.first.as<std::string>();
       HEXSIM_RETURN_IF_ERROR(CheckSetKey(file, kv.first, "set." + k, k));
       spec.sets[k] = CanonicalValue(YamlToJson(kv.second));
+      HEXSIM_RETURN_IF_ERROR(CheckUtf8(file, kv.second, "set." + k, spec.sets[k]));
     }
   }
   if (const YAML::Node g = root["grid"]; g.IsDefined()) {
@@ -326,7 +366,10 @@ Result<BatchSpec> ParseBatch(const YAML::Node& root, const std::string& file) {
       if (!kv.second.IsSequence()) return BadAt(file, kv.second, field, "expected a list of values");
       if (kv.second.size() == 0) return BadAt(file, kv.second, field, "empty sweep (no values)");
       std::vector<json> values;
-      for (const auto& v : kv.second) values.push_back(CanonicalValue(YamlToJson(v)));
+      for (const auto& v : kv.second) {
+        values.push_back(CanonicalValue(YamlToJson(v)));
+        HEXSIM_RETURN_IF_ERROR(CheckUtf8(file, v, field, values.back()));
+      }
       for (const auto& [prev, unused] : spec.grid) {
         if (prev == k) return BadAt(file, kv.first, field, "listed twice");
       }
@@ -334,7 +377,29 @@ Result<BatchSpec> ParseBatch(const YAML::Node& root, const std::string& file) {
     }
   }
   if (const YAML::Node r = root["random"]; r.IsDefined()) HEXSIM_RETURN_IF_ERROR(ReadRandom(file, r, &spec));
+  const double runs = CountRuns(spec);
+  if (runs > static_cast<double>(kMaxBatchRuns)) {
+    return BadAt(file, root, "batch",
+                 fmt::format("{:.0f} runs (missions x vehicles x worlds x calibrations x estimators x seeds x "
+                             "(grid points + random samples)): at most {} (split it into several batch files)",
+                             runs, kMaxBatchRuns));
+  }
   return spec;
+}
+}  // namespace
+
+double CountRuns(const BatchSpec& spec) {
+  double base = 1.0;
+  for (size_t n : {spec.missions.size(), spec.vehicles.size(), spec.worlds.size(), spec.calibrations.size(),
+                   spec.estimators.size(), spec.seeds.size()}) {
+    base *= static_cast<double>(n);
+  }
+  double grid_points = 0.0;
+  if (!spec.grid.empty() || spec.random_samples == 0) {
+    grid_points = 1.0;
+    for (const auto& axis : spec.grid) grid_points *= static_cast<double>(axis.second.size());
+  }
+  return base * (grid_points + static_cast<double>(spec.random_samples));
 }
 
 std::vector<RunPoint> ExpandBatch(const BatchSpec& spec) {

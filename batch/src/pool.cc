@@ -1,14 +1,17 @@
 #include "hexsim/batch/pool.h"
 
 #include <signal.h>  // NOLINT(modernize-deprecated-headers): POSIX header for kill(); <csignal> does not declare it
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
+#include <csignal>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <set>
 #include <thread>
 
 #include <fmt/format.h>
@@ -97,18 +100,28 @@ Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, co
 }
 
 Status ForkEach(size_t n, int jobs, double timeout_s, const std::function<Status(size_t)>& before_fork,
-                const std::function<int(size_t)>& child, const ReapFn& reaped) {
+                const std::function<int(size_t)>& child, const ReapFn& reaped, const volatile std::sig_atomic_t* stop,
+                const std::function<void(size_t index)>& killed) {
   if (jobs < 1) return Status::BadInput("--jobs: must be at least 1");
   struct Worker {
     size_t index = 0;
     double start_s = 0.0;
     bool timed_out = false;
+    bool killed = false;
   };
   size_t next = 0;
   std::map<pid_t, Worker> running;
   Status error;
-  while ((next < n && error.ok()) || !running.empty()) {
-    while (error.ok() && next < n && static_cast<int>(running.size()) < jobs) {
+  const pid_t parent = getpid();
+  auto stopping = [stop] { return stop != nullptr && *stop > 0; };
+  while ((next < n && error.ok() && !stopping()) || !running.empty()) {
+    if (stop != nullptr && *stop >= 2) {  // the second signal: kill what is running
+      for (auto& [wpid, r] : running) {
+        if (!r.killed) kill(wpid, SIGKILL);
+        r.killed = true;
+      }
+    }
+    while (error.ok() && !stopping() && next < n && static_cast<int>(running.size()) < jobs) {
       const size_t i = next++;
       error = before_fork(i);
       if (!error.ok()) break;
@@ -120,6 +133,13 @@ Status ForkEach(size_t n, int jobs, double timeout_s, const std::function<Status
         break;
       }
       if (pid == 0) {
+        if (stop != nullptr) {
+          // The parent handles interruption; the worker dies with it, never half-way on its own.
+          std::signal(SIGINT, SIG_IGN);
+          std::signal(SIGTERM, SIG_IGN);
+          prctl(PR_SET_PDEATHSIG, SIGKILL);
+          if (getppid() != parent) std::_Exit(kExitNoResult);  // the parent died before prctl
+        }
         int code = kExitNoResult;
         try {
           code = child(i);
@@ -133,12 +153,12 @@ Status ForkEach(size_t n, int jobs, double timeout_s, const std::function<Status
     if (running.empty()) break;
     int wait_status = 0;
     pid_t pid = 0;
-    if (timeout_s > 0) {
+    if (timeout_s > 0 || stop != nullptr) {  // poll: a timeout or a signal must not wait for a worker
       pid = waitpid(-1, &wait_status, WNOHANG);
       if (pid == 0) {
         const double now = NowS();
         for (auto& [wpid, r] : running) {
-          if (!r.timed_out && now - r.start_s > timeout_s) {
+          if (timeout_s > 0 && !r.timed_out && now - r.start_s > timeout_s) {
             r.timed_out = true;
             kill(wpid, SIGKILL);
           }
@@ -158,6 +178,10 @@ Status ForkEach(size_t n, int jobs, double timeout_s, const std::function<Status
     if (it == running.end()) continue;  // not one of ours
     const Worker r = it->second;
     running.erase(it);
+    if (r.killed) {
+      if (killed) killed(r.index);
+      continue;
+    }
     const Status s = reaped(r.index, wait_status, NowS() - r.start_s, r.timed_out);
     if (!s.ok() && error.ok()) error = s;
   }
@@ -169,6 +193,7 @@ Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, co
   if (options.jobs < 1) return Status::BadInput("--jobs: must be at least 1");
   PoolStats stats;
   const double start = NowS();
+  const std::vector<std::string> varied = VariedParameters(runs);
   Progress progress(options.progress_stream, options.progress_tty, runs.size() + options.already_done,
                     options.already_done);
   std::vector<std::string> dirs(runs.size());
@@ -188,11 +213,18 @@ Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, co
     Status s = record(row, summary);
     ++stats.finished;
     if (IsFailure(row.status)) ++stats.failed;
-    progress.RunFinished(row);
+    progress.RunFinished(row, VariedText(runs[i], varied));
     return s;
   };
-  const Status error = ForkEach(runs.size(), options.jobs, options.run_timeout_s, before_fork, child, reaped);
+  auto killed = [&](size_t i) {  // interrupted twice: nothing of the run is kept
+    std::error_code ec;
+    std::filesystem::remove_all(dirs[i], ec);
+  };
+  const Status error =
+      ForkEach(runs.size(), options.jobs, options.run_timeout_s, before_fork, child, reaped, options.stop, killed);
   progress.Finish();
+  stats.interrupted = options.stop != nullptr && *options.stop > 0;
+  stats.not_run = runs.size() - stats.finished;
   stats.wall_s = NowS() - start;
   if (!error.ok()) return error;
   return stats;
@@ -258,7 +290,45 @@ std::string Progress::FormatDuration(double seconds) {
   return fmt::format("{}:{:02d}", s / 60, s % 60);
 }
 
-void Progress::RunFinished(const RunRow& row) {
+namespace {
+// A point's parameters as flat key → value: world, estimator, duration_s, and each --set key.
+std::map<std::string, json> FlatParams(const RunPoint& p) {
+  std::map<std::string, json> out = {{"world", p.world}, {"estimator", p.estimator}, {"duration_s", p.duration_s}};
+  for (const auto& [k, v] : p.sets) out[k] = v;
+  return out;
+}
+}  // namespace
+
+std::vector<std::string> VariedParameters(const std::vector<RunPoint>& runs) {
+  std::vector<std::string> out;
+  if (runs.empty()) return out;
+  std::map<std::string, json> first = FlatParams(runs.front());
+  std::set<std::string> varied;
+  for (const auto& p : runs) {
+    const auto flat = FlatParams(p);
+    for (const auto& [k, v] : flat) {
+      auto it = first.find(k);
+      if (it == first.end() || it->second != v) varied.insert(k);
+    }
+    for (const auto& [k, v] : first) {
+      if (!flat.count(k)) varied.insert(k);
+    }
+  }
+  return {varied.begin(), varied.end()};
+}
+
+std::string VariedText(const RunPoint& point, const std::vector<std::string>& keys) {
+  const auto flat = FlatParams(point);
+  std::string out;
+  for (const auto& k : keys) {
+    const auto it = flat.find(k);
+    if (it == flat.end()) continue;
+    out += " " + k + "=" + (it->second.is_string() ? it->second.get<std::string>() : it->second.dump());
+  }
+  return out;
+}
+
+void Progress::RunFinished(const RunRow& row, const std::string& varied) {
   ++done_;
   ++done_here_;
   if (IsFailure(row.status)) ++failed_;
@@ -274,10 +344,10 @@ void Progress::RunFinished(const RunRow& row) {
     std::fprintf(out_, "\r[%s] %zu/%zu runs  %.2f runs/s  %s left%s\x1b[K", bar.c_str(), done_, total_, rate,
                  FormatDuration(left).c_str(), failed_ ? fmt::format("  ({} failed)", failed_).c_str() : "");
   } else {
-    std::fprintf(out_, "hexsim batch: [%zu/%zu] %s %s %s %s seed %llu: %s%s%s (%.2f s)\n", done_, total_,
+    std::fprintf(out_, "hexsim batch: [%zu/%zu] %s %s %s %s seed %llu%s: %s%s%s (%.2f s)\n", done_, total_,
                  row.run_id.c_str(), row.mission.c_str(), row.vehicle.c_str(), row.calibration.c_str(),
-                 static_cast<unsigned long long>(row.seed), row.status.c_str(), row.reason.empty() ? "" : ": ",
-                 row.reason.c_str(), row.wall_s);
+                 static_cast<unsigned long long>(row.seed), varied.c_str(), row.status.c_str(),
+                 row.reason.empty() ? "" : ": ", row.reason.c_str(), row.wall_s);
   }
   std::fflush(out_);
 }

@@ -55,7 +55,11 @@ std::vector<GroupReport> AggregateRuns(const std::vector<RunRow>& rows) {
     GroupReport& g = groups.back();
     ++g.runs;
     ++g.status_counts[k.row->status];
-    if (IsFailure(k.row->status)) continue;
+    if (k.row->status != "completed") {
+      g.unfinished.push_back({k.row->run_id, k.row->seed, k.row->status, k.row->reason});
+      continue;
+    }
+    ++g.finished;
     for (const auto& [name, v] : k.row->metrics) {
       if (v) values.back()[name].push_back(*v);
     }
@@ -86,8 +90,17 @@ json ReportJson(const std::vector<GroupReport>& groups) {
                        {"ci95", s.ci95_lo ? json::array({*s.ci95_lo, *s.ci95_hi}) : json(nullptr)},
                        {"ci95_clipped", s.ci95_clipped}};
     }
-    out["groups"].push_back(
-        {{"label", g.label}, {"params", g.params}, {"runs", g.runs}, {"status", g.status_counts}, {"metrics", metrics}});
+    json unfinished = json::array();
+    for (const auto& u : g.unfinished) {
+      unfinished.push_back({{"run_id", u.run_id}, {"seed", u.seed}, {"status", u.status}, {"reason", u.reason}});
+    }
+    out["groups"].push_back({{"label", g.label},
+                             {"params", g.params},
+                             {"runs", g.runs},
+                             {"finished", g.finished},
+                             {"status", g.status_counts},
+                             {"metrics", metrics},
+                             {"unfinished", unfinished}});
   }
   out["runs"] = total;
   return out;

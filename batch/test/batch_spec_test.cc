@@ -175,6 +175,13 @@ TEST(ParseBatch, GivenEmptySweepsOrUnknownKeysWhenParsedThenEachIsBadInputNaming
       {"missions: [square]\ngrid:\n  kp: [1]\n", "not a parameter key"},
       {"missions: [square]\nestimators: [ekf]\n", "no such estimator"},
       {"vehicles: [default_hex]\n", "missions: required"},
+      // A key that is a list: yaml-cpp's conversion threw out of ParseBatch.
+      {"missions: [square]\nset: {[a, b]: 1}\n", "test.yaml:2:"},
+      {"missions: [square]\n[x]: 1\n", "test.yaml:2:"},
+      // Bytes that are not UTF-8 (found by fuzz_batch_yaml): the canonical JSON's dump threw.
+      {"missions: [square]\nset: {world.wind\xff: 1}\n", "test.yaml:2: set.world.wind"},
+      {"missions: [square]\ncalibrations: [\"none\xc3\"]\n", "calibrations[0]: not valid UTF-8"},
+      {"missions: [square]\ngrid: {sim.a: [\"\xff\"]}\n", "grid.sim.a: not valid UTF-8"},
   };
   for (const auto& [yaml, expected] : cases) {
     auto spec = Parse(yaml);
@@ -182,6 +189,32 @@ TEST(ParseBatch, GivenEmptySweepsOrUnknownKeysWhenParsedThenEachIsBadInputNaming
     EXPECT_EQ(spec.status().code(), StatusCode::kBadInput);
     EXPECT_NE(spec.status().message().find(expected), std::string::npos) << spec.status().message();
   }
+}
+
+TEST(ParseBatch, GivenMoreRunsThanABatchHoldsWhenParsedThenBadInputBeforeAnythingIsExpanded) {
+  // 10^8 seeds alone (this threw std::bad_alloc while the list was filled), and a product of
+  // modest axes beyond the limit: each a one-line error naming the field.
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"missions: [square]\nseeds: {first: 1, count: 100000000}\n", "test.yaml:2: seeds.count: 100000000 seeds"},
+      {"missions: [square]\nseeds: {first: 1, count: 10000}\ngrid:\n  sim.a: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]\n"
+       "  sim.b: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]\n  sim.c: [1, 2]\n",
+       "test.yaml:1: batch: 2000000 runs"},
+      {"missions: [square]\nseeds: {first: 1, count: 100}\n"
+       "random: {samples: 20000, params: {sim.x: {uniform: [0, 1]}}}\n",
+       "batch: 2000000 runs"},
+  };
+  for (const auto& [yaml, expected] : cases) {
+    auto spec = Parse(yaml);
+    ASSERT_FALSE(spec.ok()) << yaml;
+    EXPECT_EQ(spec.status().code(), StatusCode::kBadInput);
+    EXPECT_NE(spec.status().message().find(expected), std::string::npos) << spec.status().message();
+  }
+  // At the limit it parses, and CountRuns is what ExpandBatch makes.
+  auto ok = Parse("missions: [square, figure_eight]\nseeds: {first: 1, count: 3}\ngrid:\n  sim.a: [1, 2]\n"
+                  "random: {samples: 4, params: {sim.x: {uniform: [0, 1]}}}\n");
+  ASSERT_TRUE(ok.ok()) << ok.status().message();
+  EXPECT_EQ(CountRuns(*ok), static_cast<double>(ExpandBatch(*ok).size()));
+  EXPECT_EQ(ExpandBatch(*ok).size(), 2u * 3u * (2u + 4u));
 }
 
 TEST(LoadBatchFile, GivenTheShippedExampleWhenLoadedThenItValidatesAndExpands) {

@@ -1,6 +1,12 @@
 #include "hexsim/batch/pool.h"
 
+#include <signal.h>  // NOLINT(modernize-deprecated-headers): sigaction, kill are POSIX
+#include <unistd.h>
+
 #include <chrono>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
 #include <cstdlib>
 #include <thread>
 
@@ -133,6 +139,97 @@ TEST(RunPool, GivenARunThatHangsWhenATimeoutIsSetThenItIsKilledAndRecordedAsTime
   for (const auto& r : *rows) EXPECT_EQ(r.status, r.seed == 1 ? "timeout" : "completed");
 }
 
+// Interruption (CONTRACTS: exit 130). The handler counts signals as apps/cmd_batch.cc's does; a worker
+// plays the user's Ctrl-C by signalling its parent (and itself: a terminal signals the whole group).
+volatile std::sig_atomic_t g_test_interrupts = 0;
+extern "C" void CountInterrupt(int /*sig*/) { g_test_interrupts = g_test_interrupts + 1; }
+
+struct CountingHandler {
+  CountingHandler() {
+    g_test_interrupts = 0;
+    struct sigaction sa {};
+    sa.sa_handler = CountInterrupt;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, &old);
+  }
+  ~CountingHandler() { sigaction(SIGINT, &old, nullptr); }
+  struct sigaction old {};
+};
+
+Result<json> Completed() {
+  sim::RunSummary done;
+  done.status = sim::RunStatus::kCompleted;
+  return sim::ToJson(done);
+}
+
+TEST(RunPool, GivenOneInterruptWhenRunsAreGoingThenNoMoreStartAndTheRunningOnesFinishAndAreRecorded) {
+  const CountingHandler handler;
+  const std::string dir = testing::TempDir("pool_interrupt_once");
+  auto db = ResultsDb::Open(dir + "/results.sqlite", true);
+  ASSERT_TRUE(db.ok());
+  PoolOptions opt;
+  opt.jobs = 2;
+  opt.out_dir = dir;
+  opt.progress_stream = nullptr;
+  opt.stop = &g_test_interrupts;
+  auto run = [](const RunPoint& p) -> Result<json> {
+    if (p.seed == 1) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));  // both workers have started
+      kill(getppid(), SIGINT);
+      kill(getpid(), SIGINT);  // the worker ignores it and finishes
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    return Completed();
+  };
+  const std::vector<RunPoint> points = Points(6);
+  auto stats = RunPool(points, run, opt, &*db);
+  ASSERT_TRUE(stats.ok()) << stats.status().message();
+  EXPECT_TRUE(stats->interrupted);
+  EXPECT_EQ(stats->finished, 2u);
+  EXPECT_EQ(stats->not_run, 4u);
+  auto rows = db->ReadAll();
+  ASSERT_TRUE(rows.ok());
+  ASSERT_EQ(rows->size(), 2u);
+  for (const auto& r : *rows) EXPECT_EQ(r.status, "completed") << r.seed << ": " << r.reason;
+  for (size_t i = 2; i < points.size(); ++i) {
+    EXPECT_FALSE(std::filesystem::exists(dir + "/runs/" + points[i].RunId())) << "a run folder for an unstarted run";
+  }
+}
+
+TEST(RunPool, GivenASecondInterruptWhenRunsAreGoingThenTheyAreKilledNotRecordedAndTheirFoldersRemoved) {
+  const CountingHandler handler;
+  const std::string dir = testing::TempDir("pool_interrupt_twice");
+  auto db = ResultsDb::Open(dir + "/results.sqlite", true);
+  ASSERT_TRUE(db.ok());
+  PoolOptions opt;
+  opt.jobs = 2;
+  opt.out_dir = dir;
+  opt.progress_stream = nullptr;
+  opt.stop = &g_test_interrupts;
+  auto run = [](const RunPoint& p) -> Result<json> {
+    if (p.seed == 1) {
+      kill(getppid(), SIGINT);
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      kill(getppid(), SIGINT);
+    }
+    std::this_thread::sleep_for(std::chrono::seconds(30));
+    return Completed();
+  };
+  const std::vector<RunPoint> points = Points(4);
+  const auto t0 = std::chrono::steady_clock::now();
+  auto stats = RunPool(points, run, opt, &*db);
+  const double took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_TRUE(stats.ok()) << stats.status().message();
+  EXPECT_LT(took_s, 10.0);
+  EXPECT_TRUE(stats->interrupted);
+  EXPECT_EQ(stats->finished, 0u);
+  EXPECT_EQ(stats->not_run, 4u);
+  auto rows = db->ReadAll();
+  ASSERT_TRUE(rows.ok());
+  EXPECT_TRUE(rows->empty());
+  for (const auto& p : points) EXPECT_FALSE(std::filesystem::exists(dir + "/runs/" + p.RunId()));
+}
+
 // Task i sleeps longer the smaller i is, so with two workers the tasks end out of order.
 Result<json> SlowFirst(size_t i) {
   std::this_thread::sleep_for(std::chrono::milliseconds(static_cast<int>(40 - 8 * i)));
@@ -210,6 +307,31 @@ TEST(ResultsDb, GivenOverlappingShardFilesWhenMergedThenEveryRunIsPresentExactly
   EXPECT_EQ(b, 3);  // point 0 was in both
   EXPECT_EQ(*merged->Count(), 6);
   EXPECT_FALSE(merged->MergeFrom(dir + "/missing.sqlite", &a).ok());
+}
+
+// In a grid "adaptive seed 1" appeared once per grid point with nothing to tell them apart: each
+// line now carries the parameters that vary across the batch (and only those).
+TEST(Progress, GivenAGridWhenARunFinishesThenItsLineShowsTheVariedParameters) {
+  std::vector<RunPoint> runs = Points(2);
+  for (auto& p : runs) p.sets["world.wind.mean_N_mps"] = json::array({0, 5, 0});
+  runs.push_back(runs[0]);
+  runs.back().sets["control.rate.roll.kp"] = 0.2;
+  runs[0].sets["control.rate.roll.kp"] = 0.1;
+  runs[1].sets["control.rate.roll.kp"] = 0.1;
+  const std::vector<std::string> varied = VariedParameters(runs);
+  EXPECT_EQ(varied, std::vector<std::string>{"control.rate.roll.kp"});
+  EXPECT_EQ(VariedText(runs[2], varied), " control.rate.roll.kp=0.2");
+
+  const std::string path = testing::TempDir("progress_grid") + "/progress.txt";
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  ASSERT_NE(f, nullptr);
+  Progress progress(f, /*tty=*/false, runs.size(), 0);
+  progress.RunFinished(FailedRow(runs[2], "completed", "", 0.5), VariedText(runs[2], varied));
+  std::fclose(f);
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_NE(line.find("none seed 1 control.rate.roll.kp=0.2: completed"), std::string::npos) << line;
 }
 
 TEST(Progress, GivenSecondsWhenFormattedThenMinutesAndHoursShow) {

@@ -125,7 +125,7 @@ void MissionSequencer::BeginItem(size_t index, const NavState& state, SequencerO
       break;
     case MissionItemType::kLand:
       mode_ = FlightMode::kLand;
-      BeginSegment(Vector3d(target_.x(), target_.y(), params_.ground_D_m + params_.land_below_ground_m),
+      BeginSegment(Vector3d(target_.x(), target_.y(), params_.ground_D_m + params_.land_lookahead_m),
                    params_.descent_speed_mps);
       timer_s_ = 0.0;
       break;
@@ -256,6 +256,13 @@ SequencerOutput MissionSequencer::Step(const NavState& state, double dt_s, bool 
       const double height_m = params_.ground_D_m - state.p_N_m.z();
       const double speed =
           height_m > params_.final_descent_height_m ? params_.descent_speed_mps : params_.final_descent_speed_mps;
+      // The descent has no end short of touchdown (ArduPilot descends at LAND_SPEED until its land
+      // detector trips): the segment's end moves down to stay land_lookahead_m below the carrot, so
+      // an altitude estimate that is off by metres (a baro offset, GPS height) still reaches the
+      // ground instead of hovering at a target it believes is below it.
+      const Vector3d d = seg_end_ - seg_start_;
+      const Vector3d carrot_N_m = d.norm() > 1e-9 ? Vector3d(seg_start_ + carrot_s_m_ * d.normalized()) : seg_start_;
+      seg_end_.z() = std::max(seg_end_.z(), carrot_N_m.z() + params_.land_lookahead_m);
       const bool at_end = AdvanceCarrot(state, speed, dt_s, &sp);
       // Touchdown: (nearly) still, and either near the ground or unable to follow the carrot down;
       // or the collective far below the weight while the vertical speed is small.

@@ -81,6 +81,7 @@ Result<BatchOutcome> RunBatch(const std::string& batch_file, const std::vector<b
   opt.run_timeout_s = options.run_timeout_s;
   opt.progress_tty = options.progress_tty;
   opt.already_done = points.size() - todo.size();
+  opt.stop = options.stop;
   on_plan(BatchPlan{outcome.db_path, opt.already_done, todo.size()});
   const bool keep = options.keep_logs;
   const std::string runs_dir = options.out + "/runs/";
@@ -90,6 +91,8 @@ Result<BatchOutcome> RunBatch(const std::string& batch_file, const std::vector<b
   if (!stats.ok()) return stats.status();
   outcome.finished = stats->finished;
   outcome.wall_s = stats->wall_s;
+  outcome.interrupted = stats->interrupted;
+  outcome.not_run = stats->not_run;
   // Failed runs of this shard count, including those recorded by an earlier attempt.
   auto rows = db->ReadAll();
   if (!rows.ok()) return rows.status();

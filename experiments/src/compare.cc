@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <map>
+#include <set>
 
 #include <fmt/format.h>
 
@@ -22,7 +23,9 @@ constexpr int kMaxSeeds = 1000;
 Status CompareOptions::IsValid() const {
   if (seeds < 1 || seeds > kMaxSeeds) return Status::BadInput(fmt::format("--seeds: must be in 1..1000 (got {})", seeds));
   if (calibrations.empty()) return Status::BadInput("--calibrations: at least one");
+  std::set<std::string> seen;
   for (const auto& c : calibrations) {
+    if (!seen.insert(c).second) return Status::BadInput("--calibrations: '" + c + "' listed twice");
     if (!IsCalibrationMethod(c) && c.find(".yaml") == std::string::npos) {
       return Status::BadInput("--calibrations: unknown calibration '" + c + "'");
     }
@@ -56,10 +59,18 @@ Result<CompareResult> RunComparison(const CompareOptions& o, const std::string& 
   auto ground = RunGroundSession(base->vehicle, base->world, o.request.seed);
   if (!ground.ok()) return ground.status();
   std::vector<GroundCalibration> cals;
+  // Each run is filed, grouped and shown under its calibration's name (a calib.yaml's stem).
+  std::map<std::string, std::string> name_of;
   for (const auto& c : o.calibrations) {
     auto cal = MakeCalibration(c, *ground);
     if (!cal.ok()) return cal.status();
     cal->requested = c;
+    for (const auto& [other, name] : name_of) {
+      if (name == cal->name && other != c) {
+        return Status::BadInput(fmt::format("--calibrations: '{}' and '{}' are both named '{}'", other, c, name));
+      }
+    }
+    name_of[c] = cal->name;
     cals.push_back(std::move(*cal));
   }
 
@@ -79,7 +90,9 @@ Result<CompareResult> RunComparison(const CompareOptions& o, const std::string& 
   pool.jobs = o.jobs;
   pool.out_dir = out_dir;
   pool.progress_stream = nullptr;  // one line per run below instead
-  pool.run_dir = [&out_dir](const batch::RunPoint& p) { return out_dir + "/" + RunDir(p.calibration, p.seed); };
+  pool.run_dir = [&out_dir, &name_of](const batch::RunPoint& p) {
+    return out_dir + "/" + RunDir(name_of.at(p.calibration), p.seed);
+  };
   const batch::RunFn fly = [&o, &pool](const batch::RunPoint& p) -> Result<json> {
     sim::RunRequest req = o.request;
     req.seed = p.seed;
@@ -90,7 +103,9 @@ Result<CompareResult> RunComparison(const CompareOptions& o, const std::string& 
     HEXSIM_RETURN_IF_ERROR(WriteRunLog(*run, pool.run_dir(p)));
     return sim::ToJson(run->summary);
   };
-  std::map<std::pair<std::string, uint64_t>, sim::RunSummary> summaries;
+  // Keyed by run id: a row's calibration is the summary's name for it (a calib.yaml path becomes
+  // its stem), not necessarily the point's.
+  std::map<std::string, sim::RunSummary> summaries;
   std::vector<std::string> failures;
   const batch::RecordFn record = [&](const batch::RunRow& row, const json& summary) {
     if (batch::IsFailure(row.status) && row.status != "diverged") {
@@ -105,7 +120,7 @@ Result<CompareResult> RunComparison(const CompareOptions& o, const std::string& 
     std::fprintf(stderr, "compare: %-17s seed %-4llu %-13s yaw max %6.2f deg  cross-track rms %5.2f m\n",
                  row.calibration.c_str(), static_cast<unsigned long long>(row.seed), sim::RunStatusName(s->status),
                  s->yaw_error_deg.max, s->cross_track_m.rms);
-    summaries[{row.calibration, row.seed}] = std::move(*s);
+    summaries[row.run_id] = std::move(*s);
     return Status::Ok();
   };
   auto stats = batch::RunPool(points, fly, pool, record);
@@ -119,14 +134,17 @@ Result<CompareResult> RunComparison(const CompareOptions& o, const std::string& 
   cmp.world = base->world_name;
   cmp.estimator = base->options.estimator;
   for (const auto& p : points) {
-    cmp.runs.push_back({p.calibration, p.seed, summaries.at({p.calibration, p.seed}), RunDir(p.calibration, p.seed)});
+    const auto it = summaries.find(p.RunId());
+    if (it == summaries.end()) return Status::Numerical(fmt::format("compare: {} seed {}: no result", p.calibration, p.seed));
+    const std::string& name = name_of.at(p.calibration);
+    cmp.runs.push_back({name, p.seed, it->second, RunDir(name, p.seed)});
   }
   for (const auto& c : o.calibrations) {
     std::vector<sim::RunSummary> sums;
     for (const auto& r : cmp.runs) {
-      if (r.calibration == c) sums.push_back(r.summary);
+      if (r.calibration == name_of.at(c)) sums.push_back(r.summary);
     }
-    cmp.groups.push_back({c, sums.size(), GroupMetrics(sums)});
+    cmp.groups.push_back({name_of.at(c), sums.size(), GroupMetrics(sums)});
   }
   // Table 1 on an independent level turn.
   const std::vector<double> control_u = sim::TurntableOptions{}.control_u;
@@ -143,9 +161,9 @@ Result<CompareResult> RunComparison(const CompareOptions& o, const std::string& 
   ev.ground_fits = std::move(*fits);
   ev.heading = std::move(table1->curves);
   for (const auto& c : o.calibrations) {
-    auto log = logs::ReadFlightLog(out_dir + "/" + RunDir(c, o.request.seed) + "/log.csv");
+    auto log = logs::ReadFlightLog(out_dir + "/" + RunDir(name_of.at(c), o.request.seed) + "/log.csv");
     if (!log.ok()) return log.status();
-    ev.first_flights.push_back({c, o.request.seed, std::move(*log)});
+    ev.first_flights.push_back({name_of.at(c), o.request.seed, std::move(*log)});
   }
   if (!ev.first_flights.empty()) ev.planned_path_N_m = PlannedPath(*base, ev.first_flights.front().log);
   return out;

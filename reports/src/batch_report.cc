@@ -72,7 +72,11 @@ std::string ReportTable(const std::vector<batch::GroupReport>& groups) {
   for (const auto& g : groups) {
     std::string status;
     for (const auto& [s, n] : g.status_counts) status += fmt::format("{}{} {}", status.empty() ? "" : ", ", n, s);
-    out += fmt::format("{}  ({} runs: {})\n", g.label, g.runs, status);
+    out += fmt::format("{}  ({} runs: {}; figures over the {} that finished)\n", g.label, g.runs, status, g.finished);
+    for (const auto& u : g.unfinished) {
+      out += fmt::format("  not averaged: seed {} ({}): {}{}{}\n", u.seed, u.run_id, u.status, u.reason.empty() ? "" : ": ",
+                         u.reason);
+    }
     out += fmt::format("  {:<20} {:>4} {:>12} {:>12} {:>27}\n", "metric", "n", "mean", "std", "95% CI of mean (*: 0 clip)");
     for (const auto& m : batch::MetricColumns()) {
       const batch::MetricStats& s = g.metrics.at(m.column);

@@ -29,6 +29,21 @@ std::string Cell(const SampleStats& s) {
   return fmt::format("<td>{:.4g}{}</td>", s.mean, ci);
 }
 
+// The runs left out of the figures (hit the time cap, diverged, failed), each with why.
+std::string UnfinishedList(const std::vector<batch::GroupReport>& groups) {
+  std::string items;
+  for (size_t g = 0; g < groups.size(); ++g) {
+    for (const auto& u : groups[g].unfinished) {
+      items += fmt::format("<li>group {}, seed {} (<code>{}</code>): {}{}</li>\n", g + 1, u.seed,
+                           render::HtmlEscape(u.run_id), render::HtmlEscape(u.status),
+                           render::HtmlEscape(u.reason.empty() ? "" : ": " + u.reason));
+    }
+  }
+  if (items.empty()) return "";
+  return "<h2>Runs not averaged</h2>\n<p>These runs did not finish; the figures above leave them out.</p>\n<ul>\n" +
+         items + "</ul>\n";
+}
+
 }  // namespace
 
 Status WriteBatchReportHtml(const std::vector<batch::GroupReport>& groups, const std::string& figure,
@@ -43,8 +58,9 @@ Status WriteBatchReportHtml(const std::vector<batch::GroupReport>& groups, const
   for (const auto& m : batch::MetricColumns()) h += "<th>" + render::HtmlEscape(m.column) + "</th>";
   h += "</tr>\n";
   for (size_t g = 0; g < groups.size(); ++g) {
-    h += fmt::format("<tr><td>{}</td><td class=\"name\">{}</td><td>{}</td>", g + 1, render::HtmlEscape(groups[g].label),
-                     groups[g].runs);
+    h += fmt::format("<tr><td>{}</td><td class=\"name\">{}</td><td>{}{}</td>", g + 1, render::HtmlEscape(groups[g].label),
+                     groups[g].runs,
+                     groups[g].finished == groups[g].runs ? "" : fmt::format(" ({} finished)", groups[g].finished));
     for (const auto& m : batch::MetricColumns()) {
       const auto it = groups[g].metrics.find(m.column);
       h += it == groups[g].metrics.end() ? std::string("<td>–</td>") : Cell(it->second);
@@ -52,6 +68,7 @@ Status WriteBatchReportHtml(const std::vector<batch::GroupReport>& groups, const
     h += "</tr>\n";
   }
   h += "</table></div>\n";
+  h += UnfinishedList(groups);
   if (!figure.empty()) {
     h += fmt::format("<h2>Figure</h2>\n<figure><img src=\"{}\" alt=\"mean and 95 % interval per group\"></figure>\n",
                      render::HtmlEscape(figure));

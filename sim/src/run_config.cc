@@ -42,6 +42,24 @@ Status ApplySets(YAML::Node node, const std::vector<std::string>& sets, const st
   return Status::Ok();
 }
 
+// A file's parse error about a value a --set replaced names the --set argument, not the file's line
+// (the replaced node has no line of its own: "default_hex.yaml:1: mass_kg" for --set vehicle.mass_kg=abc).
+// `prefix` is the sets' root ("vehicle"); the error's field is the key below it, or the whole key
+// where the section's reader names it so (`within` false: "control.rate.roll.kp").
+Status BlameSets(Status s, const std::vector<std::string>& sets, const std::string& prefix, bool within = true) {
+  if (s.ok()) return s;
+  const std::string& msg = s.message();
+  for (const auto& full : sets) {
+    if (full.rfind(prefix + ".", 0) != 0) continue;
+    const std::string assignment = within ? full.substr(prefix.size() + 1) : full;
+    const std::string key = assignment.substr(0, assignment.find('='));
+    const size_t at = msg.find(": " + key + ": ");
+    if (at == std::string::npos) continue;
+    return Status::BadInput(fmt::format("--set {}: {}", full, msg.substr(at + 2)));
+  }
+  return s;
+}
+
 // A section taken out of a document (so the vehicle parser does not see it), or an empty map.
 YAML::Node TakeSection(YAML::Node doc, const std::string& key) {
   YAML::Node section(YAML::NodeType::Map);
@@ -73,7 +91,7 @@ Result<RunSetup> LoadRunSetup(const RunRequest& req) {
   if (!world_doc.ok()) return world_doc.status();
   HEXSIM_RETURN_IF_ERROR(ApplySets(world_doc->node, SetsFor(req.sets, "world"), world_doc->path, false));
   auto world = ParseWorld(world_doc->node, world_doc->path);
-  if (!world.ok()) return world.status();
+  if (!world.ok()) return BlameSets(world.status(), req.sets, "world");
   setup.world = *world;
   if (req.allow_field_extrapolation) setup.world.allow_field_extrapolation = true;
   setup.world_name = FileStem(world_doc->path);
@@ -86,21 +104,21 @@ Result<RunSetup> LoadRunSetup(const RunRequest& req) {
   YAML::Node nav_node = TakeSection(vnode, "nav");
   HEXSIM_RETURN_IF_ERROR(ApplySets(vnode, SetsFor(req.sets, "vehicle"), vehicle_doc->path, false));
   auto vehicle = vehicle::ParseVehicle(vnode, vehicle_doc->path);
-  if (!vehicle.ok()) return vehicle.status();
+  if (!vehicle.ok()) return BlameSets(vehicle.status(), req.sets, "vehicle");
   setup.vehicle = *vehicle;
   setup.vehicle_name = FileStem(vehicle_doc->path);
 
   HEXSIM_RETURN_IF_ERROR(ApplySets(control_node, SetsFor(req.sets, "control"), "--set control", true));
   {
     YamlReader r(control_node, vehicle_doc->path, "control");
-    HEXSIM_RETURN_IF_ERROR(control::ParseControllerParams(r, &setup.control));
-    HEXSIM_RETURN_IF_ERROR(r.Finish());
+    HEXSIM_RETURN_IF_ERROR(BlameSets(control::ParseControllerParams(r, &setup.control), req.sets, "control", false));
+    HEXSIM_RETURN_IF_ERROR(BlameSets(r.Finish(), req.sets, "control", false));
   }
   HEXSIM_RETURN_IF_ERROR(ApplySets(nav_node, SetsFor(req.sets, "nav"), "--set nav", true));
   {
     YamlReader r(nav_node, vehicle_doc->path, "nav");
-    HEXSIM_RETURN_IF_ERROR(nav::ParseNavParams(r, &setup.nav));
-    HEXSIM_RETURN_IF_ERROR(r.Finish());
+    HEXSIM_RETURN_IF_ERROR(BlameSets(nav::ParseNavParams(r, &setup.nav), req.sets, "nav", false));
+    HEXSIM_RETURN_IF_ERROR(BlameSets(r.Finish(), req.sets, "nav", false));
   }
 
   // Mission.
@@ -108,7 +126,7 @@ Result<RunSetup> LoadRunSetup(const RunRequest& req) {
   if (!mission_doc.ok()) return mission_doc.status();
   HEXSIM_RETURN_IF_ERROR(ApplySets(mission_doc->node, SetsFor(req.sets, "mission"), mission_doc->path, false));
   auto mission = control::ParseMission(mission_doc->node, mission_doc->path);
-  if (!mission.ok()) return mission.status();
+  if (!mission.ok()) return BlameSets(mission.status(), req.sets, "mission");
   auto resolved = control::ResolveMission(
       *mission, control::GeoPoint{setup.world.home_lat_deg, setup.world.home_lon_deg, setup.world.home_alt_m});
   if (!resolved.ok()) return resolved.status();

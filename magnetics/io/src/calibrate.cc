@@ -1,6 +1,7 @@
 #include "hexsim/magnetics/calibrate.h"
 
 #include <algorithm>
+#include <cmath>
 #include <set>
 
 #include <Eigen/LU>
@@ -92,6 +93,30 @@ Result<CalibrateOutcome> TurntablePath(CalibrateOutcome out, const std::vector<M
   return out;
 }
 
+// The methods learnt on the ground (traditional, adaptive, adaptive-current, compassmot, px4-ls) fit
+// the field at fixed control amounts: they need turntable samples (a plane label per sample, as
+// `hexsim turntable` writes) or a compassmot sweep (the vehicle held still while the throttle and the
+// current vary: two or more control amounts, no attitude track). A flight log is neither.
+Status CheckGroundSamples(const std::vector<MagSample>& s, const std::string& method, const CalibrateRequest& rq) {
+  std::set<double> controls;
+  for (const auto& x : s) {
+    if (!x.plane.empty()) return Status::Ok();
+    if (std::isfinite(x.control_u)) controls.insert(x.control_u);
+  }
+  if (!rq.flight.has_attitude && controls.size() >= 2) return Status::Ok();
+  return Status::BadInput(fmt::format(
+      "--method {}: needs turntable samples (hexsim turntable's samples.csv: plane, control_u, angle_deg) or a "
+      "compassmot sweep (control_u and current_A at two or more throttles, vehicle held still); {}",
+      method,
+      rq.flight.has_attitude ? "this is a flight log: use --method flight (or auto)"
+                             : "these are plain field samples: use --method auto, sphere, ellipsoid or robust"));
+}
+
+// The local field's norm, when given: the Earth's main field is 22-67 uT at the surface (WMM), so a
+// value outside 20-70 uT is a mistake (mG or G for uT, a sign), not a place.
+constexpr double kFieldNormMin_uT = 20.0;
+constexpr double kFieldNormMax_uT = 70.0;
+
 }  // namespace
 
 bool HasTurntableColumns(const std::vector<MagSample>& s) {
@@ -118,6 +143,11 @@ Result<CalibrateOutcome> Calibrate(std::vector<MagSample> samples, const Calibra
     return Status::BadInput(fmt::format("--method: unknown method '{}' (one of: {})", rq.method, all));
   }
   if (samples.empty()) return Status::BadInput("no samples");
+  if (rq.field_norm_uT != 0.0 && !(rq.field_norm_uT >= kFieldNormMin_uT && rq.field_norm_uT <= kFieldNormMax_uT)) {
+    return Status::BadInput(fmt::format("--field-norm: {} uT is outside the Earth's field, {}..{} uT (hexsim field "
+                                        "LAT LON ALT DATE gives the local value)",
+                                        rq.field_norm_uT, kFieldNormMin_uT, kFieldNormMax_uT));
+  }
   CalibrateOutcome out;
   for (const auto& s : samples) out.raw_uT.push_back(s.mag_B_uT);
   auto units = DetectUnits(out.raw_uT, rq.units, rq.field_norm_uT);
@@ -128,6 +158,7 @@ Result<CalibrateOutcome> Calibrate(std::vector<MagSample> samples, const Calibra
   std::string method = rq.method;
   if (method == "auto" && HasTurntableColumns(samples)) method = "adaptive";
   if (method == "auto" && UsesFlightPath(samples, rq)) method = "flight";
+  if (method != "flight" && !IsFieldMethod(method)) HEXSIM_RETURN_IF_ERROR(CheckGroundSamples(samples, method, rq));
   out.report = nlohmann::json::object();
   Result<CalibrateOutcome> done = method == "flight"      ? FlightPath(std::move(out), samples, rq)
                                   : IsFieldMethod(method) ? FieldPath(std::move(out), method, rq)

@@ -3,6 +3,7 @@
 // one transaction per finished run.
 #pragma once
 
+#include <csignal>
 #include <cstdio>
 #include <functional>
 #include <string>
@@ -25,6 +26,11 @@ struct PoolOptions {
   std::FILE* progress_stream = stderr;
   bool progress_tty = false;
   size_t already_done = 0;    // runs of this shard found finished before (resume), for the bar
+  // Interruption (CONTRACTS: exit 130), counted by the caller's SIGINT/SIGTERM handler; null: none.
+  // Given, the workers ignore SIGINT and SIGTERM (a terminal's Ctrl-C reaches the whole process
+  // group) and die with the parent. At 1 no further run starts and the running ones finish and are
+  // recorded; at 2 they are killed, not recorded, and their folders removed.
+  const volatile std::sig_atomic_t* stop = nullptr;
 };
 
 // Runs inside the worker process: the run's summary (hexsim.summary/1), or why there is none.
@@ -33,6 +39,8 @@ using RunFn = std::function<Result<nlohmann::json>(const RunPoint&)>;
 struct PoolStats {
   size_t finished = 0;   // rows written by this call
   size_t failed = 0;     // of them, IsFailure(status)
+  bool interrupted = false;  // options.stop was raised: some runs were not started (or were killed)
+  size_t not_run = 0;        // runs neither recorded nor left running: never started, or killed
   double wall_s = 0.0;
 };
 
@@ -52,10 +60,13 @@ Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, co
 // worker runs `child(i)` and exits with the code it returns (an exception: code 5) without running
 // atexit handlers; as each worker ends the parent gets `reaped(i, wait status, wall s, timed out)`
 // (an error stops new workers; the running ones are still reaped). timeout_s > 0: a worker still
-// running after that long is killed (SIGKILL). Returns the first error.
+// running after that long is killed (SIGKILL). `stop` (may be null): as PoolOptions::stop; a worker
+// killed at *stop >= 2 is reaped with `killed` set. Returns the first error.
 using ReapFn = std::function<Status(size_t index, int wait_status, double wall_s, bool timed_out)>;
 Status ForkEach(size_t n, int jobs, double timeout_s, const std::function<Status(size_t)>& before_fork,
-                const std::function<int(size_t)>& child, const ReapFn& reaped);
+                const std::function<int(size_t)>& child, const ReapFn& reaped,
+                const volatile std::sig_atomic_t* stop = nullptr,
+                const std::function<void(size_t index)>& killed = {});
 
 // fn(i) for every i in [0, n) in forked workers (at most `jobs` at a time; a crash in one never takes
 // the caller down), each JSON result passed back through a temporary file; the results in index
@@ -65,11 +76,19 @@ Result<std::vector<nlohmann::json>> RunForkedMap(size_t n, const std::function<R
                                                  int jobs,
                                                  const std::function<void(size_t done, size_t total)>& progress = {});
 
+// The parameters that differ between `runs` (world, estimator, duration and --set keys; mission,
+// vehicle, calibration and seed are always shown), in key order: what tells one progress line's
+// point from another's in a grid ("adaptive seed 1" appears once per grid point).
+std::vector<std::string> VariedParameters(const std::vector<RunPoint>& runs);
+// " key=value" for each of `keys` in the point's parameters.
+std::string VariedText(const RunPoint& point, const std::vector<std::string>& keys);
+
 // The progress display (exposed for tests).
 class Progress {
  public:
   Progress(std::FILE* out, bool tty, size_t total, size_t already_done);
-  void RunFinished(const RunRow& row);
+  // `varied`: VariedText of the run's point, printed after its calibration and seed.
+  void RunFinished(const RunRow& row, const std::string& varied = "");
   void Finish();
   // "0:07", "1:02:03"
   static std::string FormatDuration(double seconds);

@@ -41,10 +41,12 @@ struct SequencerParams {
   // in acceleration is a step in collective, which the rotors' inertia turns into a current spike.
   // Braking is not jerk-limited (it lowers the collective; a late brake overshoots the waypoint).
   double jerk_mps3 = 5.0;
-  // The landing carrot aims this far below the ground: after touchdown the vertical loop keeps
-  // asking for descent and winds the collective down to its minimum while the touchdown detector
-  // runs (ArduPilot descends at LAND_SPEED until its land detector trips).
-  double land_below_ground_m = 1.0;
+  // The landing carrot descends until touchdown is detected, however far the altitude estimate is
+  // off: its segment's end stays this far below it (first below ground_D_m), so it never brakes.
+  // After touchdown the vertical loop keeps asking for descent and winds the collective down to its
+  // minimum while the touchdown detector runs (ArduPilot descends at LAND_SPEED until its land
+  // detector trips). A baro offset of a metre or two from the ground at take-off is ordinary.
+  double land_lookahead_m = 1.0;
   double ground_D_m = 0.0;              // ground level (NED D) where the vehicle lands
   double takeoff_acceptance_m = 0.5;    // vertical distance to the takeoff altitude that completes it
   double touchdown_speed_mps = 0.2;     // touchdown: speed below this ...

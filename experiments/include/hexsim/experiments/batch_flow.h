@@ -4,6 +4,7 @@
 // shard's outcome counted; shards' results merged into one file under a temporary name.
 #pragma once
 
+#include <csignal>
 #include <cstddef>
 #include <functional>
 #include <string>
@@ -23,6 +24,8 @@ struct BatchFlowOptions {
   bool keep_logs = false;      // also OUT/runs/<run_id>/log.csv
   double run_timeout_s = 0.0;  // 0: never
   bool progress_tty = false;
+  // SIGINT/SIGTERM count from the caller's handler (batch::PoolOptions::stop); null: not handled.
+  const volatile std::sig_atomic_t* stop = nullptr;
 };
 
 // What is about to run (passed to the caller before the pool starts).
@@ -38,6 +41,8 @@ struct BatchOutcome {
   size_t failed = 0;    // of those, failed runs (exit 1 when any)
   size_t finished = 0;  // this attempt
   double wall_s = 0.0;
+  bool interrupted = false;  // stopped by a signal: `not_run` points are left for --resume
+  size_t not_run = 0;
 };
 
 // `batch_file` names the batch in error messages; `points` is this shard's part of it.
