@@ -125,7 +125,7 @@ std::string FrameOfLog(const logs::FlightLog& log, std::string* source) {
   static const char* const kOldLayouts[] = {"plus", "x", "v", "h"};
   if (std::isfinite(frame) && unnamed.empty()) {
     const int f = static_cast<int>(frame);
-    const std::string name = f >= 0 && f < 4 && !ClassName(motors).empty() ? ClassName(motors) + "-" + kOldLayouts[f] : "";
+    std::string name = f >= 0 && f < 4 && !ClassName(motors).empty() ? ClassName(motors) + "-" + kOldLayouts[f] : "";
     if (!name.empty() && !internal::FrameRotors(name).empty()) {
       *source = fmt::format("FRAME {} and {} motors ({})", f, motors, motors_from);
       return name;
