@@ -85,9 +85,13 @@ nlohmann::json TermReport(const FlightFit& fit, const PreparedFlightFit& pf, Fli
 Result<CalibrateOutcome> FlightPath(CalibrateOutcome out, const std::vector<MagSample>& samples, const CalibrateRequest& rq) {
   (void)samples;
   const FlightContext& fc = rq.flight;
-  if (!fc.has_attitude || !fc.prepared) {
+  if (!fc.has_attitude) {
     return Status::BadInput("--method flight: the input has no attitude (it needs a flight log: FlightLog CSV, .bin or .ulg)");
   }
+  if (!fc.has_place) {
+    return Status::BadInput("--method flight: the log has no place and date for the Earth field (no GPS fix in its meta)");
+  }
+  if (!fc.prepared) return Status::BadInput("--method flight: the log's rows are needed (windows and timing)");
   const PreparedFlightFit& pf = *fc.prepared;
   const FlightFit* fit = &pf.fit;
   const Vector3d* prior = &pf.options.prior_field_N_uT;
