@@ -152,12 +152,14 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
     }
     rep.channels.push_back(std::move(r));
   };
+  const logs::FlightLog& model_log = options.compass_model_log != nullptr ? *options.compass_model_log : log;
+  const realdata::FlightWindows model_windows = &model_log == &log ? fw : Windows(model_log, options);
   for (size_t c : rr.compasses) {
     const std::string name = internal::MagPrefix(c);
     // The in-flight model's absolute terms, the same fit as `hexsim calibrate --method flight`. A
     // compass is diagnosed whenever this model can fit it (its own minimum: min_samples samples in
     // min_blocks jackknife blocks, flight_fit.h), else by the channel minimums below.
-    Result<CompassTerms> terms = internal::FitCompassTerms(log, vehicle, c, name, fw, options.seed);
+    Result<CompassTerms> terms = internal::FitCompassTerms(model_log, vehicle, c, name, model_windows, options.seed);
     if (!terms.ok() && !(flight_s >= options.min_duration_s)) {
       rep.not_diagnosed.emplace_back(name, fmt::format("flight windows too short: {:.1f} s, needs {:.0f} s", flight_s,
                                                        options.min_duration_s));
@@ -202,6 +204,13 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
                            "not applied to them; its wiring (current) field still is");
     }
     if (terms.ok()) {
+      if (log.meta.contains("identify_heldout")) {
+        terms->held_out = &model_log == &log ? "absolute terms fitted on the held-out blocks only (the vehicle was identified on "
+                                               "the others); hexsim calibrate fits every flight block"
+                                             : "absolute terms fitted on every flight block (as hexsim calibrate); the vehicle "
+                                               "was identified on the even blocks, and the candidates are diagnosed on the odd "
+                                               "(held-out) blocks only";
+      }
       r.absolute_terms = std::move(*terms);
     } else {
       r.findings.push_back("in-flight model (absolute terms) not fitted: " + terms.status().message());

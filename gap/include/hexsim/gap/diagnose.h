@@ -64,6 +64,9 @@ struct DiagnoseOptions {
   // Each channel's bootstrap draws its own random stream (seed, channel name), so a channel's
   // result does not depend on which others are diagnosed.
   std::vector<std::string> channels;
+  // The whole log for the in-flight compass model's absolute terms where `log` holds blocks out (the
+  // identified-vehicle path); null: `log`. The model uses no vehicle, so nothing needs holding out.
+  const logs::FlightLog* compass_model_log = nullptr;
 };
 
 struct CandidateResult {
