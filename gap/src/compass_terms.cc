@@ -45,8 +45,7 @@ void GapInterval(const Eigen::Matrix3d& cov, int blocks, CompassTerms* t) {
 }
 
 // The parameters to paste: offsets where plausible, the compensation (autopilot_params.h).
-void Parameters(const logs::MagInput& in, const realdata::CompassFlight& cf, int index, const logs::FlightLog& log,
-                CompassTerms* t) {
+void Parameters(const logs::MagInput& in, int index, const logs::FlightLog& log, CompassTerms* t) {
   const bool throttle = t->form == "throttle";
   t->motor = magnetics::CompensationParams(index, in.px4_index, t->term_fitted,
                                            t->term_fitted && t->term_resolved && t->term_plausible, throttle, t->term_uT,
@@ -56,7 +55,6 @@ void Parameters(const logs::MagInput& in, const realdata::CompassFlight& cf, int
     t->ardupilot = magnetics::ArduPilotCompassParams(t->offset_uT, in.soft_iron_in_force, index);
     t->px4 = magnetics::Px4CompassParams(t->offset_uT, in.soft_iron_in_force, in.px4_index >= 0 ? in.px4_index : index);
   }
-  (void)cf;
 }
 
 }  // namespace
@@ -114,7 +112,7 @@ Result<CompassTerms> FitCompassTerms(const logs::FlightLog& log, const vehicle::
   t.block_s = cf->options.block_s;
   t.rms_before_uT = f.rms_prior_uT;
   t.rms_after_uT = f.rms_after_uT;
-  Parameters(*in, *cf, logs::CompassIndex(name), log, &t);
+  Parameters(*in, logs::CompassIndex(name), log, &t);
   return t;
 }
 

@@ -94,6 +94,23 @@ void AddPerMotorEquivalent(const ChannelData& ch, CandidateResult* r) {
   r->ci95["current_equivalent_uT_per_A"] = {f * r->magnitude_ci95[0], f * r->magnitude_ci95[1]};
 }
 
+// The in-flight model's absolute terms on the channel, or why there are none (a finding); where the
+// diagnosed log holds blocks out (identify_heldout), says on which blocks they were fitted.
+void AttachAbsoluteTerms(Result<CompassTerms> terms, const logs::FlightLog& log, bool whole_log, ChannelResult* r) {
+  if (!terms.ok()) {
+    r->findings.push_back("in-flight model (absolute terms) not fitted: " + terms.status().message());
+    return;
+  }
+  if (log.meta.contains("identify_heldout")) {
+    terms->held_out = whole_log ? "absolute terms fitted on every flight block (as hexsim calibrate); the vehicle was "
+                                  "identified on the even blocks, and the candidates are diagnosed on the odd (held-out) "
+                                  "blocks only"
+                                : "absolute terms fitted on the held-out blocks only (the vehicle was identified on the "
+                                  "others); hexsim calibrate fits every flight block";
+  }
+  r->absolute_terms = std::move(*terms);
+}
+
 }  // namespace
 
 std::vector<std::string> ClassifyPhases(const logs::FlightLog& log) {
@@ -203,18 +220,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
       r.findings.emplace_back("logged values are the autopilot's calibrated ones: the vehicle file's hard and soft iron are "
                            "not applied to them; its wiring (current) field still is");
     }
-    if (terms.ok()) {
-      if (log.meta.contains("identify_heldout")) {
-        terms->held_out = &model_log == &log ? "absolute terms fitted on the held-out blocks only (the vehicle was identified on "
-                                               "the others); hexsim calibrate fits every flight block"
-                                             : "absolute terms fitted on every flight block (as hexsim calibrate); the vehicle "
-                                               "was identified on the even blocks, and the candidates are diagnosed on the odd "
-                                               "(held-out) blocks only";
-      }
-      r.absolute_terms = std::move(*terms);
-    } else {
-      r.findings.push_back("in-flight model (absolute terms) not fitted: " + terms.status().message());
-    }
+    AttachAbsoluteTerms(std::move(terms), log, &model_log != &log, &r);
     finish(std::move(r), ch);
   }
   for (const ChannelData& ch : rr.channels) {

@@ -451,6 +451,9 @@ Result<MagInput> ReadMagInput(const std::string& path, const std::string& compas
   // A FlightLog CSV is read once, as a FlightLog, and kept (the flight path needs its rows).
   if (path.size() > 4 && path.compare(path.size() - 4, 4, ".csv") == 0 && CompassIndex(compass) >= 0) {
     auto log = ReadFlightLog(path);
+    if (log.ok() && log->Has("t_s") && !log->Has(compass + "_x_uT") && log->Has("mag_x_uT")) {
+      return Status::BadInput(fmt::format("{}: {}: the log has no such compass", path, compass));
+    }
     if (log.ok() && log->Has(compass + "_x_uT") && log->Has("t_s")) {
       auto in = FromFlightLog(*log, path, compass);
       if (!in.ok()) return in.status();

@@ -82,8 +82,8 @@ nlohmann::json TermReport(const FlightFit& fit, const PreparedFlightFit& pf, Fli
 
 }  // namespace
 
-Result<CalibrateOutcome> FlightPath(CalibrateOutcome out, const std::vector<MagSample>& samples, const CalibrateRequest& rq) {
-  (void)samples;
+Result<CalibrateOutcome> FlightPath(CalibrateOutcome out, const std::vector<MagSample>& /*samples*/,
+                                    const CalibrateRequest& rq) {
   const FlightContext& fc = rq.flight;
   if (!fc.has_attitude) {
     return Status::BadInput("--method flight: the input has no attitude (it needs a flight log: FlightLog CSV, .bin or .ulg)");
