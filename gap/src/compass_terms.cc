@@ -194,7 +194,10 @@ std::string CompassTermsText(const CompassTerms& t) {
       plausibility::IsPlausible("current_hard_iron", t.current_equivalent_uT_per_A)) {
     s += fmt::format(" = {:.1f} mG/A through the log's current-vs-throttle slope", k * t.current_equivalent_uT_per_A);
   }
-  if (t.modelled_available) {
+  if (t.modelled_available && !(plausibility::IsPlausible("current_hard_iron", t.modelled_uT_per_A.norm()) &&
+                                 plausibility::IsPlausible("current_hard_iron", t.gap_norm_uT_per_A))) {
+    s += "; the vehicle file's modelled field or the gap is outside current_hard_iron's range: model mismatch";
+  } else if (t.modelled_available) {
     s += fmt::format("; vehicle file models {:.1f} mG/A: gap {:.1f} mG/A [{:.1f}, {:.1f}]", k * t.modelled_uT_per_A.norm(),
                      k * t.gap_norm_uT_per_A, k * t.gap_norm_ci95_uT_per_A[0], k * t.gap_norm_ci95_uT_per_A[1]);
   }

@@ -226,7 +226,7 @@ std::string TimingNote(const CompassFlight& f) {
   return s;
 }
 
-LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::vector<RowKind>& kinds, const StalenessOptions& so) {
+LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::vector<RowKind>& kinds, const StalenessOptions& options) {
   if (!log.Has("current_A") || !log.Has("control_u")) return {};
   const auto& t = log.Column("t_s");
   // Each logged sample once, at its own time stamp where the log has one.
@@ -255,7 +255,7 @@ LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::vector<RowKi
     Ir.push_back(c[i]);
   }
   const HeldSamples held = FirstAppearances(tr, ts, Ir);
-  return StalenessScan(tu, u, held.t, held.v, so);
+  return StalenessScan(tu, u, held.t, held.v, options);
 }
 
 double AppliedCurrentShift_s(const LagEstimate& s) {
