@@ -15,6 +15,7 @@
 #include "hexsim/logs/mag_input.h"
 #include "hexsim/magnetics/calib_io.h"
 #include "hexsim/magnetics/calibrate.h"
+#include "hexsim/realdata/compass_flight.h"
 #include "hexsim/realdata/windows.h"
 #include "hexsim/render/figures.h"
 #include "hexsim/render/image.h"
@@ -51,27 +52,50 @@ Status WriteBeforeAfterPng(const magnetics::CalibrateOutcome& o, const std::stri
   return render::WritePng(*image, path);
 }
 
-// The log's flight windows (realdata), as a flag per compass sample (by the sample's time). A
-// binary log's import comes with the input; a FlightLog CSV is read as a FlightLog here.
-Status MarkFlightSamples(const logs::MagInput& input, const std::string& path, magnetics::FlightContext* fc) {
-  Result<logs::FlightLog> read = Status::BadInput("no log");
-  if (!input.log) {
-    read = logs::ReadFlightLog(path);
-    if (!read.ok()) return read.status();
-  }
-  const logs::FlightLog* log = input.log ? input.log.get() : &*read;
-  const realdata::FlightWindows w = realdata::FindFlightWindows(*log);
-  fc->in_flight.assign(fc->t_s.size(), 0);
-  std::string spans;
-  for (const auto& win : w.windows) {
-    if (win.kind != "flight") continue;
-    spans += (spans.empty() ? "" : ", ") + Format("%.1f-%.1f s", win.start_s, win.end_s);
-    for (size_t i = 0; i < fc->t_s.size(); ++i) {
-      if (fc->t_s[i] >= win.start_s && fc->t_s[i] <= win.end_s) fc->in_flight[i] = 1;
-    }
-  }
-  fc->windows_note = (spans.empty() ? std::string("no flight window") : "flight " + spans) + "; armed state from " + w.armed_source;
+// The in-flight model's samples and fit (realdata: windows, timing, regressor), from the log the
+// input came with.
+Status PrepareFlightFit(const logs::MagInput& input, const std::string& compass, magnetics::FlightContext* fc) {
+  if (!input.log) return Status::Ok();  // not a flight log: the flight path says so when asked for
+  const logs::FlightLog& log = *input.log;
+  const realdata::FlightWindows w = realdata::FindFlightWindows(log);
+  auto cf = realdata::FitCompassInFlight(log, input, w);
+  if (!cf.ok()) return cf.status();
+  magnetics::PreparedFlightFit p;
+  p.samples = std::move(cf->samples);
+  p.index = std::move(cf->index);
+  p.options = cf->options;
+  p.fit = std::move(cf->fit);
+  p.windows_note = cf->windows_note;
+  p.flight_only = cf->flight_only;
+  p.tilted = cf->tilted;
+  p.outside = cf->outside;
+  p.timing_note = realdata::TimingNote(*cf);
+  p.current_note = cf->current_note;
+  p.current_per_throttle_A = cf->current_per_throttle_A;
+  fc->prepared = std::move(p);
+  fc->motor_compensation = realdata::MotorCompensationOf(log, compass);
   return Status::Ok();
+}
+
+// The flight path's lines: windows, samples, residual, timing, the disturbance term.
+void PrintFlight(const magnetics::FlightOutcome& fo) {
+  const magnetics::FlightFit& fit = fo.in.fit;
+  std::printf("flight fit: %s; %d samples in %d blocks of %.1f s; residual %.2f -> %.2f uT RMS per axis; Earth field %+.1f %% "
+              "vs WMM\n",
+              fo.in.windows_note.c_str(), fit.samples_used, fit.blocks, fo.in.options.block_s, fit.rms_prior_uT,
+              fit.rms_after_uT, 100 * fo.field_norm_vs_wmm);
+  std::printf("timing: %s\n", fo.in.timing_note.c_str());
+  if (!fit.term_fitted) return;
+  const bool throttle = fit.form == magnetics::FlightTermForm::kThrottle;
+  const char* state = fo.term_applied ? "written as the autopilots' compensation" : "not applied";
+  if (!fo.term_plausible) {
+    std::printf("%s field: outside its physical range: model mismatch (%s)\n", throttle ? "throttle" : "current", state);
+  } else {
+    std::printf("%s field: %.1f %s [%.1f, %.1f] (95 %%, block jackknife; %s)\n", throttle ? "throttle" : "current",
+                10 * fit.term_norm_uT, throttle ? "mG per unit throttle" : "mG/A", 10 * fit.term_norm_ci95[0],
+                10 * fit.term_norm_ci95[1], state);
+  }
+  std::printf("parameters: %s\n", fo.motor_params_note.c_str());
 }
 
 Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
@@ -98,17 +122,17 @@ Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
   }
   magnetics::FlightContext& fc = rq.flight;
   fc.has_attitude = !input->q_wxyz.empty() && input->t_s.size() == input->field.size();
-  fc.has_current = !input->current_A.empty() &&
-                   std::all_of(input->current_A.begin(), input->current_A.end(), [](double v) { return std::isfinite(v); });
-  fc.t_s = input->t_s;
   fc.body_from_raw = input->body_from_raw;
   fc.soft_iron_in_force = input->soft_iron_in_force;
   fc.has_place = input->has_place;
-  fc.where = {input->lat_deg, input->lon_deg, input->alt_m};
-  fc.decimal_year = input->decimal_year;
   fc.px4_comp_type = input->px4_comp_type;
   fc.px4_comp_G = input->px4_comp_G;
-  if (fc.has_attitude) HEXSIM_RETURN_IF_ERROR(MarkFlightSamples(*input, a.samples, &fc));
+  if (fc.has_attitude && fc.has_place && (a.method == "flight" || a.method == "auto")) {
+    const Status prepared = PrepareFlightFit(*input, a.compass, &fc);
+    // auto falls back to the free-hand fits when the flight model cannot fit; flight says why.
+    if (!prepared.ok() && a.method == "flight") return prepared.WithContext(a.samples);
+    if (!prepared.ok()) input->notes.push_back("flight fit not possible: " + prepared.message());
+  }
   auto o = magnetics::Calibrate(std::move(samples), rq);
   if (!o.ok()) return o.status().WithContext(a.samples);
   o->report["input"] = {{"file", a.samples}, {"format", input->format}, {"compass", a.compass}, {"notes", input->notes}};
@@ -119,8 +143,8 @@ Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
   // left by an earlier run at this path is removed too). calib.yaml and the report say what failed.
   const bool accepted = o->exit_code == 0;
   if (accepted) {
-    HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(base + ".parm", magnetics::ArduPilotParmText(o->ardupilot)));
-    HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(base + ".params", magnetics::Px4ParamsText(o->px4)));
+    HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(base + ".parm", magnetics::ArduPilotParmText(o->ardupilot, "hexsim calibrate", o->param_comments)));
+    HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(base + ".params", magnetics::Px4ParamsText(o->px4, "hexsim calibrate", o->param_comments)));
   } else {
     std::error_code ec;
     std::filesystem::remove(base + ".parm", ec);
@@ -135,19 +159,7 @@ Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
               f.coverage.eigenvalues(0), f.coverage.eigenvalues(1), f.coverage.eigenvalues(2),
               100 * f.norm_spread_before, 100 * f.norm_spread_after, f.fitness_uT);
   std::printf("offset %.3f %.3f %.3f uT\n", f.offset_uT(0), f.offset_uT(1), f.offset_uT(2));
-  if (o->report.contains("flight_fit")) {
-    const auto& ff = o->report["flight_fit"];
-    const auto& cur = ff["current"];
-    std::printf("flight fit: %s; %d samples in %d blocks; residual %.2f -> %.2f uT RMS per axis; Earth field %+.1f %% vs WMM\n",
-                ff["windows"].get<std::string>().c_str(), ff["samples_used"].get<int>(), ff["blocks"].get<int>(),
-                ff["residual_rms_before_uT"].get<double>(), ff["residual_rms_after_uT"].get<double>(),
-                100 * ff["field_norm_vs_wmm"].get<double>());
-    if (cur["fitted"].get<bool>()) {
-      std::printf("current field: %.1f mG/A [%.1f, %.1f] (95 %%, %s)\n", cur["norm_mG_per_A"].get<double>(),
-                  cur["norm_ci95_mG_per_A"][0].get<double>(), cur["norm_ci95_mG_per_A"][1].get<double>(),
-                  cur["applied"].get<bool>() ? "written as the autopilots' current compensation" : "not applied");
-    }
-  }
+  if (o->flight) PrintFlight(*o->flight);
   for (const auto& w : f.warnings) std::printf("warning: %s\n", w.c_str());
   std::printf("calibrate: %s -> %s (+ %s)\n", accepted ? "accepted" : "REJECTED by its gate", a.out.c_str(),
               accepted ? ".report.json .parm .params .png" : ".report.json .png; no .parm/.params for a rejected fit");

@@ -39,9 +39,20 @@ Status DiagnoseCommand(const DiagnoseArgs& a) {
   if (d->identified) HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out.File("identified.yaml"), d->vehicle_yaml));
   HEXSIM_RETURN_IF_ERROR(reports::WriteGapHtml(d->report, out.path()));
   HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out.File(d->stem + ".updated.yaml"), d->updated_yaml));
+  // Parameters to paste, with calibrate's writer, from the compasses' in-flight model.
+  std::vector<gap::CompassTerms> terms;
+  for (const auto& c : d->report.channels) {
+    if (c.absolute_terms) terms.push_back(*c.absolute_terms);
+  }
+  const gap::ParamFiles params = gap::CompassParamFiles(terms);
+  if (!params.parm.empty()) {
+    HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out.File("calib.parm"), params.parm));
+    HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(out.File("calib.params"), params.params));
+  }
   out.Commit();
   for (const auto& line : d->lines) std::printf("vehicle: %s\n", line.c_str());
   std::fputs(gap::Summary(d->report).c_str(), stdout);
+  if (!params.parm.empty()) std::printf("parameters to paste: %s/calib.parm (ArduPilot), %s/calib.params (PX4)\n", a.out.c_str(), a.out.c_str());
   return Status::Ok();
 }
 

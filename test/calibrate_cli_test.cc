@@ -271,7 +271,10 @@ TEST(CalibrateCli, GivenTheRealArduPilotLog_WhenAuto_ThenTheFlightFitFindsMag2sC
   ASSERT_EQ(r.code, 0) << r.out << r.err;
   rep = nlohmann::json::parse(Slurp(d / "m1" / "c.report.json"));
   EXPECT_FALSE(rep["flight_fit"]["current"]["applied"].get<bool>()) << r.out;
-  EXPECT_EQ(Slurp(d / "m1" / "c.parm").find("COMPASS_MOT"), std::string::npos);
+  // No COMPASS_MOT* parameter line; the comment says why none was written.
+  const std::string parm1 = Slurp(d / "m1" / "c.parm");
+  EXPECT_EQ(parm1.find("\nCOMPASS_MOT"), std::string::npos) << parm1;
+  EXPECT_NE(parm1.find("not written"), std::string::npos) << parm1;
   EXPECT_NE(r.out.find("not resolved from zero"), std::string::npos) << r.out;
 }
 
@@ -286,4 +289,41 @@ TEST(CalibrateCli, GivenAFlightLogWithoutAPlace_WhenMethodFlight_ThenExit2SaysWh
   EXPECT_EQ(r.code, 2) << r.out << r.err;
   EXPECT_NE(r.err.find("no place and date"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(d / "c.yaml"));
+}
+
+// One in-flight compass model: `calibrate --method flight` and `gap diagnose` fit the same samples on
+// the same timing, so gap.json's absolute current term is calibrate's, and both write the same
+// COMPASS_MOT2_* lines (gap with calibrate's writer, beside gap.json).
+TEST(CalibrateCli, GivenTheRealArduPilotLog_WhenCalibratedAndDiagnosed_ThenBothReportTheSameAbsoluteCurrentTerm) {
+  const fs::path d = Dir("same");
+  const std::string log = std::string(HEXSIM_SOURCE_DIR) + "/data/real/ardupilot_copter_log171.bin";
+  CliRun r = Hexsim("calibrate " + log + " --method flight --compass mag2 --out " + (d / "cal" / "c.yaml").string());
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  const auto cal = nlohmann::json::parse(Slurp(d / "cal" / "c.report.json"))["flight_fit"]["current"];
+  r = Hexsim("import " + log + " --out " + (d / "l.csv").string());
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = Hexsim("gap diagnose --real " + (d / "l.csv").string() + " --sim quad_x --out " + (d / "gap").string());
+  ASSERT_EQ(r.code, 0) << r.out << r.err;
+  const auto gap = nlohmann::json::parse(Slurp(d / "gap" / "gap.json"));
+  const nlohmann::json* mag2 = nullptr;
+  for (const auto& c : gap["channels"]) {
+    if (c["channel"] == "mag2") mag2 = &c;
+  }
+  ASSERT_NE(mag2, nullptr) << r.out;
+  const auto& term = (*mag2)["absolute_terms"]["current_term"];
+  EXPECT_NEAR(term["norm_mG_per_A"].get<double>(), cal["norm_mG_per_A"].get<double>(), 1e-9);
+  EXPECT_NEAR(term["norm_ci95_mG_per_A"][0].get<double>(), cal["norm_ci95_mG_per_A"][0].get<double>(), 1e-9);
+  EXPECT_NEAR(term["norm_ci95_mG_per_A"][1].get<double>(), cal["norm_ci95_mG_per_A"][1].get<double>(), 1e-9);
+  // The same parameter lines for MAG2's compensation (a real internal compass, resolved).
+  auto line = [](const std::string& text, const std::string& name) {
+    const size_t at = text.find("\n" + name + " ");
+    return at == std::string::npos ? std::string() : text.substr(at + 1, text.find('\n', at + 1) - at - 1);
+  };
+  const std::string cal_parm = Slurp(d / "cal" / "c.parm"), gap_parm = Slurp(d / "gap" / "calib.parm");
+  for (const char* name : {"COMPASS_MOTCT", "COMPASS_MOT2_X", "COMPASS_MOT2_Y", "COMPASS_MOT2_Z", "COMPASS_OFS2_X"}) {
+    EXPECT_FALSE(line(gap_parm, name).empty()) << name << "\n" << gap_parm;
+    EXPECT_EQ(line(gap_parm, name), line(cal_parm, name)) << name;
+  }
+  EXPECT_NE(gap_parm.find("# mag2: COMPASS_MOTCT/COMPASS_MOT2_*: written"), std::string::npos) << gap_parm;
+  EXPECT_NE(r.out.find("parameters to paste"), std::string::npos) << r.out;
 }

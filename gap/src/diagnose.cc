@@ -11,8 +11,10 @@
 #include <fmt/format.h>
 
 #include "channels.h"
+#include "compass_terms_fit.h"
 #include "hexsim/common/rng.h"
 #include "hexsim/common/plausibility.h"
+#include "hexsim/realdata/compass_flight.h"
 #include "hexsim/realdata/windows.h"
 #include "nuisance.h"
 #include "replay_util.h"
@@ -92,6 +94,23 @@ void AddPerMotorEquivalent(const ChannelData& ch, CandidateResult* r) {
   r->ci95["current_equivalent_uT_per_A"] = {f * r->magnitude_ci95[0], f * r->magnitude_ci95[1]};
 }
 
+// The in-flight model's absolute terms on the channel, or why there are none (a finding); where the
+// diagnosed log holds blocks out (identify_heldout), says on which blocks they were fitted.
+void AttachAbsoluteTerms(Result<CompassTerms> terms, const logs::FlightLog& log, bool whole_log, ChannelResult* r) {
+  if (!terms.ok()) {
+    r->findings.push_back("in-flight model (absolute terms) not fitted: " + terms.status().message());
+    return;
+  }
+  if (log.meta.contains("identify_heldout")) {
+    terms->held_out = whole_log ? "absolute terms fitted on every flight block (as hexsim calibrate); the vehicle was "
+                                  "identified on the even blocks, and the candidates are diagnosed on the odd (held-out) "
+                                  "blocks only"
+                                : "absolute terms fitted on the held-out blocks only (the vehicle was identified on the "
+                                  "others); hexsim calibrate fits every flight block";
+  }
+  r->absolute_terms = std::move(*terms);
+}
+
 }  // namespace
 
 std::vector<std::string> ClassifyPhases(const logs::FlightLog& log) {
@@ -133,9 +152,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
   // because its interval still touches zero is an estimate too (zero), and a worse one on average:
   // a wiring-field lag of the compass would then be read against a current already late by the
   // staleness, and the two would cancel.
-  const double shift_s = stale.ok() && !stale.at_grid_edge && plausibility::IsPlausible("current_staleness", stale.value_s)
-                             ? std::max(0.0, stale.value_s)
-                             : 0.0;
+  const double shift_s = realdata::AppliedCurrentShift_s(stale);
   // The motors' current law's exponent, where the replay splits a battery current over them.
   const double fitted_share_exponent = internal::FitShareExponent(log, rr.inputs, vehicle, fw.row_kind, shift_s);
   const double share_exponent = std::isfinite(fitted_share_exponent) ? fitted_share_exponent : internal::kShareExponent;
@@ -152,9 +169,15 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
     }
     rep.channels.push_back(std::move(r));
   };
+  const logs::FlightLog& model_log = options.compass_model_log != nullptr ? *options.compass_model_log : log;
+  const realdata::FlightWindows model_windows = &model_log == &log ? fw : Windows(model_log, options);
   for (size_t c : rr.compasses) {
     const std::string name = internal::MagPrefix(c);
-    if (!(flight_s >= options.min_duration_s)) {
+    // The in-flight model's absolute terms, the same fit as `hexsim calibrate --method flight`. A
+    // compass is diagnosed whenever this model can fit it (its own minimum: min_samples samples in
+    // min_blocks jackknife blocks, flight_fit.h), else by the channel minimums below.
+    Result<CompassTerms> terms = internal::FitCompassTerms(model_log, vehicle, c, name, model_windows, options.seed);
+    if (!terms.ok() && !(flight_s >= options.min_duration_s)) {
       rep.not_diagnosed.emplace_back(name, fmt::format("flight windows too short: {:.1f} s, needs {:.0f} s", flight_s,
                                                        options.min_duration_s));
       continue;
@@ -174,8 +197,9 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
     ro.member_shift_s =
         stale.ok() && plausibility::IsPlausible("current_staleness", stale.value_s) ? stale.value_s : 0.0;
     const ChannelData ch = internal::ReplayCompass(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro);
-    if (static_cast<int>(ch.t.size()) < options.min_samples) {
-      rep.not_diagnosed.emplace_back(name, fmt::format("too few flight samples: {}, needs {}", ch.t.size(), options.min_samples));
+    if (!terms.ok() && static_cast<int>(ch.t.size()) < options.min_samples) {
+      rep.not_diagnosed.emplace_back(name, fmt::format("too few flight samples: {}, needs {}; in-flight model: {}", ch.t.size(),
+                                                       options.min_samples, terms.status().message()));
       continue;
     }
     RngStream rng(options.seed, "gap_bootstrap/" + name);
@@ -196,6 +220,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
       r.findings.emplace_back("logged values are the autopilot's calibrated ones: the vehicle file's hard and soft iron are "
                            "not applied to them; its wiring (current) field still is");
     }
+    AttachAbsoluteTerms(std::move(terms), log, &model_log != &log, &r);
     finish(std::move(r), ch);
   }
   for (const ChannelData& ch : rr.channels) {

@@ -20,6 +20,7 @@
 
 #include "detection.h"
 #include "hexsim/common/plausibility.h"
+#include "hexsim/realdata/compass_flight.h"
 #include "stats.h"
 
 namespace hexsim::gap::internal {
@@ -175,41 +176,10 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
 
 realdata::LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::vector<realdata::RowKind>& kinds,
                                        const DiagnoseOptions& o) {
-  if (!log.Has("current_A") || !log.Has("control_u")) return {};
-  const auto& t = log.Column("t_s");
-  // Each logged sample once, at its own time stamp where the log has one.
-  auto samples = [&](const std::string& col, const std::string& tcol, std::vector<double>* ts, std::vector<double>* v) {
-    const auto& c = log.Column(col);
-    const std::vector<double>* tc = log.Has(tcol) ? &log.Column(tcol) : nullptr;
-    double last = -1e300;
-    for (size_t i = 0; i < log.rows(); ++i) {
-      if (kinds[i] != realdata::RowKind::kFlight || !std::isfinite(c[i])) continue;
-      const double ti = tc ? (*tc)[i] : t[i];
-      if (!std::isfinite(ti) || ti <= last) continue;
-      last = ti;
-      ts->push_back(ti);
-      v->push_back(c[i]);
-    }
-  };
-  std::vector<double> tu, u;
-  samples("control_u", "ctun_t_s", &tu, &u);
-  // The current is a sample-and-hold channel: each sample where it first appears.
-  std::vector<double> tr, ts, Ir;
-  const auto& c = log.Column("current_A");
-  const std::vector<double>* tc = log.Has("batt_t_s") ? &log.Column("batt_t_s") : nullptr;
-  for (size_t i = 0; i < log.rows(); ++i) {
-    if (kinds[i] != realdata::RowKind::kFlight) continue;
-    tr.push_back(t[i]);
-    ts.push_back(tc ? (*tc)[i] : std::nan(""));
-    Ir.push_back(c[i]);
-  }
-  const realdata::HeldSamples held = realdata::FirstAppearances(tr, ts, Ir);
-  const std::vector<double>& ti = held.t;
-  const std::vector<double>& I = held.v;
   realdata::StalenessOptions so;
   so.seed = o.seed;
   so.resamples = o.bootstrap_samples;
-  return realdata::StalenessScan(tu, u, ti, I, so);
+  return realdata::CurrentStaleness(log, kinds, so);
 }
 
 double FitShareExponent(const logs::FlightLog& log, const LogInputs& in, const vehicle::VehicleParams& v,

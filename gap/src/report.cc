@@ -1,7 +1,9 @@
 // gap.json (hexsim.gap/1, with the second wave's keys) and the stdout summary.
+#include "hexsim/gap/diagnose.h"
+
 #include <fmt/format.h>
 
-#include "hexsim/gap/diagnose.h"
+#include "compass_terms_fit.h"
 
 namespace hexsim::gap {
 
@@ -54,6 +56,7 @@ nlohmann::json ToJson(const GapReport& r) {
     cj["ground_vs_flight"] = c.ground_vs_flight;
     cj["findings"] = c.findings;
     cj["headline"] = c.headline;
+    if (c.absolute_terms) cj["absolute_terms"] = internal::CompassTermsJson(*c.absolute_terms);
     j["channels"].push_back(cj);
   }
   j["not_diagnosed"] = nlohmann::json::array();
@@ -124,6 +127,7 @@ std::string Summary(const GapReport& r) {
     s += fmt::format("{}: residual {:.3g} {} RMS (noise {:.2g})", c.channel, c.rms_before * k, unit, c.noise_rms * k);
     if (c.reference_contaminated) s += " [reference-contaminated]";
     s += "\n  verdict: " + c.headline + "\n";
+    if (c.absolute_terms) s += internal::CompassTermsText(*c.absolute_terms) + "\n";
     if (c.timing.contains("latency_s")) {
       const auto& l = c.timing["latency_s"];
       s += fmt::format("  timing: compass latency {:.0f} ms [{:.0f}, {:.0f}]", 1000 * l.value("value", 0.0),

@@ -1,5 +1,7 @@
 #include "hexsim/logs/mag_input.h"
 
+#include <fstream>
+
 #include <gtest/gtest.h>
 
 namespace hexsim::logs {
@@ -69,6 +71,31 @@ TEST(MagInput, GivenBadInput_WhenParsed_ThenBadInputNamingFileAndLine) {
   EXPECT_EQ(ParseMagInput(std::string("ULog\x01\x12\x35", 7), "f.ulg", "mag").status().code(), StatusCode::kBadInput);
   EXPECT_EQ(ParseMagInput("1 2 3\n", "d.txt", "compass").status().code(), StatusCode::kBadInput);
   EXPECT_EQ(CompassIndex("mag3"), 2);
+}
+
+}  // namespace
+}  // namespace hexsim::logs
+
+namespace hexsim::logs {
+namespace {
+
+// A FlightLog CSV is read once and kept for the flight path; a compass it lacks is named.
+TEST(MagInput, GivenAFlightLogCsvFile_WhenRead_ThenTheLogIsKeptAndAMissingCompassIsNamed) {
+  const std::string path = ::testing::TempDir() + "/mag_input_flightlog.csv";
+  {
+    std::ofstream f(path);
+    f << "t_s,mag_x_uT,mag_y_uT,mag_z_uT\n0,20,1,-40\n0.1,21,1,-40\n0.2,22,1,-40\n";
+  }
+  auto in = ReadMagInput(path, "mag");
+  ASSERT_TRUE(in.ok()) << in.status().message();
+  EXPECT_EQ(in->format, "flightlog");
+  ASSERT_NE(in->log, nullptr);
+  EXPECT_EQ(in->log->rows(), 3u);
+  EXPECT_EQ(in->field.size(), 3u);
+  auto missing = ReadMagInput(path, "mag3");
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(missing.status().message().find("mag3: the log has no such compass"), std::string::npos)
+      << missing.status().message();
 }
 
 }  // namespace

@@ -75,18 +75,77 @@ Vector3d ApplyPx4Compass(const ParamList& params, int compass_index, const Vecto
   return S * (raw_G - off);
 }
 
-std::string ArduPilotParmText(const ParamList& params) {
-  std::string out = "# hexsim calibrate: ArduPilot compass parameters (NAME VALUE; offsets in mG, absolute)\n";
+std::string ArduPilotParmText(const ParamList& params, const std::string& source, const std::vector<std::string>& comments) {
+  std::string out = "# " + source + ": ArduPilot compass parameters (NAME VALUE; offsets in mG, absolute)\n";
+  for (const auto& c : comments) out += "# " + c + "\n";
   for (const auto& [name, value] : params) out += Format("%s %.7g\n", name.c_str(), value);
   return out;
 }
 
-std::string Px4ParamsText(const ParamList& params) {
-  std::string out =
-      "# hexsim calibrate: PX4 compass parameters (QGroundControl: sysid compid name value type; offsets in gauss)\n"
-      "# Vehicle-Id\tComponent-Id\tName\tValue\tType\n";
+std::string Px4ParamsText(const ParamList& params, const std::string& source, const std::vector<std::string>& comments) {
+  std::string out = "# " + source +
+                    ": PX4 compass parameters (QGroundControl: sysid compid name value type; offsets in gauss)\n";
+  for (const auto& c : comments) out += "# " + c + "\n";
+  out += "# Vehicle-Id\tComponent-Id\tName\tValue\tType\n";
   for (const auto& [name, value] : params) out += Format("1\t1\t%s\t%.9g\t9\n", name.c_str(), value);
   return out;
+}
+
+MotorParams CompensationParams(int compass_index, int px4_index, bool fitted, bool usable, bool form_throttle,
+                               const Vector3d& d_uT, const Vector3d& d_ci_half_uT, const Matrix3d& body_from_raw_inv,
+                               const MotorCompensationInLog& log, int px4_comp_type, const Vector3d& px4_comp_G) {
+  MotorParams m;
+  const std::string n = ApSuffix(compass_index);
+  const std::string mot = "COMPASS_MOT" + n + "_";
+  const int motct = form_throttle ? 1 : 2;  // ArduPilot: 1 throttle, 2 current
+  const char* unit = form_throttle ? "mG per unit throttle" : "mG/A";
+  const std::string had =
+      log.motct < 0 ? "the log does not say its COMPASS_MOTCT"
+                    : Format("the log had COMPASS_MOTCT %d, %sX/Y/Z %.1f %.1f %.1f", log.motct, mot.c_str(), log.mot(0),
+                             log.mot(1), log.mot(2));
+  auto write_mot = [&](int ct, const Vector3d& v) {
+    m.ardupilot.emplace_back("COMPASS_MOTCT", ct);
+    for (int k = 0; k < 3; ++k) m.ardupilot.emplace_back(mot + static_cast<char>('X' + k), v(k));
+  };
+  if (usable) {
+    const Vector3d mot_mG = -kMilligaussPerMicrotesla * d_uT;  // corrected = M(raw + OFS) + MOT·r
+    write_mot(motct, mot_mG);
+    m.action = log.motct > 0 ? "replaced" : "written";
+    m.comment = Format("COMPASS_MOTCT/%s*: %s by the fitted %s field (%s)", mot.c_str(), m.action.c_str(),
+                       form_throttle ? "throttle" : "current", had.c_str());
+    // PX4: S·((u + P·comp) − off), P = I/1000 (kA; comp in G/kA) or the throttle (comp in G).
+    const int typ = form_throttle ? 1 : 2;
+    const double g_per = form_throttle ? kGaussPerMicrotesla : 1e3 * kGaussPerMicrotesla;
+    const Vector3d comp = (px4_comp_type == typ ? px4_comp_G : Vector3d::Zero()) - g_per * body_from_raw_inv * d_uT;
+    if (px4_comp_type > 0 && px4_comp_type != typ) return m;  // another form in force: not touched
+    const int pi = px4_index >= 0 ? px4_index : compass_index;
+    m.px4.emplace_back("CAL_MAG_COMP_TYP", typ);
+    for (int k = 0; k < 3; ++k) m.px4.emplace_back(Format("CAL_MAG%d_%cCOMP", pi, static_cast<char>('X' + k)), comp(k));
+    return m;
+  }
+  if (log.motct <= 0 || log.mot.isZero()) {
+    m.action = "none";
+    m.comment = Format("COMPASS_MOTCT/%s*: not written, no resolved and plausible field (%s)", mot.c_str(), had.c_str());
+    return m;
+  }
+  // The fit saw the field with the log's compensation undone: the log's value as a d is −MOT/10.
+  const Vector3d log_d = -log.mot / kMilligaussPerMicrotesla;
+  const bool same_form = log.motct == motct;
+  const bool log_inside = fitted && same_form && ((d_uT - log_d).array().abs() <= d_ci_half_uT.array()).all();
+  const bool zero_inside = fitted && (d_uT.array().abs() <= d_ci_half_uT.array()).all();
+  if (fitted && same_form && !log_inside && zero_inside) {
+    write_mot(log.motct, Vector3d::Zero());
+    m.action = "zeroed";
+    m.comment = Format("COMPASS_MOTCT/%s*: zeroed: the fitted field is zero within its interval and the log's %s is "
+                       "outside it (%s)", mot.c_str(), unit, had.c_str());
+  } else {
+    write_mot(log.motct, log.mot);
+    m.action = "kept";
+    m.comment = Format("COMPASS_MOTCT/%s*: kept as the log had them: the fit %s (%s)", mot.c_str(),
+                       !fitted ? "has no such term" : !same_form ? "is in the other form" : "cannot tell them apart",
+                       had.c_str());
+  }
+  return m;
 }
 
 }  // namespace hexsim::magnetics

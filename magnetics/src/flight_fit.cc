@@ -18,14 +18,26 @@ using Eigen::MatrixXd;
 using Eigen::Vector3d;
 using Eigen::VectorXd;
 
-// Rows of sample i for θ = [B_N, c, d]: y = Rᵀ·B_N + c + d·I.
-MatrixXd Design(const FlightFitSample& s, int p) {
+// The regressor of the disturbance term at a sample (NaN: unknown).
+double Regressor(const FlightFitSample& s, FlightTermForm form) {
+  return form == FlightTermForm::kCurrent ? s.current_A : s.throttle;
+}
+
+// Rows of sample i for θ = [B_N, c, d]: y = Rᵀ·B_N + c + d·r.
+MatrixXd Design(const FlightFitSample& s, double r, int p) {
   MatrixXd X = MatrixXd::Zero(3, p);
   X.block<3, 3>(0, 0) = s.R_NB.transpose();
   X.block<3, 3>(0, 3) = Matrix3d::Identity();
-  if (p == 9) X.block<3, 3>(0, 6) = s.current_A * Matrix3d::Identity();
+  if (p == 9) X.block<3, 3>(0, 6) = r * Matrix3d::Identity();
   return X;
 }
+
+struct Problem {
+  const std::vector<FlightFitSample>& s;
+  std::vector<double> r;  // regressor per sample
+  int p = 6;
+  const FlightFitOptions& o;
+};
 
 struct Solve {
   VectorXd theta;
@@ -33,25 +45,25 @@ struct Solve {
 };
 
 // Weighted least squares with the Gaussian prior on B_N; `use[i]` selects the samples.
-Result<Solve> SolveWeighted(const std::vector<FlightFitSample>& s, const std::vector<char>& use, int p, double sigma_m,
-                            const FlightFitOptions& o) {
+Result<Solve> SolveWeighted(const Problem& pr, const std::vector<char>& use, double sigma_m) {
+  const int p = pr.p;
   MatrixXd N = MatrixXd::Zero(p, p);
   VectorXd rhs = VectorXd::Zero(p);
-  const double wm = 1.0 / (sigma_m * sigma_m), wp = 1.0 / (o.prior_sigma_uT * o.prior_sigma_uT);
-  for (size_t i = 0; i < s.size(); ++i) {
+  const double wm = 1.0 / (sigma_m * sigma_m), wp = 1.0 / (pr.o.prior_sigma_uT * pr.o.prior_sigma_uT);
+  for (size_t i = 0; i < pr.s.size(); ++i) {
     if (use[i] == 0) continue;
-    const MatrixXd X = Design(s[i], p);
+    const MatrixXd X = Design(pr.s[i], pr.r[i], p);
     N.noalias() += wm * X.transpose() * X;
-    rhs.noalias() += wm * X.transpose() * s[i].y_uT;
+    rhs.noalias() += wm * X.transpose() * pr.s[i].y_uT;
   }
   N.block<3, 3>(0, 0) += wp * Matrix3d::Identity();
-  rhs.head<3>() += wp * o.prior_field_N_uT;
+  rhs.head<3>() += wp * pr.o.prior_field_N_uT;
   // Scale-invariant check of the conditioning (unit diagonal).
   const VectorXd d = N.diagonal().cwiseSqrt().cwiseInverse();
   const MatrixXd Nn = d.asDiagonal() * N * d.asDiagonal();
   Eigen::LDLT<MatrixXd> ldlt(Nn);
   if (ldlt.info() != Eigen::Success || !(ldlt.rcond() > 1e-12)) {
-    return Status::Numerical("flight fit: the offset and the current term cannot be separated (singular normal matrix)");
+    return Status::Numerical("flight fit: the offset and the disturbance term cannot be separated (singular normal matrix)");
   }
   Solve out;
   out.N_inv = d.asDiagonal() * ldlt.solve(MatrixXd::Identity(p, p)) * d.asDiagonal();
@@ -59,15 +71,15 @@ Result<Solve> SolveWeighted(const std::vector<FlightFitSample>& s, const std::ve
   return out;
 }
 
-double RmsPerAxis(const std::vector<FlightFitSample>& s, const std::vector<char>& use, const VectorXd& theta, int p,
+double RmsPerAxis(const Problem& pr, const std::vector<char>& use, const VectorXd& theta,
                   std::vector<double>* norms = nullptr) {
   double ss = 0.0;
   int n = 0;
-  if (norms != nullptr) norms->assign(s.size(), 0.0);
-  for (size_t i = 0; i < s.size(); ++i) {
-    const Vector3d e = s[i].y_uT - Design(s[i], p) * theta;
-    if (norms != nullptr) (*norms)[i] = e.norm();
+  if (norms != nullptr) norms->assign(pr.s.size(), 0.0);
+  for (size_t i = 0; i < pr.s.size(); ++i) {
     if (use[i] == 0) continue;
+    const Vector3d e = pr.s[i].y_uT - Design(pr.s[i], pr.r[i], pr.p) * theta;
+    if (norms != nullptr) (*norms)[i] = e.norm();
     ss += e.squaredNorm();
     n += 3;
   }
@@ -81,7 +93,144 @@ double Quantile(std::vector<double> v, double q) {
   return v[static_cast<size_t>(k)];
 }
 
+// Decides whether d is fitted (p = 9) and which samples carry it; fills the span and the note.
+int ChooseTerm(const std::vector<FlightFitSample>& samples, const FlightFitOptions& o, std::vector<double>* r,
+               std::vector<char>* use, FlightFit* fit) {
+  std::vector<double> known;
+  for (const auto& s : samples) {
+    const double v = Regressor(s, o.form);
+    r->push_back(v);
+    if (std::isfinite(v)) known.push_back(v);
+  }
+  const bool current = o.form == FlightTermForm::kCurrent;
+  const char* what = current ? "current" : "throttle";
+  fit->regressor_span = known.empty() ? 0.0 : Quantile(known, 0.95) - Quantile(known, 0.05);
+  const double need = current ? o.min_current_span_A : o.min_throttle_span;
+  if (static_cast<int>(known.size()) < o.min_samples) {
+    fit->term_note = Format("%s known at %zu samples, needs %d", what, known.size(), o.min_samples);
+  } else if (fit->regressor_span < need) {
+    fit->term_note = current ? Format("the current spans %.1f A (5-95 %%), needs %.1f A to separate its field from the offset",
+                                      fit->regressor_span, need)
+                             : Format("the throttle spans %.3f (5-95 %%), needs %.3f to separate its field from the offset",
+                                      fit->regressor_span, need);
+  } else {
+    for (size_t i = 0; i < samples.size(); ++i) {
+      if (!std::isfinite((*r)[i])) {
+        (*use)[i] = 0;
+        ++fit->without_regressor;
+      }
+    }
+    return 9;
+  }
+  for (double& v : *r) v = 0.0;
+  return 6;
+}
+
+// Drops samples whose residual norm is beyond outlier_sigma robust σ of the rest.
+void DropOutliers(const std::vector<double>& norms, double outlier_sigma, std::vector<char>* use, int* outliers) {
+  std::vector<double> kept;
+  for (size_t i = 0; i < norms.size(); ++i) {
+    if ((*use)[i] != 0) kept.push_back(norms[i]);
+  }
+  const double med = Quantile(kept, 0.5);
+  std::vector<double> dev;
+  dev.reserve(kept.size());
+  for (double v : kept) dev.push_back(std::fabs(v - med));
+  const double robust_sigma = 1.4826 * Quantile(dev, 0.5);
+  for (size_t i = 0; i < norms.size(); ++i) {
+    if ((*use)[i] != 0 && robust_sigma > 0.0 && norms[i] > med + outlier_sigma * robust_sigma) {
+      (*use)[i] = 0;
+      ++*outliers;
+    }
+  }
+}
+
+// The delete-one-block jackknife covariance, (G−1)/G·Σ_g (θ₋g − θ̄)(θ₋g − θ̄)ᵀ. The cluster sandwich
+// N⁻¹(Σ s_g s_gᵀ)N⁻¹ was tried first: with 10-20 blocks in which the current's range differs block
+// by block (high-leverage blocks) it rejected d = 0 in 12-16 % of synthetic flights without a
+// current field at a nominal 5 %; the jackknife is the conservative (CR3-like) form of it.
+Result<MatrixXd> JackknifeCov(const Problem& pr, const std::vector<char>& use, double sigma_m, FlightFit* fit) {
+  const int p = pr.p;
+  const double t0 = pr.s.front().t_s;
+  const double wm = 1.0 / (sigma_m * sigma_m);
+  struct Block {
+    MatrixXd N;
+    VectorXd r;
+  };
+  std::map<long, Block> blocks;
+  MatrixXd N = MatrixXd::Zero(p, p);
+  VectorXd rhs = VectorXd::Zero(p);
+  for (size_t i = 0; i < pr.s.size(); ++i) {
+    if (use[i] == 0) continue;
+    const auto g = static_cast<long>(std::floor((pr.s[i].t_s - t0) / pr.o.block_s));
+    const MatrixXd X = Design(pr.s[i], pr.r[i], p);
+    auto it = blocks.find(g);
+    if (it == blocks.end()) it = blocks.emplace(g, Block{MatrixXd::Zero(p, p), VectorXd::Zero(p)}).first;
+    it->second.N.noalias() += wm * X.transpose() * X;
+    it->second.r.noalias() += wm * X.transpose() * pr.s[i].y_uT;
+  }
+  fit->blocks = static_cast<int>(blocks.size());
+  if (fit->samples_used < pr.o.min_samples || fit->blocks < pr.o.min_blocks) {
+    return Status::BadInput(Format("flight fit: %d samples in %d blocks of %.0f s after outliers, needs %d samples in %d blocks",
+                                   fit->samples_used, fit->blocks, pr.o.block_s, pr.o.min_samples, pr.o.min_blocks));
+  }
+  for (const auto& [g, b] : blocks) {
+    N += b.N;
+    rhs += b.r;
+  }
+  const double wp = 1.0 / (pr.o.prior_sigma_uT * pr.o.prior_sigma_uT);
+  N.block<3, 3>(0, 0) += wp * Matrix3d::Identity();
+  rhs.head<3>() += wp * pr.o.prior_field_N_uT;
+  std::vector<VectorXd> leave_out;
+  VectorXd mean = VectorXd::Zero(p);
+  for (const auto& [g, b] : blocks) {
+    Eigen::LDLT<MatrixXd> ldlt(N - b.N);
+    if (ldlt.info() != Eigen::Success) return Status::Numerical("flight fit: a leave-one-block-out system is singular");
+    leave_out.emplace_back(ldlt.solve(rhs - b.r));
+    mean += leave_out.back();
+  }
+  mean /= static_cast<double>(fit->blocks);
+  MatrixXd cov = MatrixXd::Zero(p, p);
+  for (const VectorXd& v : leave_out) cov.noalias() += (v - mean) * (v - mean).transpose();
+  cov *= static_cast<double>(fit->blocks - 1) / static_cast<double>(fit->blocks);
+  return cov;
+}
+
+void FillIntervals(const MatrixXd& cov, int p, FlightFit* fit) {
+  const double t975 = StudentT975(static_cast<double>(fit->blocks - 1));
+  auto half = [&](int k) { return t975 * std::sqrt(std::max(cov(k, k), 0.0)); };
+  for (int k = 0; k < 3; ++k) {
+    fit->field_ci_half_uT(k) = half(k);
+    fit->offset_ci_half_uT(k) = half(3 + k);
+  }
+  if (p != 9) return;
+  fit->term_cov = cov.block<3, 3>(6, 6);
+  for (int k = 0; k < 3; ++k) fit->term_ci_half_uT(k) = half(6 + k);
+  double h = 0.0;
+  if (fit->term_norm_uT > 0.0) {
+    const Vector3d g = fit->term_uT / fit->term_norm_uT;
+    h = t975 * std::sqrt(std::max(static_cast<double>(g.transpose() * fit->term_cov * g), 0.0));
+  }
+  // Per-axis t statistics against a Bonferroni point for three axes at 5 % overall.
+  for (int k = 0; k < 3; ++k) {
+    const double se = std::sqrt(std::max(cov(6 + k, 6 + k), 0.0));
+    if (se > 0.0) fit->term_max_abs_t = std::max(fit->term_max_abs_t, std::fabs(fit->term_uT(k)) / se);
+  }
+  fit->term_t_threshold = StudentTQuantile(1.0 - 0.05 / 6.0, static_cast<double>(fit->blocks - 1));
+  fit->term_resolved = fit->term_max_abs_t >= fit->term_t_threshold;
+  fit->term_norm_ci95[0] = std::max(0.0, fit->term_norm_uT - h);
+  fit->term_norm_ci95[1] = fit->term_norm_uT + h;
+}
+
 }  // namespace
+
+const char* FlightTermFormName(FlightTermForm form) { return form == FlightTermForm::kCurrent ? "current" : "throttle"; }
+const char* FlightTermUnit(FlightTermForm form) { return form == FlightTermForm::kCurrent ? "uT/A" : "uT/throttle"; }
+
+Eigen::Vector3d FlightFit::Predict(const FlightFitSample& s) const {
+  const double r = Regressor(s, form);
+  return s.R_NB.transpose() * field_N_uT + offset_y_uT + (term_fitted && std::isfinite(r) ? Vector3d(term_uT * r) : Vector3d::Zero());
+}
 
 Result<FlightFit> FitFlightCompass(const std::vector<FlightFitSample>& samples, const FlightFitOptions& o) {
   for (const auto& s : samples) {
@@ -96,129 +245,42 @@ Result<FlightFit> FitFlightCompass(const std::vector<FlightFitSample>& samples, 
     return Status::BadInput("flight fit: prior field, prior sigma and block length must be finite and positive");
   }
   FlightFit fit;
-  // The current term only when the current is known everywhere and varies.
-  std::vector<double> currents;
-  bool current_known = true;
-  for (const auto& s : samples) {
-    current_known = current_known && std::isfinite(s.current_A);
-    if (std::isfinite(s.current_A)) currents.push_back(s.current_A);
-  }
-  fit.current_span_A = currents.empty() ? 0.0 : Quantile(currents, 0.95) - Quantile(currents, 0.05);
-  int p = 6;
-  if (!current_known) {
-    fit.current_note = "no current for every sample";
-  } else if (fit.current_span_A < o.min_current_span_A) {
-    fit.current_note = Format("the current spans %.1f A (5-95 %%), needs %.1f A to separate its field from the offset",
-                              fit.current_span_A, o.min_current_span_A);
-  } else {
-    p = 9;
-  }
+  fit.form = o.form;
   std::vector<char> use(samples.size(), 1);
+  Problem pr{samples, {}, 6, o};
+  pr.p = ChooseTerm(samples, o, &pr.r, &use, &fit);
+  const int p = pr.p;
   VectorXd theta0 = VectorXd::Zero(p);
   theta0.head<3>() = o.prior_field_N_uT;
-  fit.rms_prior_uT = RmsPerAxis(samples, use, theta0, p);
+  fit.rms_prior_uT = RmsPerAxis(pr, use, theta0);
 
   // Pass 1 at a nominal noise, pass 2 at the measured one with outliers dropped, pass 3 final.
   double sigma_m = 1.0;
-  Result<Solve> sol = SolveWeighted(samples, use, p, sigma_m, o);
+  Result<Solve> sol = SolveWeighted(pr, use, sigma_m);
   if (!sol.ok()) return sol.status();
   std::vector<double> norms;
-  sigma_m = std::max(RmsPerAxis(samples, use, sol->theta, p, &norms), 1e-3);
-  const double med = Quantile(norms, 0.5);
-  std::vector<double> dev;
-  dev.reserve(norms.size());
-  for (double v : norms) dev.push_back(std::fabs(v - med));
-  const double robust_sigma = 1.4826 * Quantile(dev, 0.5);
-  for (size_t i = 0; i < samples.size(); ++i) {
-    if (robust_sigma > 0.0 && norms[i] > med + o.outlier_sigma * robust_sigma) {
-      use[i] = 0;
-      ++fit.outliers;
-    }
-  }
+  sigma_m = std::max(RmsPerAxis(pr, use, sol->theta, &norms), 1e-3);
+  DropOutliers(norms, o.outlier_sigma, &use, &fit.outliers);
   for (int pass = 0; pass < 2; ++pass) {
-    sol = SolveWeighted(samples, use, p, sigma_m, o);
+    sol = SolveWeighted(pr, use, sigma_m);
     if (!sol.ok()) return sol.status();
-    sigma_m = std::max(RmsPerAxis(samples, use, sol->theta, p), 1e-3);
+    sigma_m = std::max(RmsPerAxis(pr, use, sol->theta), 1e-3);
   }
   const VectorXd& th = sol->theta;
   fit.rms_after_uT = sigma_m;
-
-  // Covariance: the delete-one-block jackknife over time blocks, (G−1)/G·Σ_g (θ₋g − θ̄)(θ₋g − θ̄)ᵀ.
-  // The cluster sandwich N⁻¹(Σ s_g s_gᵀ)N⁻¹ was tried first: with 10-20 blocks in which the
-  // current's range differs block by block (high-leverage blocks) it rejected d = 0 in 12-16 % of
-  // synthetic flights without a current field at a nominal 5 %; the jackknife is the conservative
-  // (CR3-like) form of it.
-  const double t0 = samples.front().t_s;
-  const double wm = 1.0 / (sigma_m * sigma_m);
-  struct Block {
-    MatrixXd N;
-    VectorXd r;
-  };
-  std::map<long, Block> blocks;
-  MatrixXd N = MatrixXd::Zero(p, p);
-  VectorXd rhs = VectorXd::Zero(p);
-  for (size_t i = 0; i < samples.size(); ++i) {
-    if (use[i] == 0) continue;
-    ++fit.samples_used;
-    const auto g = static_cast<long>(std::floor((samples[i].t_s - t0) / o.block_s));
-    const MatrixXd X = Design(samples[i], p);
-    auto it = blocks.find(g);
-    if (it == blocks.end()) it = blocks.emplace(g, Block{MatrixXd::Zero(p, p), VectorXd::Zero(p)}).first;
-    it->second.N.noalias() += wm * X.transpose() * X;
-    it->second.r.noalias() += wm * X.transpose() * samples[i].y_uT;
-  }
-  fit.blocks = static_cast<int>(blocks.size());
-  if (fit.samples_used < o.min_samples || fit.blocks < o.min_blocks) {
-    return Status::BadInput(Format("flight fit: %d samples in %d blocks of %.0f s after outliers, needs %d samples in %d blocks",
-                                   fit.samples_used, fit.blocks, o.block_s, o.min_samples, o.min_blocks));
-  }
-  for (const auto& [g, b] : blocks) {
-    N += b.N;
-    rhs += b.r;
-  }
-  const double wp = 1.0 / (o.prior_sigma_uT * o.prior_sigma_uT);
-  N.block<3, 3>(0, 0) += wp * Matrix3d::Identity();
-  rhs.head<3>() += wp * o.prior_field_N_uT;
-  std::vector<VectorXd> leave_out;
-  VectorXd mean = VectorXd::Zero(p);
-  for (const auto& [g, b] : blocks) {
-    Eigen::LDLT<MatrixXd> ldlt(N - b.N);
-    if (ldlt.info() != Eigen::Success) return Status::Numerical("flight fit: a leave-one-block-out system is singular");
-    leave_out.emplace_back(ldlt.solve(rhs - b.r));
-    mean += leave_out.back();
-  }
-  mean /= static_cast<double>(fit.blocks);
-  MatrixXd cov = MatrixXd::Zero(p, p);
-  for (const VectorXd& v : leave_out) cov.noalias() += (v - mean) * (v - mean).transpose();
-  cov *= static_cast<double>(fit.blocks - 1) / static_cast<double>(fit.blocks);
-  const double t975 = StudentT975(static_cast<double>(fit.blocks - 1));
-  auto half = [&](int k) { return t975 * std::sqrt(std::max(cov(k, k), 0.0)); };
+  fit.samples_used = static_cast<int>(std::count(use.begin(), use.end(), 1));
+  fit.used = use;
   fit.field_N_uT = th.segment<3>(0);
   fit.offset_y_uT = th.segment<3>(3);
-  for (int k = 0; k < 3; ++k) {
-    fit.field_ci_half_uT(k) = half(k);
-    fit.offset_ci_half_uT(k) = half(3 + k);
-  }
   if (p == 9) {
-    fit.current_fitted = true;
-    fit.current_uT_per_A = th.segment<3>(6);
-    for (int k = 0; k < 3; ++k) fit.current_ci_half_uT_per_A(k) = half(6 + k);
-    fit.current_norm_uT_per_A = fit.current_uT_per_A.norm();
-    double h = 0.0;
-    if (fit.current_norm_uT_per_A > 0.0) {
-      const Vector3d g = fit.current_uT_per_A / fit.current_norm_uT_per_A;
-      h = t975 * std::sqrt(std::max(static_cast<double>(g.transpose() * cov.block<3, 3>(6, 6) * g), 0.0));
-    }
-    // Per-axis t statistics against a Bonferroni point for three axes at 5 % overall.
-    for (int k = 0; k < 3; ++k) {
-      const double se = std::sqrt(std::max(cov(6 + k, 6 + k), 0.0));
-      if (se > 0.0) fit.current_max_abs_t = std::max(fit.current_max_abs_t, std::fabs(fit.current_uT_per_A(k)) / se);
-    }
-    fit.current_t_threshold = StudentTQuantile(1.0 - 0.05 / 6.0, static_cast<double>(fit.blocks - 1));
-    fit.current_resolved = fit.current_max_abs_t >= fit.current_t_threshold;
-    fit.current_norm_ci95[0] = std::max(0.0, fit.current_norm_uT_per_A - h);
-    fit.current_norm_ci95[1] = fit.current_norm_uT_per_A + h;
+    fit.term_fitted = true;
+    fit.term_uT = th.segment<3>(6);
+    fit.term_norm_uT = fit.term_uT.norm();
   }
+  if (!o.intervals) return fit;
+  auto cov = JackknifeCov(pr, use, sigma_m, &fit);
+  if (!cov.ok()) return cov.status();
+  FillIntervals(*cov, p, &fit);
   return fit;
 }
 

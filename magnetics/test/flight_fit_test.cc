@@ -59,12 +59,12 @@ TEST(FlightFit, GivenAFlightWithKnownOffsetAndCurrentField_WhenFitted_ThenEachIs
   for (int seed = 1; seed <= seeds; ++seed) {
     auto fit = FitFlightCompass(Fly(f, static_cast<uint64_t>(seed)), Options(f));
     ASSERT_TRUE(fit.ok()) << fit.status().message();
-    ASSERT_TRUE(fit->current_fitted);
-    resolved += fit->current_resolved;
+    ASSERT_TRUE(fit->term_fitted);
+    resolved += fit->term_resolved;
     bool all = true;
     for (int k = 0; k < 3; ++k) {
       all = all && std::fabs(fit->offset_y_uT(k) - f.offset_uT(k)) <= fit->offset_ci_half_uT(k);
-      all = all && std::fabs(fit->current_uT_per_A(k) - f.d_uT_per_A(k)) <= fit->current_ci_half_uT_per_A(k);
+      all = all && std::fabs(fit->term_uT(k) - f.d_uT_per_A(k)) <= fit->term_ci_half_uT(k);
     }
     covered += all;
     EXPECT_LT(fit->rms_after_uT, 1.2 * f.noise_uT);
@@ -84,7 +84,7 @@ TEST(FlightFit, GivenNoCurrentField_WhenFitted_ThenTheCurrentTermIsRarelyResolve
   for (int seed = 1; seed <= seeds; ++seed) {
     auto fit = FitFlightCompass(Fly(f, 100 + static_cast<uint64_t>(seed)), Options(f));
     ASSERT_TRUE(fit.ok()) << fit.status().message();
-    resolved += fit->current_resolved;
+    resolved += fit->term_resolved;
   }
   EXPECT_LE(resolved, 3);  // a 5 % test: 1 expected in 20
 }
@@ -94,13 +94,47 @@ TEST(FlightFit, GivenAConstantCurrentOrNone_WhenFitted_ThenTheOffsetAloneIsFitte
   auto samples = Fly(f, 7, /*with_current=*/false);
   auto fit = FitFlightCompass(samples, Options(f));
   ASSERT_TRUE(fit.ok());
-  EXPECT_FALSE(fit->current_fitted);
-  EXPECT_NE(fit->current_note.find("no current"), std::string::npos);
+  EXPECT_FALSE(fit->term_fitted);
+  EXPECT_NE(fit->term_note.find("current known at 0 samples"), std::string::npos) << fit->term_note;
   for (auto& s : samples) s.current_A = 12.0;
   fit = FitFlightCompass(samples, Options(f));
   ASSERT_TRUE(fit.ok());
-  EXPECT_FALSE(fit->current_fitted);
-  EXPECT_NE(fit->current_note.find("needs 3.0 A"), std::string::npos) << fit->current_note;
+  EXPECT_FALSE(fit->term_fitted);
+  EXPECT_NE(fit->term_note.find("needs 3.0 A"), std::string::npos) << fit->term_note;
+}
+
+TEST(FlightFit, GivenACurrentMissingOnTheFirstRows_WhenFitted_ThenThoseRowsAreSkippedAndTheTermIsStillFitted) {
+  // A power monitor that starts a few seconds into the log: its first rows have no current.
+  const SynthFlight f;
+  auto samples = Fly(f, 21);
+  for (size_t i = 0; i < 60; ++i) samples[i].current_A = std::nan("");
+  auto fit = FitFlightCompass(samples, Options(f));
+  ASSERT_TRUE(fit.ok()) << fit.status().message();
+  ASSERT_TRUE(fit->term_fitted) << fit->term_note;
+  EXPECT_EQ(fit->without_regressor, 60);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(fit->term_uT(k), f.d_uT_per_A(k), fit->term_ci_half_uT(k) + 1e-9);
+  EXPECT_EQ(fit->used[10], 0);
+}
+
+TEST(FlightFit, GivenAFieldDrivenByThrottle_WhenFittedInThrottleForm_ThenItsFieldPerUnitThrottleIsInsideItsInterval) {
+  // ArduPilot's COMPASS_MOTCT 1 form for a log without a usable current: B = d·u, u in 0..1.
+  const SynthFlight f;
+  auto samples = Fly(f, 5, /*with_current=*/false);
+  const Vector3d d_uT(2.0, -6.0, 4.0);  // 80 mG at full throttle: inside throttle_hard_iron's 0..60 uT
+  for (size_t i = 0; i < samples.size(); ++i) {
+    const double u = 0.5 + 0.15 * std::sin(samples[i].t_s / 4.0);
+    samples[i].throttle = u;
+    samples[i].y_uT += d_uT * u;
+  }
+  FlightFitOptions o = Options(f);
+  o.form = FlightTermForm::kThrottle;
+  auto fit = FitFlightCompass(samples, o);
+  ASSERT_TRUE(fit.ok()) << fit.status().message();
+  ASSERT_TRUE(fit->term_fitted) << fit->term_note;
+  EXPECT_TRUE(fit->term_resolved);
+  EXPECT_EQ(fit->form, FlightTermForm::kThrottle);
+  EXPECT_LE(d_uT.norm(), fit->term_norm_ci95[1]);
+  EXPECT_GE(d_uT.norm(), fit->term_norm_ci95[0]);
 }
 
 TEST(FlightFit, GivenTooFewSamplesOrANonFiniteOne_WhenFitted_ThenBadInputNamesTheMinimum) {

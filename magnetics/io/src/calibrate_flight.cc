@@ -20,71 +20,84 @@ using Eigen::Vector3d;
 
 using internal::Vec;
 
-// Samples with |roll| or |pitch| beyond this are left out: a flip or a vehicle lying on its side
-// after a crash, where the logged attitude is least trustworthy (the realdata windows' 60° rule).
-constexpr double kMaxTiltDeg = 60.0;
 // ArduPilot's most relaxed onboard-calibration fitness (COMPASS_CAL_FIT 32 mG, "relaxed"): the RMS
 // of |calibrated| − |field|. Beyond it the fit is reported but rejected (exit 1).
 constexpr double kMaxFitness_uT = 3.2;
 
-Result<Vector3d> PriorField(const FlightContext& fc) {
-  auto f = EvaluateWmm(fc.where, fc.decimal_year, /*allow_extrapolation=*/true);
-  if (!f.ok()) return f.status();
-  return f->B_N_uT;
+}  // namespace
+
+bool UsesFlightPath(const std::vector<MagSample>& samples, const CalibrateRequest& rq) {
+  return rq.flight.has_attitude && rq.flight.has_place && rq.flight.prepared.has_value() && !HasTurntableColumns(samples);
+}
+
+namespace {
+
+// The disturbance term: its report entry, the warning why it is not applied, and whether it is.
+nlohmann::json TermReport(const FlightFit& fit, const PreparedFlightFit& pf, FlightOutcome* fo, FieldCalibration* f) {
+  const bool throttle = fit.form == FlightTermForm::kThrottle;
+  const char* row = throttle ? "throttle_hard_iron" : "current_hard_iron";
+  const char* unit = throttle ? "mG/throttle" : "mG/A";
+  fo->term_plausible = plausibility::IsPlausible(row, fit.term_norm_uT);
+  const bool resolved = fit.term_fitted && fit.term_resolved;
+  nlohmann::json cur = {{"form", FlightTermFormName(fit.form)},
+                        {"fitted", fit.term_fitted},
+                        {"regressor_span", fit.regressor_span},
+                        {"without_regressor", fit.without_regressor},
+                        {"physical_range", plausibility::RangeText(row)},
+                        {"plausible", fo->term_plausible},
+                        {"resolved", resolved},
+                        {"max_abs_t", fit.term_max_abs_t},
+                        {"t_threshold", fit.term_t_threshold},
+                        {"note", fit.term_note},
+                        {"current_note", pf.current_note}};
+  if (throttle) {
+    cur["uT_per_throttle"] = Vec(fit.term_uT);
+    cur["norm_mG_per_throttle"] = 10 * fit.term_norm_uT;
+    cur["norm_ci95_mG_per_throttle"] = {10 * fit.term_norm_ci95[0], 10 * fit.term_norm_ci95[1]};
+  } else {
+    cur["current_span_A"] = fit.regressor_span;
+    cur["uT_per_A"] = Vec(fit.term_uT);
+    cur["ci95_half_uT_per_A"] = Vec(fit.term_ci_half_uT);
+    cur["norm_mG_per_A"] = 10 * fit.term_norm_uT;
+    cur["norm_ci95_mG_per_A"] = {10 * fit.term_norm_ci95[0], 10 * fit.term_norm_ci95[1]};
+  }
+  if (!fit.term_fitted) {
+    f->warnings.push_back(fmt::format("{} compensation not fitted: {}", throttle ? "throttle" : "current", fit.term_note));
+  } else if (!fo->term_plausible) {
+    f->warnings.push_back(fmt::format("{} field {:.1f} {} outside its physical range ({}): model mismatch, not applied",
+                                      throttle ? "throttle" : "current", 10 * fit.term_norm_uT, unit,
+                                      plausibility::RangeText(row)));
+  } else if (!resolved) {
+    f->warnings.push_back(fmt::format("{} field {:.1f} {} [{:.1f}, {:.1f}]: not resolved from zero (largest |t| {:.1f} < "
+                                      "{:.1f}), not applied",
+                                      throttle ? "throttle" : "current", 10 * fit.term_norm_uT, unit,
+                                      10 * fit.term_norm_ci95[0], 10 * fit.term_norm_ci95[1], fit.term_max_abs_t,
+                                      fit.term_t_threshold));
+  }
+  if (!pf.current_note.empty()) f->warnings.push_back("current not used: " + pf.current_note);
+  fo->term_applied = resolved && fo->term_plausible;
+  cur["applied"] = fo->term_applied;
+  return cur;
 }
 
 }  // namespace
 
-bool UsesFlightPath(const std::vector<MagSample>& samples, const CalibrateRequest& rq) {
-  return rq.flight.has_attitude && rq.flight.has_place && rq.flight.t_s.size() == samples.size() &&
-         !HasTurntableColumns(samples);
-}
-
-Result<CalibrateOutcome> FlightPath(CalibrateOutcome out, const std::vector<MagSample>& samples, const CalibrateRequest& rq) {
+Result<CalibrateOutcome> FlightPath(CalibrateOutcome out, const std::vector<MagSample>& /*samples*/,
+                                    const CalibrateRequest& rq) {
   const FlightContext& fc = rq.flight;
-  if (!fc.has_attitude || fc.t_s.size() != samples.size()) {
+  if (!fc.has_attitude) {
     return Status::BadInput("--method flight: the input has no attitude (it needs a flight log: FlightLog CSV, .bin or .ulg)");
   }
   if (!fc.has_place) {
     return Status::BadInput("--method flight: the log has no place and date for the Earth field (no GPS fix in its meta)");
   }
-  auto prior = PriorField(fc);
-  if (!prior.ok()) return prior.status();
+  if (!fc.prepared) return Status::BadInput("--method flight: the log's rows are needed (windows and timing)");
+  const PreparedFlightFit& pf = *fc.prepared;
+  const FlightFit* fit = &pf.fit;
+  const Vector3d* prior = &pf.options.prior_field_N_uT;
   const Matrix3d M = fc.body_from_raw;
-  if (!(std::fabs(M.determinant()) > 1e-6)) return Status::BadInput("--method flight: the log's compass matrix is singular");
-  const double cos_max_tilt = std::cos(kMaxTiltDeg * M_PI / 180.0);
-  FlightFitOptions fo = rq.flight_fit;
-  fo.prior_field_N_uT = *prior;
-  // Flight samples only, when the windows are known and hold enough of them.
-  bool flight_only = fc.in_flight.size() == samples.size() &&
-                     std::count(fc.in_flight.begin(), fc.in_flight.end(), 1) >= static_cast<std::ptrdiff_t>(fo.min_samples);
-  std::string window_note = fc.in_flight.size() != samples.size()
-                                ? "no flight windows known: every sample used"
-                                : flight_only ? "flight windows only (" + fc.windows_note + ")"
-                                              : "too few flight samples: ground samples used too (" + fc.windows_note + ")";
-  std::vector<FlightFitSample> fs;
-  std::vector<size_t> index;
-  int tilted = 0, outside = 0;
-  for (size_t i = 0; i < samples.size(); ++i) {
-    if (flight_only && fc.in_flight[i] == 0) {
-      ++outside;
-      continue;
-    }
-    const Matrix3d R = samples[i].q_NB.normalized().toRotationMatrix();
-    if (R(2, 2) < cos_max_tilt) {  // body z against down: cos(tilt)
-      ++tilted;
-      continue;
-    }
-    FlightFitSample s;
-    s.y_uT = M * out.raw_uT[i];
-    s.R_NB = R;
-    s.current_A = fc.has_current ? samples[i].current_A : std::nan("");
-    s.t_s = fc.t_s[i];
-    fs.push_back(s);
-    index.push_back(i);
-  }
-  auto fit = FitFlightCompass(fs, fo);
-  if (!fit.ok()) return fit.status();
+  FlightOutcome fo;
+  fo.in = pf;
 
   FieldCalibration& f = out.field;
   f.method_used = "flight";
@@ -99,42 +112,16 @@ Result<CalibrateOutcome> FlightPath(CalibrateOutcome out, const std::vector<MagS
   f.coverage = internal::CoverageAboutMedianNorm(out.raw_uT);
   f.norm_spread_before = NormSpread(out.raw_uT);
 
-  // The current term is applied only when it is resolved (interval excludes 0) and plausible.
-  Vector3d d = fit->current_uT_per_A;
-  const bool current_resolved = fit->current_fitted && fit->current_resolved;
-  const bool current_plausible = plausibility::IsPlausible("current_hard_iron", fit->current_norm_uT_per_A);
-  nlohmann::json cur = {{"fitted", fit->current_fitted},
-                        {"current_span_A", fit->current_span_A},
-                        {"uT_per_A", Vec(d)},
-                        {"ci95_half_uT_per_A", Vec(fit->current_ci_half_uT_per_A)},
-                        {"norm_mG_per_A", 10 * fit->current_norm_uT_per_A},
-                        {"norm_ci95_mG_per_A", {10 * fit->current_norm_ci95[0], 10 * fit->current_norm_ci95[1]}},
-                        {"physical_range", plausibility::RangeText("current_hard_iron")},
-                        {"plausible", current_plausible},
-                        {"resolved", current_resolved},
-                        {"max_abs_t", fit->current_max_abs_t},
-                        {"t_threshold", fit->current_t_threshold},
-                        {"note", fit->current_note}};
-  if (!fit->current_fitted) {
-    f.warnings.push_back("current compensation not fitted: " + fit->current_note);
-    d.setZero();
-  } else if (!current_plausible) {
-    f.warnings.push_back(fmt::format("current field {:.1f} mG/A outside its physical range ({}): model mismatch, not applied",
-                                     10 * fit->current_norm_uT_per_A, plausibility::RangeText("current_hard_iron")));
-    d.setZero();
-  } else if (!current_resolved) {
-    f.warnings.push_back(fmt::format("current field {:.1f} mG/A [{:.1f}, {:.1f}]: not resolved from zero (largest |t| {:.1f} < "
-                                     "{:.1f}), not applied",
-                                     10 * fit->current_norm_uT_per_A, 10 * fit->current_norm_ci95[0],
-                                     10 * fit->current_norm_ci95[1], fit->current_max_abs_t, fit->current_t_threshold));
-    d.setZero();
-  }
-  cur["applied"] = !d.isZero();
+  // The disturbance term is applied only when it is resolved (interval excludes 0) and plausible.
+  nlohmann::json cur = TermReport(*fit, pf, &fo, &f);
+  const Vector3d d = fo.term_applied ? fit->term_uT : Vector3d::Zero();
+  const bool throttle = fit->form == FlightTermForm::kThrottle;
   std::vector<Vector3d> after;
   double ss = 0.0;
   int n = 0;
-  for (size_t k = 0; k < index.size(); ++k) {
-    const Vector3d c = f.Correct(out.raw_uT[index[k]]) - d * (fc.has_current ? fs[k].current_A : 0.0);
+  for (size_t k = 0; k < pf.index.size(); ++k) {
+    const double r = throttle ? pf.samples[k].throttle : pf.samples[k].current_A;
+    const Vector3d c = f.Correct(out.raw_uT[pf.index[k]]) - d * (std::isfinite(r) ? r : 0.0);
     after.push_back(c);
     const double e = c.norm() - f.radius_uT;
     ss += e * e;
@@ -153,8 +140,8 @@ Result<CalibrateOutcome> FlightPath(CalibrateOutcome out, const std::vector<MagS
                                      "anomaly or a wrong place/date",
                                      f.radius_uT, 100 * norm_diff, wmm_norm));
   }
-  if (!flight_only) f.warnings.push_back(window_note);
-  if (tilted > 0) f.warnings.push_back(fmt::format("{} sample(s) tilted beyond {:.0f} deg left out", tilted, kMaxTiltDeg));
+  if (!pf.flight_only) f.warnings.push_back(pf.windows_note);
+  if (pf.tilted > 0) f.warnings.push_back(fmt::format("{} sample(s) tilted beyond the windows' limit left out", pf.tilted));
   if (fit->outliers > 0) f.warnings.push_back(fmt::format("{} sample(s) with outlying residuals left out", fit->outliers));
   f.accepted = f.fitness_uT <= kMaxFitness_uT && plausibility::IsPlausible("compass_offset", f.offset_uT.norm());
   if (!f.accepted) {
@@ -162,31 +149,30 @@ Result<CalibrateOutcome> FlightPath(CalibrateOutcome out, const std::vector<MagS
                                      "COMPASS_CAL_FIT, 32 mG) or offset out of range",
                                      f.fitness_uT, kMaxFitness_uT));
   }
-  out.compensator = std::make_unique<CurrentSlopeCompensator>("flight", Minv, f.offset_uT, d, 0.0, CurrentFrame::kCorrected);
+  if (!throttle) {
+    out.compensator = std::make_unique<CurrentSlopeCompensator>("flight", Minv, f.offset_uT, d, 0.0, CurrentFrame::kCorrected);
+  } else {
+    // calib.yaml's compensator is current-based: a throttle term goes to the parameter files only.
+    out.compensator =
+        std::make_unique<CurrentSlopeCompensator>("flight", Minv, f.offset_uT, Vector3d::Zero(), 0.0, CurrentFrame::kCorrected);
+  }
 
-  // Parameters: the autopilot's own soft iron is kept; the current field as its compensation.
+  // Parameters: the autopilot's own soft iron is kept; the disturbance term as its compensation, the
+  // log's own COMPASS_MOTCT / COMPASS_MOT* kept, replaced or zeroed (and the files say which).
   out.params_keep_soft_iron = true;
   out.params_A = fc.soft_iron_in_force;
-  const int ai = rq.compass_index;
-  if (!d.isZero()) {
-    const std::string mot = ai == 0 ? "COMPASS_MOT_" : fmt::format("COMPASS_MOT{}_", ai + 1);
-    out.ardupilot_extra.emplace_back("COMPASS_MOTCT", 2.0);  // 2: current-based
-    const Vector3d mot_mG = -10.0 * d;                          // corrected = M(raw + OFS) + MOT·I
-    for (int k = 0; k < 3; ++k) out.ardupilot_extra.emplace_back(mot + static_cast<char>('X' + k), mot_mG(k));
-    if (fc.px4_comp_type == 1) {
-      f.warnings.emplace_back("PX4: the log's throttle-based compensation (CAL_MAG_COMP_TYP 1) is in force; the current "
-                           "compensation is not written for PX4");
-    } else {
-      // PX4: S·((u + P·comp) − off) with P = I/1000 (kA), comp in G/kA: R_s·S·P·Δcomp = −d·I.
-      const Vector3d delta_G_per_kA = -10.0 * Minv * d;
-      const Vector3d comp = (fc.px4_comp_type == 2 ? fc.px4_comp_G : Vector3d::Zero()) + delta_G_per_kA;
-      const int pi = rq.px4_index >= 0 ? rq.px4_index : ai;
-      out.px4_extra.emplace_back("CAL_MAG_COMP_TYP", 2.0);
-      for (int k = 0; k < 3; ++k) {
-        out.px4_extra.emplace_back(fmt::format("CAL_MAG{}_{}COMP", pi, static_cast<char>('X' + k)), comp(k));
-      }
-    }
+  const MotorParams mp = CompensationParams(rq.compass_index, rq.px4_index, fit->term_fitted, fo.term_applied, throttle,
+                                            fit->term_uT, fit->term_ci_half_uT, Minv, fc.motor_compensation,
+                                            fc.px4_comp_type, fc.px4_comp_G);
+  out.ardupilot_extra = mp.ardupilot;
+  out.px4_extra = mp.px4;
+  fo.motor_params_note = mp.comment;
+  out.param_comments.push_back(mp.comment);
+  if (fo.term_applied && mp.px4.empty()) {
+    f.warnings.emplace_back("PX4: another compensation form (CAL_MAG_COMP_TYP) is in force; the compensation is not written "
+                            "for PX4");
   }
+  cur["parameters"] = mp.action;
   nlohmann::json& r = out.report;
   r["accepted"] = f.accepted;
   r["gate"] = {{"accepted", f.accepted},
@@ -197,11 +183,13 @@ Result<CalibrateOutcome> FlightPath(CalibrateOutcome out, const std::vector<MagS
   r["coverage"] = {{"fraction", nullptr}, {"planes", 0}};
   r["flight_fit"] = {{"samples_used", fit->samples_used},
                      {"outliers", fit->outliers},
-                     {"tilted_left_out", tilted},
-                     {"outside_flight_windows", outside},
-                     {"windows", window_note},
+                     {"tilted_left_out", pf.tilted},
+                     {"outside_flight_windows", pf.outside},
+                     {"windows", pf.windows_note},
+                     {"timing", pf.timing_note},
+                     {"interval_method", "delete-one-block jackknife, Student-t at blocks - 1"},
                      {"blocks", fit->blocks},
-                     {"block_s", fo.block_s},
+                     {"block_s", pf.options.block_s},
                      {"residual_rms_before_uT", fit->rms_prior_uT},
                      {"residual_rms_after_uT", fit->rms_after_uT},
                      {"offset_ci95_half_uT", Vec(Minv * fit->offset_ci_half_uT)},
@@ -210,6 +198,8 @@ Result<CalibrateOutcome> FlightPath(CalibrateOutcome out, const std::vector<MagS
                      {"wmm_field_N_uT", Vec(*prior)},
                      {"field_norm_vs_wmm", norm_diff},
                      {"current", cur}};
+  fo.field_norm_vs_wmm = norm_diff;
+  out.flight = std::move(fo);
   out.exit_code = f.accepted ? 0 : 1;
   return out;
 }

@@ -20,6 +20,7 @@
 // temperature_drift is d·(T − T_start) with no offset of its own (hard_iron_offset is separate).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,7 @@
 #include <nlohmann/json.hpp>
 
 #include "hexsim/common/status.h"
+#include "hexsim/gap/compass_terms.h"
 #include "hexsim/logs/flight_log.h"
 #include "hexsim/vehicle/vehicle_params.h"
 
@@ -62,6 +64,9 @@ struct DiagnoseOptions {
   // Each channel's bootstrap draws its own random stream (seed, channel name), so a channel's
   // result does not depend on which others are diagnosed.
   std::vector<std::string> channels;
+  // The whole log for the in-flight compass model's absolute terms where `log` holds blocks out (the
+  // identified-vehicle path); null: `log`. The model uses no vehicle, so nothing needs holding out.
+  const logs::FlightLog* compass_model_log = nullptr;
 };
 
 struct CandidateResult {
@@ -112,6 +117,7 @@ struct ChannelResult {
   nlohmann::json ground_vs_flight = nlohmann::json::object();
   std::vector<std::string> findings;  // nuisance and timing findings in plain language
   std::string headline;               // one line: the verdict and what to do
+  std::optional<CompassTerms> absolute_terms;  // compass channels: the in-flight model's (compass_terms.h)
 };
 
 struct WindowSpan {

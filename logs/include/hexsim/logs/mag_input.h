@@ -55,12 +55,16 @@ struct MagInput {
   // The log's place and date (meta `location`, `date_decimal_year`), for the Earth field.
   bool has_place = false;
   double lat_deg = 0.0, lon_deg = 0.0, alt_m = 0.0, decimal_year = 0.0;
-  // A binary log's import (DataFlash, ULog), kept so that a caller needing more of the log (the
-  // flight windows) does not import it again; null for text inputs.
+  // The log (a binary log's import, or a FlightLog CSV as read), kept so that a caller needing more of the log (the
+  // flight windows) does not read it again; null for other text inputs.
   std::shared_ptr<const FlightLog> log;
   int px4_comp_type = -1;                                   // CAL_MAG_COMP_TYP (-1: not a PX4 log)
   Eigen::Vector3d px4_comp_G = Eigen::Vector3d::Zero();     // its CAL_MAGn_X/Y/ZCOMP
 };
+
+// The compass's input from a FlightLog already read (its meta undoes the autopilot's corrections as
+// above); `log` is not kept in the result.
+Result<MagInput> MagInputFromFlightLog(const FlightLog& log, const std::string& name, const std::string& compass);
 
 // compass: "mag", "mag2", "mag3" (the FlightLog prefix). Bad input names FILE[:LINE] and the field.
 Result<MagInput> ParseMagInput(const std::string& bytes, const std::string& name, const std::string& compass,

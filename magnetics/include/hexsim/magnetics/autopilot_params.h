@@ -31,9 +31,32 @@ Eigen::Vector3d ApplyArduPilotCompass(const ParamList& params, int compass_index
 // PX4's: S·(raw − OFF), in gauss.
 Eigen::Vector3d ApplyPx4Compass(const ParamList& params, int compass_index, const Eigen::Vector3d& raw_G);
 
+// ArduPilot's motor compensation as the log had it: COMPASS_MOTCT (0 none, 1 throttle, 2 current;
+// -1 unknown) and this compass's COMPASS_MOT*_X/Y/Z (mG per A or per unit throttle).
+struct MotorCompensationInLog {
+  int motct = -1;
+  Eigen::Vector3d mot = Eigen::Vector3d::Zero();
+};
+
+// The in-flight model's disturbance term as ArduPilot and PX4 compensation parameters, with what was
+// done to the log's own (`action`: "written", "replaced", "kept", "zeroed", "none"; `comment` says it
+// in a line for the parameter files). form_throttle: d is per unit throttle (COMPASS_MOTCT 1), else per A
+// (COMPASS_MOTCT 2). usable: resolved from zero and inside its physical range. d_ci_half_uT: per axis.
+struct MotorParams {
+  ParamList ardupilot, px4;
+  std::string action, comment;
+};
+MotorParams CompensationParams(int compass_index, int px4_index, bool fitted, bool usable, bool form_throttle,
+                               const Eigen::Vector3d& d_uT, const Eigen::Vector3d& d_ci_half_uT,
+                               const Eigen::Matrix3d& body_from_raw_inv, const MotorCompensationInLog& log,
+                               int px4_comp_type, const Eigen::Vector3d& px4_comp_G);
+
 // "NAME VALUE" lines (ArduPilot .parm) and QGroundControl's tab-separated
 // "sysid compid NAME VALUE type" lines (type 9: float), each with a comment header.
-std::string ArduPilotParmText(const ParamList& params);
-std::string Px4ParamsText(const ParamList& params);
+// `source` names the command in the header; `comments` are added as "# ..." lines after it.
+std::string ArduPilotParmText(const ParamList& params, const std::string& source = "hexsim calibrate",
+                              const std::vector<std::string>& comments = {});
+std::string Px4ParamsText(const ParamList& params, const std::string& source = "hexsim calibrate",
+                          const std::vector<std::string>& comments = {});
 
 }  // namespace hexsim::magnetics

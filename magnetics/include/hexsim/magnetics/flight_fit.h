@@ -4,22 +4,34 @@
 // the log's attitude R_NB and the World Magnetic Model the expected field is known at every sample,
 // and the offset and the current-driven field become a linear least-squares problem.
 //
+// This is hexsim's one in-flight compass model: `calibrate --method flight` and `gap diagnose`'s
+// compass channels fit it on the same samples (realdata/compass_flight.h builds them: flight windows,
+// compass latency, current staleness) and report its numbers.
+//
 // Model, per compass sample i, in the space y = M·raw where M is the soft-iron matrix the
 // autopilot already applies (kept; identity when none):
-//   y_i = R_NBᵢᵀ·B_N + c + d·I_i + e_i
+//   y_i = R_NBᵢᵀ·B_N + c + d·r_i + e_i
 //   B_N   the Earth field in NED (µT), fitted with the WMM value as a Gaussian prior of σ per axis
 //         (a local anomaly, a constant yaw error of the reference attitude and a uniform gain error
 //         of the sensor all move it; the fit reports how far it moved);
 //   c     the constant body-frame offset in y space (µT): the calibration's offset is b = M⁻¹·c,
-//         so that calibrated = M·(raw − b) − d·I (ArduPilot: COMPASS_OFS = −b, COMPASS_MOT = −d);
-//   d     the current-driven field (µT/A), fitted only when the current varies over the fit window
-//         (`min_current_span_A`); physical range: plausibility row current_hard_iron (≤ 5 µT/A).
-// Intervals are cluster-robust over time blocks (`block_s`; the residual of a real log is
-// serially correlated, so per-sample standard errors would be far too narrow), with Student-t
-// quantiles at (blocks − 1) degrees of freedom. Samples whose residual is far from the rest (more
-// than `outlier_sigma` robust standard deviations) are dropped once and counted.
+//         so that calibrated = M·(raw − b) − d·r (ArduPilot: COMPASS_OFS = −b, COMPASS_MOT = −d);
+//   r_i   the regressor of the disturbance term: the battery current I (A; form kCurrent, ArduPilot
+//         COMPASS_MOTCT 2) or the collective throttle u in 0..1 (form kThrottle, COMPASS_MOTCT 1,
+//         for logs without a usable current sensor);
+//   d     the disturbance term (µT/A or µT per unit throttle), fitted only when the regressor varies
+//         over the fit window (`min_current_span_A`, `min_throttle_span`); physical ranges:
+//         plausibility rows current_hard_iron (≤ 5 µT/A) and throttle_hard_iron (≤ 60 µT).
+//         Samples without a regressor value (a current sensor's first rows) are left out of the
+//         fit when d is fitted; the term is never dropped for the whole log because some lack it.
+// Intervals (the one interval method of the in-flight model): the delete-one-block jackknife over
+// contiguous time blocks (`block_s`; the residual of a real log is serially correlated, so
+// per-sample standard errors would be far too narrow), with Student-t quantiles at (blocks − 1)
+// degrees of freedom. Samples whose residual is far from the rest (more than `outlier_sigma` robust
+// standard deviations) are dropped once and counted.
 #pragma once
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -32,42 +44,59 @@ namespace hexsim::magnetics {
 struct FlightFitSample {
   Eigen::Vector3d y_uT = Eigen::Vector3d::Zero();      // M·raw
   Eigen::Matrix3d R_NB = Eigen::Matrix3d::Identity();  // attitude at the sample (body → NED)
-  double current_A = 0.0;                              // NaN: unknown (the sample is kept, d unused)
+  double current_A = 0.0;                              // battery current; NaN: unknown
+  double throttle = std::nan("");                      // collective throttle 0..1; NaN: unknown
   double t_s = 0.0;                                    // for the time blocks
 };
+
+enum class FlightTermForm { kCurrent, kThrottle };
+const char* FlightTermFormName(FlightTermForm form);  // "current", "throttle"
+const char* FlightTermUnit(FlightTermForm form);      // "uT/A", "uT/throttle"
 
 struct FlightFitOptions {
   Eigen::Vector3d prior_field_N_uT = Eigen::Vector3d::Zero();  // WMM at the log's place and date
   double prior_sigma_uT = 2.0;        // per axis: WMM's own error is ~0.2 µT; local anomalies and a
                                       // reference yaw error of a few degrees move the field by ~1-2 µT
   double block_s = 10.0;              // cluster length for the intervals
+  FlightTermForm form = FlightTermForm::kCurrent;
   double min_current_span_A = 3.0;    // the 5-95 % current span needed to fit d
+  // The 5-95 % throttle span needed to fit d in throttle form: the current's 3 A over the 40-60 A a
+  // small multirotor draws at full throttle is 5-8 % of full throttle.
+  double min_throttle_span = 0.05;
+  bool intervals = true;              // false: point estimates only (the latency scan's trial fits)
   double outlier_sigma = 6.0;         // residual norm beyond this many robust σ: dropped
   int min_samples = 60;
   int min_blocks = 6;
 };
 
 struct FlightFit {
+  FlightTermForm form = FlightTermForm::kCurrent;
   Eigen::Vector3d offset_y_uT = Eigen::Vector3d::Zero();   // c
   Eigen::Vector3d field_N_uT = Eigen::Vector3d::Zero();    // B_N
-  Eigen::Vector3d current_uT_per_A = Eigen::Vector3d::Zero();  // d (zero when not fitted)
+  Eigen::Vector3d term_uT = Eigen::Vector3d::Zero();       // d per unit regressor (zero when not fitted)
   Eigen::Vector3d offset_ci_half_uT = Eigen::Vector3d::Zero();
   Eigen::Vector3d field_ci_half_uT = Eigen::Vector3d::Zero();
-  Eigen::Vector3d current_ci_half_uT_per_A = Eigen::Vector3d::Zero();
-  double current_norm_uT_per_A = 0.0;       // |d|
-  double current_norm_ci95[2] = {0.0, 0.0};  // delta method, clipped at 0
-  bool current_fitted = false;
+  Eigen::Vector3d term_ci_half_uT = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d term_cov = Eigen::Matrix3d::Zero();      // the jackknife covariance of d
+  double term_norm_uT = 0.0;       // |d|
+  double term_norm_ci95[2] = {0.0, 0.0};  // delta method, clipped at 0
+  bool term_fitted = false;
   // Test of d = 0: the largest per-axis |d_k|/se_k against the Bonferroni point t(1 − 0.05/6, G − 1)
   // (5 % overall). A joint Wald/Hotelling test was tried first: a 3×3 covariance estimated from 10-20
   // blocks is too noisy to invert (10 % false alarms at a nominal 5 % on synthetic flights).
-  // Resolved when current_max_abs_t (the largest |t|) ≥ current_t_threshold.
-  double current_max_abs_t = 0.0, current_t_threshold = 0.0;
-  bool current_resolved = false;
-  std::string current_note;  // why d was not fitted, when it was not
-  double current_span_A = 0.0;
+  // Resolved when term_max_abs_t (the largest |t|) ≥ term_t_threshold.
+  double term_max_abs_t = 0.0, term_t_threshold = 0.0;
+  bool term_resolved = false;
+  std::string term_note;  // why d was not fitted, when it was not
+  double regressor_span = 0.0;    // 5-95 % span of the regressor (A or throttle)
+  int without_regressor = 0;      // samples left out for want of a regressor value (d fitted)
   double rms_prior_uT = 0.0;  // residual RMS per axis with c = 0, d = 0 and the WMM field: before
   double rms_after_uT = 0.0;  // after the fit
   int samples_used = 0, outliers = 0, blocks = 0;
+  std::vector<char> used;     // per input sample: in the final fit
+
+  // The model's prediction at a sample (d·r only where the sample has a regressor value).
+  Eigen::Vector3d Predict(const FlightFitSample& s) const;
 };
 
 // BadInput: too few samples or blocks (the message names the minimum), non-finite input.

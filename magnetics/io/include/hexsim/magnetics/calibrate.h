@@ -3,7 +3,9 @@
 // columns), one report with the same keys for every method, and the autopilot parameters.
 #pragma once
 
+#include <cmath>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,26 +21,42 @@
 
 namespace hexsim::magnetics {
 
-// What a flight log adds to its compass samples, for the attitude-aided fit ("flight",
-// flight_fit.h): the samples' q_NB are the log's attitude, and the field the autopilot corrects is
-// y = body_from_raw·raw in the body frame (ArduPilot: its COMPASS_DIA/ODI matrix; PX4: its
-// rotation times CAL_MAGn scales). Absent (has_attitude false) for plain dumps and turntables.
+// The in-flight compass model's samples and fit (flight_fit.h), prepared by the caller with the
+// log's windows and timing (realdata::FitCompassInFlight), so that `calibrate` and `gap diagnose`
+// fit the same samples.
+struct PreparedFlightFit {
+  std::vector<FlightFitSample> samples;
+  std::vector<size_t> index;  // each one's index into the calibrate samples
+  FlightFitOptions options;   // as fitted (WMM prior, block length, form)
+  FlightFit fit;
+  std::string windows_note;
+  bool flight_only = true;
+  int tilted = 0, outside = 0;
+  std::string timing_note;    // compass latency and current staleness as applied
+  std::string current_note;   // why the current is unusable (empty when usable)
+  double current_per_throttle_A = std::nan("");
+};
+
+// What a flight log adds to its compass samples, for the attitude-aided fit ("flight").
+// Absent (has_attitude false) for plain dumps and turntables.
 struct FlightContext {
   bool has_attitude = false;
-  bool has_current = false;            // the samples' current_A is the log's battery current
-  std::vector<double> t_s;             // per sample
-  // Per sample: inside the log's flight windows (realdata). The fit uses flight samples when they
-  // are enough: on the ground a compass sits near the pad's own iron and the yaw reference is at its
-  // weakest. Empty: unknown (every sample is used).
-  std::vector<char> in_flight;
-  std::string windows_note;            // where the windows came from, for the report
+  bool has_place = false;
+  std::optional<PreparedFlightFit> prepared;  // required by the flight path
   Eigen::Matrix3d body_from_raw = Eigen::Matrix3d::Identity();
   Eigen::Matrix3d soft_iron_in_force = Eigen::Matrix3d::Identity();  // kept in the written parameters
-  bool has_place = false;              // WMM prior for the Earth field
-  GeodeticPoint where;
-  double decimal_year = 0.0;
+  MotorCompensationInLog motor_compensation;  // ArduPilot COMPASS_MOTCT / COMPASS_MOT* in force
   int px4_comp_type = -1;              // PX4 CAL_MAG_COMP_TYP in the log (-1: not a PX4 log)
   Eigen::Vector3d px4_comp_G = Eigen::Vector3d::Zero();  // its CAL_MAGn_X/Y/ZCOMP
+};
+
+// The flight path's typed result (printed by the command; its report keys are derived from it).
+struct FlightOutcome {
+  PreparedFlightFit in;
+  bool term_applied = false;   // resolved and plausible: written as the autopilots' compensation
+  bool term_plausible = true;
+  double field_norm_vs_wmm = 0.0;
+  std::string motor_params_note;  // what was done with COMPASS_MOTCT / COMPASS_MOT*
 };
 
 struct CalibrateRequest {
@@ -65,6 +83,8 @@ struct CalibrateOutcome {
   bool params_keep_soft_iron = false;
   Eigen::Matrix3d params_A = Eigen::Matrix3d::Identity();
   ParamList ardupilot_extra, px4_extra;
+  std::optional<FlightOutcome> flight;       // the flight path's
+  std::vector<std::string> param_comments;   // comment lines for calib.parm / calib.params
   nlohmann::json report;                     // hexsim.calib/1
   int exit_code = 0;                         // 1 when the acceptance gate rejects the fit
 };

@@ -1,0 +1,92 @@
+// A compass channel's absolute terms from the in-flight model (compass_terms.h) on the shared real
+// log: short logs are diagnosed wherever the model fits them, and gap's calib.parm handles the
+// log's own COMPASS_MOTCT / COMPASS_MOT* as it says.
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "../src/compass_terms_fit.h"
+#include "hexsim/common/paths.h"
+#include "hexsim/gap/diagnose.h"
+#include "hexsim/logs/dataflash_import.h"
+#include "hexsim/realdata/windows.h"
+#include "hexsim/vehicle/vehicle_io.h"
+
+namespace hexsim::gap {
+namespace {
+
+struct Fixture {
+  logs::FlightLog log;
+  vehicle::VehicleParams vehicle;
+};
+
+const Fixture& Log171() {
+  static const Fixture f = [] {
+    auto imp = logs::ImportDataFlashFile(std::string(HEXSIM_SOURCE_DIR) + "/data/real/ardupilot_copter_log171.bin");
+    if (!imp.ok()) throw std::runtime_error(imp.status().message());
+    auto path = ResolveWorldFile("vehicles", "quad_x");
+    if (!path.ok()) throw std::runtime_error(path.status().message());
+    auto v = vehicle::LoadVehicleFile(*path);
+    if (!v.ok()) throw std::runtime_error(v.status().message());
+    return Fixture{imp->log, *v};
+  }();
+  return f;
+}
+
+// A 35 s piece of the flight holds fewer compass samples than the channels' min_samples (400 at
+// 10 Hz): the in-flight model still fits it (12 blocks of ~3 s), so the compasses are diagnosed.
+TEST(CompassTerms, GivenAShortPieceOfFlight_WhenDiagnosed_ThenTheCompassesAreDiagnosedWithTheirAbsoluteTerms) {
+  const Fixture& f = Log171();
+  DiagnoseOptions o;
+  o.bootstrap_samples = 50;
+  o.from_s = 120.0;
+  o.to_s = 155.0;
+  o.channels = {"mag2"};
+  auto rep = Diagnose(f.log, f.vehicle, o);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  for (const auto& [ch, why] : rep->not_diagnosed) EXPECT_NE(ch, "mag2") << why;
+  const ChannelResult* mag2 = nullptr;
+  for (const auto& c : rep->channels) {
+    if (c.channel == "mag2") mag2 = &c;
+  }
+  ASSERT_NE(mag2, nullptr);
+  ASSERT_TRUE(mag2->absolute_terms.has_value());
+  EXPECT_LT(mag2->absolute_terms->samples, o.min_samples);
+  EXPECT_GE(mag2->absolute_terms->blocks, 6);
+}
+
+// A log flown with throttle compensation (COMPASS_MOTCT 1): MAG2's resolved current field replaces
+// it, and the file says what the log had.
+TEST(CompassTerms, GivenALogFlownWithThrottleCompensation_WhenMag2sCurrentFieldIsResolved_ThenCalibParmReplacesIt) {
+  logs::FlightLog log = Log171().log;
+  log.meta["compass_motct"] = 1;
+  for (auto& c : log.meta["compasses"]) {
+    if (c["column"] == "mag2") c["motor_compensation_mG"] = {0.0, 0.0, 0.0};
+  }
+  const realdata::FlightWindows w = realdata::FindFlightWindows(log);
+  auto t = internal::FitCompassTerms(log, Log171().vehicle, 1, "mag2", w, 1);
+  ASSERT_TRUE(t.ok()) << t.status().message();
+  ASSERT_TRUE(t->term_fitted && t->term_resolved && t->term_plausible) << t->term_note;
+  const ParamFiles files = CompassParamFiles({*t});
+  EXPECT_NE(files.parm.find("\nCOMPASS_MOTCT 2\n"), std::string::npos) << files.parm;
+  EXPECT_NE(files.parm.find("\nCOMPASS_MOT2_Y "), std::string::npos) << files.parm;
+  EXPECT_NE(files.parm.find("replaced by the fitted current field (the log had COMPASS_MOTCT 1"), std::string::npos)
+      << files.parm;
+  EXPECT_NE(files.params.find("CAL_MAG_COMP_TYP"), std::string::npos) << files.params;
+}
+
+// The external compass (MAG): no resolved current field, so no compensation line is written, and a
+// log with none in force keeps none.
+TEST(CompassTerms, GivenTheExternalCompass_WhenItsFieldIsNotResolved_ThenNoCompensationIsWritten) {
+  const realdata::FlightWindows w = realdata::FindFlightWindows(Log171().log);
+  auto t = internal::FitCompassTerms(Log171().log, Log171().vehicle, 0, "mag", w, 1);
+  ASSERT_TRUE(t.ok()) << t.status().message();
+  EXPECT_FALSE(t->term_resolved);
+  const ParamFiles files = CompassParamFiles({*t});
+  EXPECT_EQ(files.parm.find("\nCOMPASS_MOT"), std::string::npos) << files.parm;
+  EXPECT_NE(files.parm.find("\nCOMPASS_OFS_X "), std::string::npos) << files.parm;
+  EXPECT_NE(files.parm.find("not written"), std::string::npos) << files.parm;
+}
+
+}  // namespace
+}  // namespace hexsim::gap

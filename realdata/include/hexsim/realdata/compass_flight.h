@@ -1,0 +1,95 @@
+// The in-flight compass model's input side (magnetics/flight_fit.h is the model): which samples,
+// on which timing, with which regressor. `hexsim calibrate --method flight` and `hexsim gap
+// diagnose`'s compass channels both call FitCompassInFlight, so they fit the same samples and report
+// the same numbers.
+//
+//   windows    the log's flight windows (windows.h) when they hold enough samples, else every sample;
+//              samples tilted beyond max_tilt_deg are left out (a flip or a crashed vehicle).
+//   staleness  the logged current trails the throttle by its logging staleness S (CurrentStaleness:
+//              StalenessScan of the current's own samples against control_u over the flight rows);
+//              applied as the scan's point estimate, at least 0, when it is resolved inside its
+//              plausible range (plausibility row current_staleness).
+//   latency    a compass sample stamped t measured the field at t − L; L is scanned over
+//              [latency_lo_s, latency_hi_s] by the model's own residual (per-block SSE, ProfileLag's
+//              block bootstrap) and applied when its interval is clear of zero and plausible.
+//   regressor  the battery current at t − L + S (its samples, linearly interpolated; rows outside
+//              its samples carry none and are skipped by the fit); where the current is unusable
+//              (the import's `current_usable` false, none logged, or its flight median under
+//              min_current_per_motor_A per motor), the throttle control_u/1000 at t − L instead
+//              (ArduPilot's COMPASS_MOTCT 1 form).
+//   blocks     block_s = min(fit.block_s, max(min_block_s, flight span / (2·fit.min_blocks))): a short
+//              log still gets 2·min_blocks jackknife blocks, each long against the current's
+//              staleness (≤ 1 s) so that a block's residual is mostly its own.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "hexsim/common/status.h"
+#include "hexsim/logs/flight_log.h"
+#include "hexsim/logs/mag_input.h"
+#include "hexsim/magnetics/autopilot_params.h"
+#include "hexsim/magnetics/flight_fit.h"
+#include "hexsim/realdata/timing.h"
+#include "hexsim/realdata/windows.h"
+
+namespace hexsim::realdata {
+
+enum class TermChoice { kAuto, kCurrent, kThrottle };
+
+struct CompassFlightOptions {
+  magnetics::FlightFitOptions fit;   // prior_field_N_uT is set here from the log's place and date
+  TermChoice term = TermChoice::kAuto;  // auto: current where usable, else throttle
+  double max_tilt_deg = 60.0;        // the windows' 60° rule
+  bool scan_latency = true;
+  double latency_lo_s = -0.1, latency_hi_s = 0.3, latency_step_s = 0.02;
+  double min_block_s = 2.0;
+  // The import's data-level check: under 0.5 A per motor in flight no multirotor hovers.
+  double min_current_per_motor_A = 0.5;
+  int resamples = 200;
+  uint64_t seed = 1;
+};
+
+struct CompassFlight {
+  std::vector<magnetics::FlightFitSample> samples;  // as fitted (aligned)
+  std::vector<size_t> index;                        // each one's index into the MagInput samples
+  magnetics::FlightFitOptions options;              // as fitted (prior, block length, form)
+  magnetics::FlightFit fit;
+  LagEstimate latency;
+  double latency_s = 0.0;  // applied
+  bool latency_applied = false;
+  LagEstimate staleness;
+  double current_shift_s = 0.0;  // applied
+  bool current_usable = false;
+  std::string current_note;       // why the current is unusable (empty when usable)
+  // dI/du, the log's current against throttle over the flight samples (A per unit throttle), NaN
+  // where the current is unusable; a throttle term's current equivalent is term / this slope.
+  double current_per_throttle_A = std::nan("");
+  bool flight_only = false;
+  std::string windows_note;
+  int tilted = 0, outside = 0;
+};
+
+// `in` is the compass's input (logs::MagInputFromFlightLog / ReadMagInput: raw readings, the
+// autopilot's matrix, place and date); `log` the same flight as a FlightLog. BadInput: no attitude,
+// no place, too few samples (the model's own minimum, named); Numerical: a singular fit.
+Result<CompassFlight> FitCompassInFlight(const logs::FlightLog& log, const logs::MagInput& in, const FlightWindows& windows,
+                                         const CompassFlightOptions& options = {});
+
+// ArduPilot's motor compensation in force for `compass` (meta compass_motct, the compass's
+// motor_compensation_mG); motct −1 when the log does not say.
+magnetics::MotorCompensationInLog MotorCompensationOf(const logs::FlightLog& log, const std::string& compass);
+
+// The prepared fit as calibrate takes it (magnetics/calibrate.h), with the timing in one line.
+std::string TimingNote(const CompassFlight& f);
+
+// How stale the logged current is against the throttle (see above), over the rows of kind kFlight.
+LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::vector<RowKind>& kinds, const StalenessOptions& options);
+// The shift the replay applies for a staleness estimate: its point estimate, at least 0, when it is
+// resolved (not at the grid's edge) and plausible; else 0.
+double AppliedCurrentShift_s(const LagEstimate& staleness);
+
+}  // namespace hexsim::realdata

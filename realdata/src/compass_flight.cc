@@ -1,0 +1,331 @@
+#include "hexsim/realdata/compass_flight.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Geometry>
+#include <fmt/format.h>
+
+#include "hexsim/common/plausibility.h"
+#include "hexsim/magnetics/wmm.h"
+
+namespace hexsim::realdata {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Quaterniond;
+using Eigen::Vector3d;
+
+constexpr double kThrottlePerControl = 1e-3;  // control_u is the collective in 0…1000
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  const auto k = static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[static_cast<size_t>(k)];
+}
+
+// Linear interpolation of a row column at ascending query times (a moving cursor): NaN outside the
+// rows or where a neighbouring row is not finite.
+class RowInterp {
+ public:
+  RowInterp(const std::vector<double>& t, const std::vector<double>* v) : t_(t), v_(v) {}
+  double At(double tq) {
+    if (v_ == nullptr || t_.size() < 2 || !(tq >= t_.front()) || !(tq <= t_.back())) return std::nan("");
+    while (i_ > 0 && t_[i_] > tq) --i_;
+    while (i_ + 2 < t_.size() && t_[i_ + 1] < tq) ++i_;
+    const double dt = t_[i_ + 1] - t_[i_];
+    const double w = dt > 0 ? (tq - t_[i_]) / dt : 0.0;
+    return (1 - w) * (*v_)[i_] + w * (*v_)[i_ + 1];
+  }
+
+ private:
+  const std::vector<double>& t_;
+  const std::vector<double>* v_;
+  size_t i_ = 0;
+};
+
+// The current's own samples, linearly interpolated at tq; NaN before the first and after the last.
+double SampleAt(const HeldSamples& s, double tq, size_t* cursor) {
+  if (s.t.empty() || !(tq >= s.t.front()) || !(tq <= s.t.back())) return std::nan("");
+  size_t& i = *cursor;
+  while (i > 0 && s.t[i] > tq) --i;
+  while (i + 2 < s.t.size() && s.t[i + 1] < tq) ++i;
+  if (s.t.size() == 1) return s.v[0];
+  const double dt = s.t[i + 1] - s.t[i];
+  const double w = dt > 0 ? std::clamp((tq - s.t[i]) / dt, 0.0, 1.0) : 0.0;
+  return (1 - w) * s.v[i] + w * s.v[i + 1];
+}
+
+struct Inputs {
+  const std::vector<double>* t_row = nullptr;
+  std::vector<const std::vector<double>*> q;  // q_w, q_x, q_y, q_z
+  const std::vector<double>* control_u = nullptr;
+  HeldSamples current;
+  bool use_current = false;
+};
+
+// Whether the log's current can drive the fit; the reason where not.
+std::string CurrentUnusable(const logs::FlightLog& log, const FlightWindows& w, const CompassFlightOptions& o) {
+  if (log.meta.is_object() && log.meta.contains("current_usable") && log.meta["current_usable"].is_boolean() &&
+      !log.meta["current_usable"].get<bool>()) {
+    const std::string why = log.meta.value("current_unusable_why", std::string());
+    return why.empty() ? "current sensor unusable (import check)" : why;
+  }
+  if (!log.Has("current_A")) return "no current logged";
+  std::vector<double> flight;
+  const auto& c = log.Column("current_A");
+  for (size_t i = 0; i < c.size() && i < w.row_kind.size(); ++i) {
+    if (w.row_kind[i] == RowKind::kFlight && std::isfinite(c[i])) flight.push_back(c[i]);
+  }
+  if (flight.empty()) return "no current logged in flight";
+  int motors = 0;
+  while (log.Has(fmt::format("motor_{}_u", motors + 1))) ++motors;
+  if (log.meta.is_object() && log.meta.contains("motor_count") && log.meta["motor_count"].is_number()) {
+    motors = log.meta["motor_count"].get<int>();
+  }
+  motors = std::max(motors, 1);
+  const double med = Median(flight);
+  if (!(med >= o.min_current_per_motor_A * motors)) {
+    return fmt::format("current sensor unusable: flight median {:.2f} A under {:.1f} A per motor over {} motors", med,
+                       o.min_current_per_motor_A, motors);
+  }
+  return "";
+}
+
+// The samples of the fit on a trial latency (selection fixed by `pick`).
+std::vector<magnetics::FlightFitSample> Build(const logs::MagInput& in, const std::vector<size_t>& pick, const Inputs& x,
+                                              double latency_s, double shift_s) {
+  std::vector<magnetics::FlightFitSample> out;
+  out.reserve(pick.size());
+  RowInterp qi[4] = {{*x.t_row, x.q[0]}, {*x.t_row, x.q[1]}, {*x.t_row, x.q[2]}, {*x.t_row, x.q[3]}};
+  RowInterp ui(*x.t_row, x.control_u);
+  size_t cur = 0;
+  for (size_t i : pick) {
+    const double tau = in.t_s[i] - latency_s;
+    Quaterniond q(qi[0].At(tau), qi[1].At(tau), qi[2].At(tau), qi[3].At(tau));
+    if (!q.coeffs().allFinite() || q.norm() < 0.5) {
+      const Eigen::Vector4d& r = in.q_wxyz[i];  // beyond the rows: the sample's own row
+      q = Quaterniond(r(0), r(1), r(2), r(3));
+    }
+    magnetics::FlightFitSample s;
+    s.y_uT = in.body_from_raw * in.field[i];
+    s.R_NB = q.normalized().toRotationMatrix();
+    s.current_A = x.use_current ? SampleAt(x.current, tau + shift_s, &cur) : std::nan("");
+    s.throttle = kThrottlePerControl * ui.At(tau);
+    s.t_s = in.t_s[i];
+    out.push_back(s);
+  }
+  return out;
+}
+
+// Per-block SSE of the model fitted at each trial latency, over the samples the unshifted fit used.
+LagEstimate ScanLatency(const logs::MagInput& in, const std::vector<size_t>& pick, const Inputs& x, double shift_s,
+                        const magnetics::FlightFitOptions& fo, const std::vector<char>& used0, const CompassFlightOptions& o) {
+  const std::vector<double> grid = LagGrid(o.latency_lo_s, o.latency_hi_s, o.latency_step_s);
+  const double t0 = in.t_s[pick.front()];
+  const auto blocks = static_cast<size_t>(std::floor((in.t_s[pick.back()] - t0) / fo.block_s)) + 1;
+  std::vector<std::vector<double>> sse(grid.size(), std::vector<double>(blocks, 0.0));
+  magnetics::FlightFitOptions trial = fo;
+  trial.intervals = false;
+  for (size_t g = 0; g < grid.size(); ++g) {
+    const auto s = Build(in, pick, x, grid[g], shift_s);
+    auto fit = magnetics::FitFlightCompass(s, trial);
+    if (!fit.ok()) return {};
+    for (size_t k = 0; k < s.size(); ++k) {
+      if (used0[k] == 0) continue;
+      const auto b = static_cast<size_t>(std::floor((s[k].t_s - t0) / fo.block_s));
+      sse[g][std::min(b, blocks - 1)] += (s[k].y_uT - fit->Predict(s[k])).squaredNorm();
+    }
+  }
+  return ProfileLag(grid, sse, o.resamples, o.seed);
+}
+
+// dI/du by least squares over the fitted samples with both.
+double CurrentPerThrottle(const std::vector<magnetics::FlightFitSample>& s) {
+  double mu = 0, mi = 0;
+  int n = 0;
+  for (const auto& v : s) {
+    if (!std::isfinite(v.current_A) || !std::isfinite(v.throttle)) continue;
+    mu += v.throttle;
+    mi += v.current_A;
+    ++n;
+  }
+  if (n < 10) return std::nan("");
+  mu /= n;
+  mi /= n;
+  double sxy = 0, sxx = 0;
+  for (const auto& v : s) {
+    if (!std::isfinite(v.current_A) || !std::isfinite(v.throttle)) continue;
+    sxy += (v.throttle - mu) * (v.current_A - mi);
+    sxx += (v.throttle - mu) * (v.throttle - mu);
+  }
+  return sxx > 0 ? sxy / sxx : std::nan("");
+}
+
+// Flight samples (inside a flight window) when they are enough, tilt within range; fills the notes.
+std::vector<size_t> Pick(const logs::MagInput& in, const FlightWindows& w, int min_samples, double max_tilt_deg,
+                         CompassFlight* out) {
+  std::vector<char> flight(in.t_s.size(), 0);
+  std::string spans;
+  for (const auto& win : w.windows) {
+    if (win.kind != "flight") continue;
+    spans += (spans.empty() ? "" : ", ") + fmt::format("{:.1f}-{:.1f} s", win.start_s, win.end_s);
+    for (size_t i = 0; i < in.t_s.size(); ++i) {
+      if (in.t_s[i] >= win.start_s && in.t_s[i] <= win.end_s) flight[i] = 1;
+    }
+  }
+  const std::string where = (spans.empty() ? std::string("no flight window") : "flight " + spans) + "; armed state from " +
+                            w.armed_source;
+  out->flight_only = std::count(flight.begin(), flight.end(), 1) >= min_samples;
+  out->windows_note = out->flight_only ? "flight windows only (" + where + ")"
+                                       : "too few flight samples: ground samples used too (" + where + ")";
+  const double cos_max_tilt = std::cos(max_tilt_deg * M_PI / 180.0);
+  std::vector<size_t> pick;
+  for (size_t i = 0; i < in.t_s.size(); ++i) {
+    if (out->flight_only && flight[i] == 0) {
+      ++out->outside;
+      continue;
+    }
+    const Eigen::Vector4d& r = in.q_wxyz[i];
+    const Matrix3d R = Quaterniond(r(0), r(1), r(2), r(3)).normalized().toRotationMatrix();
+    if (R(2, 2) < cos_max_tilt) {  // body z against down: cos(tilt)
+      ++out->tilted;
+      continue;
+    }
+    pick.push_back(i);
+  }
+  return pick;
+}
+
+}  // namespace
+
+magnetics::MotorCompensationInLog MotorCompensationOf(const logs::FlightLog& log, const std::string& compass) {
+  magnetics::MotorCompensationInLog m;
+  const auto& meta = log.meta;
+  if (!meta.is_object() || !meta.contains("compass_motct") || !meta["compass_motct"].is_number()) return m;
+  m.motct = meta["compass_motct"].get<int>();
+  if (!meta.contains("compasses") || !meta["compasses"].is_array()) return m;
+  for (const auto& c : meta["compasses"]) {
+    if (c.value("column", "") != compass || !c.contains("motor_compensation_mG")) continue;
+    const auto& v = c["motor_compensation_mG"];
+    if (v.is_array() && v.size() == 3) m.mot = Vector3d(v[0].get<double>(), v[1].get<double>(), v[2].get<double>());
+  }
+  return m;
+}
+
+std::string TimingNote(const CompassFlight& f) {
+  std::string s = f.latency.ok() ? fmt::format("compass latency {:.0f} ms [{:.0f}, {:.0f}] {}", 1000 * f.latency.value_s,
+                                               1000 * f.latency.ci95_s[0], 1000 * f.latency.ci95_s[1],
+                                               f.latency_applied ? "applied" : "not applied (not resolved from 0 or implausible)")
+                                 : std::string("compass latency not scanned");
+  if (f.staleness.ok()) {
+    s += fmt::format("; current staleness {:.0f} ms [{:.0f}, {:.0f}], shifted by {:.0f} ms", 1000 * f.staleness.value_s,
+                     1000 * f.staleness.ci95_s[0], 1000 * f.staleness.ci95_s[1], 1000 * f.current_shift_s);
+  }
+  return s;
+}
+
+LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::vector<RowKind>& kinds, const StalenessOptions& options) {
+  if (!log.Has("current_A") || !log.Has("control_u")) return {};
+  const auto& t = log.Column("t_s");
+  // Each logged sample once, at its own time stamp where the log has one.
+  std::vector<double> tu, u;
+  {
+    const auto& c = log.Column("control_u");
+    const std::vector<double>* tc = log.Has("ctun_t_s") ? &log.Column("ctun_t_s") : nullptr;
+    double last = -1e300;
+    for (size_t i = 0; i < log.rows(); ++i) {
+      if (kinds[i] != RowKind::kFlight || !std::isfinite(c[i])) continue;
+      const double ti = tc ? (*tc)[i] : t[i];
+      if (!std::isfinite(ti) || ti <= last) continue;
+      last = ti;
+      tu.push_back(ti);
+      u.push_back(c[i]);
+    }
+  }
+  // The current is a sample-and-hold channel: each sample where it first appears.
+  std::vector<double> tr, ts, Ir;
+  const auto& c = log.Column("current_A");
+  const std::vector<double>* tc = log.Has("batt_t_s") ? &log.Column("batt_t_s") : nullptr;
+  for (size_t i = 0; i < log.rows(); ++i) {
+    if (kinds[i] != RowKind::kFlight) continue;
+    tr.push_back(t[i]);
+    ts.push_back(tc ? (*tc)[i] : std::nan(""));
+    Ir.push_back(c[i]);
+  }
+  const HeldSamples held = FirstAppearances(tr, ts, Ir);
+  return StalenessScan(tu, u, held.t, held.v, options);
+}
+
+double AppliedCurrentShift_s(const LagEstimate& s) {
+  return s.ok() && !s.at_grid_edge && plausibility::IsPlausible("current_staleness", s.value_s) ? std::max(0.0, s.value_s)
+                                                                                                : 0.0;
+}
+
+Result<CompassFlight> FitCompassInFlight(const logs::FlightLog& log, const logs::MagInput& in, const FlightWindows& w,
+                                         const CompassFlightOptions& o) {
+  if (in.q_wxyz.size() != in.field.size() || in.t_s.size() != in.field.size() || !log.Has("t_s")) {
+    return Status::BadInput("--method flight: the input has no attitude (it needs a flight log: FlightLog CSV, .bin or .ulg)");
+  }
+  if (!in.has_place) {
+    return Status::BadInput("--method flight: the log has no place and date for the Earth field (no GPS fix in its meta)");
+  }
+  if (!(std::fabs(in.body_from_raw.determinant()) > 1e-6)) {
+    return Status::BadInput("--method flight: the log's compass matrix is singular");
+  }
+  auto wmm = magnetics::EvaluateWmm({in.lat_deg, in.lon_deg, in.alt_m}, in.decimal_year, /*allow_extrapolation=*/true);
+  if (!wmm.ok()) return wmm.status();
+  CompassFlight out;
+  out.options = o.fit;
+  out.options.prior_field_N_uT = wmm->B_N_uT;
+  const std::vector<size_t> pick = Pick(in, w, o.fit.min_samples, o.max_tilt_deg, &out);
+  if (pick.size() < 2) return Status::BadInput(fmt::format("flight fit: {} usable samples, needs {}", pick.size(), o.fit.min_samples));
+  const double span_s = in.t_s[pick.back()] - in.t_s[pick.front()];
+  out.options.block_s = std::min(o.fit.block_s, std::max(o.min_block_s, span_s / (2.0 * o.fit.min_blocks)));
+
+  Inputs x;
+  x.t_row = &log.Column("t_s");
+  for (const char* c : {"q_w", "q_x", "q_y", "q_z"}) x.q.push_back(log.Has(c) ? &log.Column(c) : nullptr);
+  if (std::find(x.q.begin(), x.q.end(), nullptr) != x.q.end()) x.q.assign(4, nullptr);
+  if (x.q[0] == nullptr) return Status::BadInput("--method flight: the log has no attitude columns q_w..q_z");
+  x.control_u = log.Has("control_u") ? &log.Column("control_u") : nullptr;
+  out.current_note = CurrentUnusable(log, w, o);
+  out.current_usable = out.current_note.empty();
+  const bool throttle = o.term == TermChoice::kThrottle || (o.term == TermChoice::kAuto && !out.current_usable);
+  out.options.form = throttle ? magnetics::FlightTermForm::kThrottle : magnetics::FlightTermForm::kCurrent;
+  if (log.Has("current_A") && (out.current_usable || o.term == TermChoice::kCurrent)) {
+    x.use_current = true;
+    const std::vector<double> none;
+    x.current = FirstAppearances(*x.t_row, log.Has("batt_t_s") ? log.Column("batt_t_s") : none, log.Column("current_A"));
+    StalenessOptions so;
+    so.seed = o.seed;
+    so.resamples = o.resamples;
+    out.staleness = CurrentStaleness(log, w.row_kind, so);
+    out.current_shift_s = AppliedCurrentShift_s(out.staleness);
+  }
+  std::vector<magnetics::FlightFitSample> s = Build(in, pick, x, 0.0, out.current_shift_s);
+  if (o.scan_latency && static_cast<int>(pick.size()) >= o.fit.min_samples) {
+    magnetics::FlightFitOptions trial = out.options;
+    trial.intervals = false;
+    auto fit0 = magnetics::FitFlightCompass(s, trial);
+    if (fit0.ok()) out.latency = ScanLatency(in, pick, x, out.current_shift_s, out.options, fit0->used, o);
+    // Align only a resolved latency (its interval clear of zero) inside its physical range.
+    out.latency_applied = out.latency.ok() && !out.latency.at_grid_edge &&
+                          (out.latency.ci95_s[0] > 0 || out.latency.ci95_s[1] < 0) &&
+                          plausibility::IsPlausible("latency", out.latency.value_s);
+    if (out.latency_applied) {
+      out.latency_s = out.latency.value_s;
+      s = Build(in, pick, x, out.latency_s, out.current_shift_s);
+    }
+  }
+  auto fit = magnetics::FitFlightCompass(s, out.options);
+  if (!fit.ok()) return fit.status();
+  out.fit = std::move(*fit);
+  if (out.current_usable && x.use_current) out.current_per_throttle_A = CurrentPerThrottle(s);
+  out.samples = std::move(s);
+  for (size_t i : pick) out.index.push_back(i);
+  return out;
+}
+
+}  // namespace hexsim::realdata
