@@ -26,6 +26,12 @@ Status ImportCommand(const ImportArgs& a) {
   if (a.info) {
     // Bad input as for the import itself: an empty file, or one without a single DataFlash message.
     if (bytes->empty()) return Status::BadInput(a.log + ": empty file");
+    if (logs::IsULog(*bytes)) {
+      auto u = logs::ParseULog(*bytes, a.log);
+      if (!u.ok()) return u.status();
+      std::fputs(logs::ULogInfo(*u, a.log).c_str(), stdout);
+      return Status::Ok();
+    }
     if (logs::DataFlashInfoJson(*bytes, a.log)["types"].empty()) {
       return Status::BadInput(a.log + ": not an ArduPilot DataFlash log: no readable messages");
     }
@@ -67,7 +73,7 @@ void AddImportCommand(CLI::App& app, int* exit_code) {
   auto a = std::make_shared<ImportArgs>();
   CLI::App* c = app.add_subcommand("import", "Real flight log (ArduPilot DataFlash .bin or PX4 ULog .ulg) -> FlightLog CSV + meta");
   c->add_option("log", a->log, "DataFlash .bin or ULog .ulg file (detected from content)")->required();
-  c->add_flag("--info", a->info, "Print message types, counts, rates, time span and parameters of interest");
+  c->add_flag("--info", a->info, "Print message types (ULog: topics), counts, rates, time span and parameters of interest");
   c->add_option("--out", a->out, "log.csv to write (log.meta.json and log.<stream>.csv beside it)");
   c->callback([a, exit_code] { *exit_code = Report(ImportCommand(*a)); });
 }

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include "hexsim/logs/mag_input.h"
+#include "hexsim/logs/ulog.h"
 #include "hexsim/logs/ulog_import.h"
 #include "support/ulog_writer.h"
 
@@ -288,6 +289,28 @@ TEST(ULogPx4State, GivenTheDeviceIdInTwoSlots_WhenImported_ThenTheFirstSlotCalib
   const auto& c = r->log.meta["compasses"][0]["px4_calibration"];
   EXPECT_EQ(c["index"], 0);
   EXPECT_EQ(c["matched_by"], "device_id");
+}
+
+TEST(ULogPx4State, GivenAULog_WhenInfoIsAsked_ThenTopicsRatesAndCompassParametersAreListed) {
+  // `hexsim import --info` on a .ulg said "not an ArduPilot DataFlash log".
+  ULogWriter w;
+  w.ParamInt("CAL_MAG0_ID", 9);
+  w.ParamInt("SYS_AUTOSTART", 4001);
+  w.ParamInt("MPC_XY_VEL_MAX", 12);
+  w.Format("sensor_mag:uint64_t timestamp;uint32_t device_id;float x;float y;float z;");
+  const uint16_t mag = w.Subscribe("sensor_mag", 0);
+  for (int k = 0; k < 21; ++k) {
+    w.Data(mag, Pack<uint64_t>(1000000 + 100000ull * static_cast<uint64_t>(k)) + Pack<uint32_t>(9) + Pack(0.2f) +
+                    Pack(0.0f) + Pack(0.4f));
+  }
+  auto u = ParseULog(w.bytes(), "i.ulg");
+  ASSERT_TRUE(u.ok()) << u.status().message();
+  const std::string info = ULogInfo(*u, "i.ulg");
+  EXPECT_NE(info.find("sensor_mag[0]: 21 records, 10.0 Hz"), std::string::npos) << info;
+  EXPECT_NE(info.find("time span: 1.0 .. 3.0 s (2.0 s)"), std::string::npos) << info;
+  EXPECT_NE(info.find("CAL_MAG0_ID = 9"), std::string::npos) << info;
+  EXPECT_NE(info.find("SYS_AUTOSTART = 4001"), std::string::npos) << info;
+  EXPECT_EQ(info.find("MPC_XY_VEL_MAX"), std::string::npos) << info;
 }
 
 }  // namespace

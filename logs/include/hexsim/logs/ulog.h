@@ -58,4 +58,9 @@ bool IsULog(std::string_view bytes);
 // Damage after a valid start is skipped and counted in bytes_skipped.
 Result<ULog> ParseULog(const std::string& bytes, const std::string& name);
 
+// A human summary for `hexsim import --info LOG.ulg`: the system and release, the time span, each
+// topic instance with its record count and mean rate, and the parameters a compass or current fit
+// reads (CAL_MAG*, BAT*, CA_ROTOR_COUNT, SENS_*); damaged bytes where there are any.
+std::string ULogInfo(const ULog& u, const std::string& name);
+
 }  // namespace hexsim::logs
