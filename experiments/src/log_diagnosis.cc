@@ -2,6 +2,7 @@
 
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/paths.h"
+#include "hexsim/gap/json.h"
 #include "hexsim/identify/identify.h"
 #include "hexsim/vehicle/vehicle_io.h"
 

@@ -501,7 +501,7 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
   const double coverage = one.coverage_n > 0 ? static_cast<double>(one.covered) / one.coverage_n : 0.0;
   const double median_shrink = one.MedianShrink();
   const double median_share = one.MedianShare();
-  // The first wave's targets on the ideal profile; issue 16's on the real one.
+  // The ideal profile's targets (exact logs), and the real profile's (logs at real rates).
   nlohmann::json targets =
       real ? nlohmann::json{{"single_top1_ge_0.90", single_top1 >= 0.9},
                             {"overall_top1_ge_0.75", overall_top1 >= 0.75},

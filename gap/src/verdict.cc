@@ -102,20 +102,20 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
   res.unit = ch.unit;
   res.samples = static_cast<int>(ch.t.size());
   res.not_available = ch.not_available;
-  res.timing = timing.json;
+  res.timing = timing.report;
   Analyzer an(ch, o);
   res.t_s = ch.t;
   res.residual_before = an.y();
   res.rms_before = std::sqrt(MeanSquare(an.y()));
   const NuisanceReport nu = DescribeNuisance(ch, an.baseline(), o);
-  res.nuisance = nu.json;
+  res.nuisance = nu.nuisance;
   res.findings = nu.findings;
 
   const double noise_sse = NoiseVariance(ch.t, an.y()) * an.total_n();
   Attribution at = Attribute(ch, an, o, rng, noise_sse);
   const size_t F = at.fam_names.size();
   for (CandidateResult& r : at.results) {
-    DescaleMisalignment(nu.json.value("field_scale", 1.0), &r);
+    DescaleMisalignment(nu.nuisance.field_scale, &r);
     r.plausible = plausibility::IsPlausible(r.effect, r.magnitude);
     r.physical_range = plausibility::RangeText(r.effect);
   }
@@ -330,10 +330,10 @@ ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, 
   res.heldout_shrink = Shrink(cv_after, cv0);
   if (res.verdict == "latency") res.heldout_shrink = lat.heldout_shrink;
   res.residual_after = after;
-  res.where = Where(ch, an.y(), log, phases);
+  res.where = Locate(ch, an.y(), log, phases);
   if (res.gap_detected) {
     res.residual_left =
-        ResidualLeft(ch.t, after, 1.0 - std::max(0.0, ExplainedShare(cv0, cv_after, noise_sse)), Where(ch, after, log, phases));
+        DescribeLeft(ch.t, after, 1.0 - std::max(0.0, ExplainedShare(cv0, cv_after, noise_sse)), Locate(ch, after, log, phases));
   }
   // Best first: selected, then by explained share; nuisance terms and the timing term after effects.
   std::vector<CandidateResult> sorted;

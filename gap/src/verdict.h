@@ -1,4 +1,4 @@
-// Verdicts (private to gap/). CONTRACTS.md "Second wave" orders the compass verdict: (1) no
+// Verdicts (private to gap/). CONTRACTS.md "The verdict is a decomposition" orders the compass verdict: (1) no
 // structure above the noise floor after the (timing-aligned) baseline: the out-of-range nuisance or
 // timing term, else none; (2) structure: the effect with the largest held-out
 // explained_share, if it reaches 0.5 and is plausible, chosen by the one-standard-error rule over
@@ -10,8 +10,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "attribution.h"
 #include "channels.h"
 #include "hexsim/common/rng.h"
@@ -21,13 +19,13 @@ namespace hexsim::gap::internal {
 // Which manoeuvre separates two collinear candidates.
 std::string SeparatingManoeuvre(const std::string& a, const std::string& b);
 
-// The first wave's rule, for the gyro, accel and dynamics channels.
-ChannelResult AnalyzeFirstWave(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
+// The rule of the gyro, accel and dynamics channels (verdict_inertial.cc).
+ChannelResult AnalyzeInertial(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
                                const DiagnoseOptions& o, RngStream* rng);
 
 // What the timing scan found for one compass (nuisance.cc).
 struct CompassTiming {
-  nlohmann::json json = nlohmann::json::object();  // reported under `timing`
+  Timing report;  // reported under `timing`
   bool latency_ok = false;
   double latency_s = 0.0, latency_ci95_s[2] = {0.0, 0.0};
   double latency_share = 0.0;        // held-out share of the unaligned baseline residual the alignment removes
@@ -36,7 +34,7 @@ struct CompassTiming {
 
 // The nuisance baseline's estimates as findings (nuisance.cc).
 struct NuisanceReport {
-  nlohmann::json json = nlohmann::json::object();  // reported under `nuisance`
+  Nuisance nuisance;  // reported under `nuisance`
   std::vector<CandidateResult> terms;  // hard_iron_offset, local_anomaly, scale_error as candidates
   std::string out_of_range;            // the term named as the verdict when nothing else is found
   std::vector<std::string> findings;   // plain language
@@ -48,7 +46,7 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& baseline
 // the misalignment's magnitude, interval and parameters divided by it.
 void DescaleMisalignment(double field_scale, CandidateResult* r);
 
-// The second wave's rule, for compass channels.
+// The rule of compass channels (verdict.cc).
 ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
                              const DiagnoseOptions& o, const CompassTiming& timing, RngStream* rng);
 

@@ -38,17 +38,17 @@ TEST(GapRealProfile, GivenADegradedTrial_WhenDiagnosed_ThenRowsAre10HzAndTimingR
   ASSERT_TRUE(rep.ok()) << rep.status().message();
   const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
   ASSERT_NE(mag2, nullptr) << Summary(*rep);
-  const auto& lat = mag2->timing["latency_s"];
-  EXPECT_NEAR(lat["value"].get<double>(), truth.latency_s, 0.03) << Summary(*rep);
-  const auto& st = mag2->timing["regressor_staleness_s"]["current_A"];
+  ASSERT_TRUE(mag2->timing.latency.present && mag2->timing.current_staleness.present) << Summary(*rep);
+  EXPECT_NEAR(mag2->timing.latency.value_s, truth.latency_s, 0.03) << Summary(*rep);
+  const LagReport& st = mag2->timing.current_staleness;
   // Staleness against throttle: the injected staleness plus the motors' own throttle-to-current
   // response (tens of ms); the interval holds it.
   // The current is updated at 5 Hz: within half its update period (0.1 s) is what a lag scan can
   // resolve. (This trial, drawn the same by every compiler since the draws were sequenced, has
   // 198 ms injected and reads 138 ms [76, 193]: a single 95 % interval may miss; the selftest's
   // coverage counts those misses.)
-  EXPECT_LE(st["ci95"][0].get<double>(), truth.staleness_s + 0.1) << Summary(*rep);
-  EXPECT_NEAR(st["value"].get<double>(), truth.staleness_s, 0.1) << Summary(*rep);
+  EXPECT_LE(st.ci95_s.lo, truth.staleness_s + 0.1) << Summary(*rep);
+  EXPECT_NEAR(st.value_s, truth.staleness_s, 0.1) << Summary(*rep);
   // With a stale current updated at 5 Hz, the smooth throttle can carry the current-driven field
   // as well as the logged current: either, or "ambiguous" between them, is the right answer here
   // (they separate only by a manoeuvre, SeparatingManoeuvre); the untouched compasses show no gap.
@@ -81,9 +81,9 @@ TEST(GapRealProfile, GivenAScaleErrorOnALogWithoutPerMotorCurrents_WhenDiagnosed
     ASSERT_NE(sc, nullptr) << Summary(*rep);
     const double truth = (1 + 0.1) * (1 + lt.scale) - 1;
     covered += truth >= sc->magnitude_ci95[0] && truth <= sc->magnitude_ci95[1];
-    const double norm = mag2->nuisance.value("field_scale", 1.0) - 1;
+    const double norm = mag2->nuisance.field_scale - 1;
     norm_further += std::fabs(norm - truth) > std::fabs(sc->magnitude - truth);
-    EXPECT_NEAR(mag2->nuisance.value("field_scale_horizontal", 0.0), 1 + sc->magnitude, 1e-12);
+    EXPECT_NEAR(mag2->nuisance.field_scale_horizontal, 1 + sc->magnitude, 1e-12);
     named += mag2->verdict == "scale_error";
   }
   // 95 % intervals: one miss in six is allowed (measured: 10 of 10 held, the norm further in 10).

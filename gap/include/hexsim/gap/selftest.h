@@ -62,7 +62,7 @@ struct SelftestOptions {
   // real: logs at real rates (10 Hz compass, attitude and current), a reference attitude with a slow
   // estimator error, residual calibration offsets and field-norm errors inside their normal ranges,
   // a stale current channel, compass latency, and out-of-library effect families drawn per trial;
-  // ideal: the first wave's logs (100 Hz rows, exact timing, the configured vehicle exact).
+  // ideal: exact logs (100 Hz rows, exact timing, the configured vehicle exact).
   std::string profile = "real";
   int trials = 100;                 // per class
   uint64_t seed = 1;

@@ -1,4 +1,4 @@
-// Verdicts of the first-wave channels (gyro, accel, dynamics): a significant candidate that
+// Verdicts of the inertial and dynamics channels (gyro, accel, dynamics): a significant candidate that
 // removes half the held-out mean square, with the adequacy check on what is left (private to gap/).
 #include <algorithm>
 #include <cmath>
@@ -38,7 +38,7 @@ std::string SeparatingManoeuvre(const std::string& a, const std::string& b) {
 }
 
 
-ChannelResult AnalyzeFirstWave(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
+ChannelResult AnalyzeInertial(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
                       const DiagnoseOptions& o, RngStream* rng) {
   ChannelResult res;
   res.channel = ch.name;
@@ -77,7 +77,7 @@ ChannelResult AnalyzeFirstWave(const ChannelData& ch, const logs::FlightLog& log
     }
     if (r.effect == "ground_effect") {
       // The linear parameter is a = R²; report the effective radius R (monotone: interval maps).
-      const double a = r.params.value("radius_sq_m2", 0.0);
+      const double a = r.params.count("radius_sq_m2") ? r.params.at("radius_sq_m2") : 0.0;
       r.magnitude = std::sqrt(std::max(0.0, a));
       r.magnitude_ci95[0] = std::sqrt(std::max(0.0, r.magnitude_ci95[0]));
       r.magnitude_ci95[1] = std::sqrt(std::max(0.0, r.magnitude_ci95[1]));
@@ -202,20 +202,20 @@ ChannelResult AnalyzeFirstWave(const ChannelData& ch, const logs::FlightLog& log
     res.chosen_regressor = e1.cand->regressor;
     // Share of the residual explained: of the whole mean square (1 − (1 − shrink)²), or, for
     // channels whose effects are phase-confined, of the part above the noise floor.
-    bool explained = res.candidates[b1].heldout_shrink >= o.explain_shrink;
+    const double whole_share = 1.0 - (1.0 - res.candidates[b1].heldout_shrink) * (1.0 - res.candidates[b1].heldout_shrink);
+    bool explained = whole_share >= o.headline_share;
     if (ch.explain_above_noise) {
       const double ms0 = an.base_sse() / an.total_n();
       const double ms_cv = e1.cv_sse / an.total_n();
       const double excess = ms0 - noise_var;
-      const double target = 1.0 - (1.0 - o.explain_shrink) * (1.0 - o.explain_shrink);  // 0.5 by default
-      explained = excess > 0 && (ms0 - ms_cv) / excess >= target;
+      explained = excess > 0 && (ms0 - ms_cv) / excess >= o.headline_share;
     }
     if (!explained) {
       res.verdict = "unexplained";
       res.explanation = fmt::format("no candidate removes half the held-out residual mean square{} (best: {}, shrink {:.0f} %)",
                                     ch.explain_above_noise ? " above the noise floor" : "", top,
                                     100 * res.candidates[b1].heldout_shrink);
-    } else if (!ch.explain_above_noise && ratio > o.adequacy_ratio) {
+    } else if (constexpr double kAdequacyRatio = 1.3; !ch.explain_above_noise && ratio > kAdequacyRatio) {
       res.verdict = "unexplained";
       res.explanation = fmt::format("best partial explanation {}{} (held-out shrink {:.0f} %) leaves a structured residual "
                                     "{:.1f}x the noise power: the cause is not in the library in this form",
@@ -241,7 +241,7 @@ ChannelResult AnalyzeFirstWave(const ChannelData& ch, const logs::FlightLog& log
     }
   }
   res.residual_after = after;
-  res.where = Where(ch, an.y(), log, phases);
+  res.where = Locate(ch, an.y(), log, phases);
   res.explained_share = 1.0 - (1.0 - res.heldout_shrink) * (1.0 - res.heldout_shrink);
   // Best first: selected, then by held-out shrink.
   std::vector<CandidateResult> sorted;
