@@ -215,7 +215,10 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
     RngStream rng(options.seed, "gap_bootstrap/" + ch.name);
     finish(internal::AnalyzeInertial(ch, log, phases, options, &rng), ch);
   }
-  for (ChannelResult& r : rep.channels) r.headline = Headline(r);
+  for (ChannelResult& r : rep.channels) {
+    internal::RefreshEffects(&r);
+    r.headline = Headline(r);
+  }
   return rep;
 }
 

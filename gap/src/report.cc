@@ -191,43 +191,48 @@ nlohmann::json ToJson(const GapReport& r) {
   return j;
 }
 
+namespace {
+
+// An effect's size in its physical unit and, where one exists, the autopilot's (mG/A for a current
+// term, also for a throttle or per-motor form through its battery-current equivalent).
+std::string EffectSize(const EffectShare& e) {
+  if (e.unit == "s") return fmt::format("{:.0f} [{:.0f}, {:.0f}] ms", 1000 * e.magnitude, 1000 * e.ci95.lo, 1000 * e.ci95.hi);
+  if (e.unit == "uT/A") return fmt::format("{:.1f} [{:.1f}, {:.1f}] mG/A", 10 * e.magnitude, 10 * e.ci95.lo, 10 * e.ci95.hi);
+  if (e.unit == "uT" && e.autopilot_unit == "mG") return fmt::format("{:.1f} [{:.1f}, {:.1f}] mG", 10 * e.magnitude, 10 * e.ci95.lo, 10 * e.ci95.hi);
+  std::string m = fmt::format("{:.3g} [{:.3g}, {:.3g}] {}", e.magnitude, e.ci95.lo, e.ci95.hi, e.unit);
+  if (e.autopilot_unit == "mG/A") {
+    m += fmt::format(" (= {:.1f} [{:.1f}, {:.1f}] mG/A in battery-current terms)", e.autopilot_factor * e.magnitude,
+                     e.autopilot_factor * e.ci95.lo, e.autopilot_factor * e.ci95.hi);
+  }
+  return m;
+}
+
+std::string LeftText(const ResidualLeft& l) {
+  if (!l.present) return "";
+  return fmt::format("; left: {:.0f} %, dominant {:.2g} Hz, trend {:.0f} %, in {}", 100 * l.share, l.dominant_freq_Hz,
+                     100 * l.trend, l.concentrated.empty() ? "no phase or regime" : l.concentrated);
+}
+
+}  // namespace
+
 std::string Headline(const ChannelResult& c) {
-  const bool mag = c.unit == "uT";
   if (!c.gap_detected) {
-    if (c.verdict != "none") return fmt::format("{}: {} (a nuisance term outside its normal range): {}", c.channel, c.verdict, c.explanation);
     return fmt::format("{}: no gap: residual at the noise floor (power ratio {:.2f})", c.channel, c.noise_floor_ratio);
   }
-  const CandidateResult* top = nullptr;
-  for (const auto& k : c.candidates) {
-    if (k.selected) {
-      top = &k;
-      break;
-    }
+  if (c.effects.empty() || c.verdict == "unexplained" || c.verdict == "ambiguous") {
+    return fmt::format("{}: {}: {}{}", c.channel, c.verdict, c.explanation, LeftText(c.residual_left));
   }
-  if (c.verdict == "unexplained" || c.verdict == "ambiguous" || top == nullptr) {
-    std::string s = fmt::format("{}: {}: {}", c.channel, c.verdict, c.explanation);
-    if (c.residual_left.present) {
-      s += fmt::format("; left: {:.0f} % of the baseline residual, dominant {:.2g} Hz, in {}", 100 * c.residual_left.share,
-                       c.residual_left.dominant_freq_Hz, c.residual_left.concentrated);
-    }
-    return s;
+  const EffectShare& top = c.effects.front();
+  if (top.source == "nuisance") {
+    return fmt::format("{}: {} {} (a nuisance term outside its normal range): {}", c.channel, c.verdict, EffectSize(top),
+                       c.explanation);
   }
-  std::string m = fmt::format("{:.3g} [{:.3g}, {:.3g}] {}", top->magnitude, top->magnitude_ci95[0], top->magnitude_ci95[1],
-                              top->magnitude_unit);
-  if (mag && top->magnitude_unit == "uT/A") {
-    m = fmt::format("{:.1f} [{:.1f}, {:.1f}] mG/A", 10 * top->magnitude, 10 * top->magnitude_ci95[0], 10 * top->magnitude_ci95[1]);
+  std::string s = fmt::format("{}: {} {}, explains {:.0f} % of the held-out structure above the noise floor{}", c.channel,
+                              c.verdict, EffectSize(top), 100 * top.explained_share, c.partial ? " (partial)" : "");
+  for (size_t i = 1; i < c.effects.size(); ++i) {
+    s += fmt::format("; also {} {} ({:.0f} %)", c.effects[i].effect, EffectSize(c.effects[i]), 100 * c.effects[i].explained_share);
   }
-  if (top->params.count("current_equivalent_uT_per_A") > 0 && top->ci95.count("current_equivalent_uT_per_A") > 0) {
-    const Interval& ci = top->ci95.at("current_equivalent_uT_per_A");
-    m += fmt::format(" (= {:.1f} [{:.1f}, {:.1f}] mG/A in battery-current terms)",
-                     10 * top->params.at("current_equivalent_uT_per_A"), 10 * ci.lo, 10 * ci.hi);
-  }
-  if (top->magnitude_unit == "s") m = fmt::format("{:.0f} [{:.0f}, {:.0f}] ms", 1000 * top->magnitude, 1000 * top->magnitude_ci95[0], 1000 * top->magnitude_ci95[1]);
-  std::string s = fmt::format("{}: {} {}, explains {:.0f} % of the held-out residual above the baseline", c.channel, c.verdict, m,
-                              100 * c.explained_share);
-  if (!c.explanation.empty()) s += " (" + c.explanation + ")";
-  if (c.residual_left.present) s += fmt::format("; {:.0f} % left", 100 * c.residual_left.share);
-  return s;
+  return s + LeftText(c.residual_left);
 }
 
 std::string Summary(const GapReport& r) {

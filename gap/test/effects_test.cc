@@ -195,12 +195,14 @@ TEST_P(OutOfLibrary, GivenAnEffectOutsideTheLibraryWhenDiagnosedThenItIsNotAConf
   const ChannelResult* mag2 = Find(*rep, kInjected);
   ASSERT_NE(mag2, nullptr);
   EXPECT_TRUE(mag2->gap_detected) << Summary(*rep);
-  // CONTRACTS.md: a library candidate that removes half the held-out residual above
-  // the noise floor is the verdict even when the cause lies outside the library; what it leaves is
-  // then reported under residual_left. Either the verdict says it is not explained, or a
-  // substantial part is reported as left.
-  const bool not_explained = mag2->verdict == "unexplained" || mag2->verdict == "ambiguous";
-  EXPECT_TRUE(not_explained || mag2->residual_left.share >= 0.3) << Summary(*rep);
+  // CONTRACTS.md: a library candidate that removes half the held-out residual above the noise
+  // floor is the verdict even when the cause lies outside the library.
+  // The leftover is reported beside the headline, never a veto (CONTRACTS.md "The verdict is a
+  // decomposition"): a confident wrong answer is a headline with nothing said about what it leaves.
+  const bool not_explained = mag2->verdict == "unexplained" || mag2->verdict == "ambiguous" || mag2->partial;
+  bool left_reported = false;
+  for (const std::string& s : mag2->findings) left_reported = left_reported || s.find("structure no candidate describes") != std::string::npos;
+  EXPECT_TRUE(not_explained || left_reported || mag2->residual_left.share >= 0.3) << Summary(*rep);
 }
 
 // current_exponent 1.0: the wiring field grows as I^2. With the powertrain's current limits and spool

@@ -84,6 +84,40 @@ std::string NuisanceHtml(const gap::ChannelResult& c) {
   return h;
 }
 
+std::string EffectsHtml(const gap::ChannelResult& c) {
+  if (c.effects.empty()) return "";
+  std::string h = "<h3>Effects</h3><p>The material effects, largest first; each share is of the held-out structure above "
+                  "the noise floor, the effect alone.</p><table><tr><th>effect</th><th>magnitude [95 % CI]</th>"
+                  "<th>autopilot's unit</th><th>explained share</th><th>from</th></tr>";
+  for (const gap::EffectShare& e : c.effects) {
+    const std::string ap = e.autopilot_unit.empty()
+                               ? std::string("&mdash;")
+                               : fmt::format("{:.4g} [{:.4g}, {:.4g}] {}", e.autopilot_factor * e.magnitude,
+                                             e.autopilot_factor * e.ci95.lo, e.autopilot_factor * e.ci95.hi,
+                                             Escape(e.autopilot_unit));
+    h += fmt::format("<tr><td>{}</td><td>{:.4g} [{:.4g}, {:.4g}] {}</td><td>{}</td><td>{:.0f} %</td><td>{}</td></tr>",
+                     Escape(e.effect), e.magnitude, e.ci95.lo, e.ci95.hi, Escape(e.unit), ap, 100 * e.explained_share,
+                     Escape(e.source));
+  }
+  return h + "</table>";
+}
+
+// Every fitted candidate, for reference, folded: the selection is the effects table above (the
+// bootstrap's information-criterion winner is not the selection rule, so no probability is shown).
+std::string CandidatesHtml(const gap::ChannelResult& c) {
+  std::string h = "<details><summary>Every fitted candidate</summary><table><tr><th>effect</th><th>selected</th>"
+                  "<th>explained share</th><th>p (family-corrected)</th><th>magnitude [95 % CI]</th><th>physical range</th>"
+                  "<th>plausible</th></tr>";
+  for (const auto& k : c.candidates) {
+    h += fmt::format("<tr><td>{}{}</td><td>{}</td><td>{:.0f} %</td><td>{:.2g}</td><td>{:.4g} [{:.4g}, {:.4g}] {}</td><td>{}</td>"
+                     "<td>{}</td></tr>",
+                     Escape(k.effect), k.nuisance_term ? " (nuisance term)" : "", k.selected ? "yes" : "",
+                     100 * k.explained_share, k.p_value, k.magnitude, k.magnitude_ci95[0], k.magnitude_ci95[1],
+                     Escape(k.magnitude_unit), Escape(k.physical_range), k.plausible ? "yes" : "<b>no: model mismatch</b>");
+  }
+  return h + "</table></details>";
+}
+
 std::string LeftHtml(const gap::ResidualLeft& l) {
   if (!l.present) return "";
   return fmt::format("<h3>What is left</h3><p>{:.0f} % of the held-out structure above the noise floor is left after the "
@@ -97,8 +131,11 @@ std::string LeftHtml(const gap::ResidualLeft& l) {
 
 Status WriteGapHtml(const GapReport& r, const std::string& dir) {
   std::string html = "<!doctype html><html><head><meta charset=\"utf-8\"><title>hexsim gap diagnosis</title>"
-                     "<style>body{font-family:sans-serif;max-width:1150px;margin:auto}table{border-collapse:collapse}"
-                     "td,th{border:1px solid #ccc;padding:3px 6px}img{max-width:100%}</style></head><body>";
+                     "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
+                     "<style>body{font-family:sans-serif;max-width:1150px;margin:auto;padding:0 8px}"
+                     "table{border-collapse:collapse;max-width:100%;display:block;overflow-x:auto}"
+                     "td,th{border:1px solid #ccc;padding:3px 6px}img{max-width:100%;height:auto}"
+                     "pre{white-space:pre-wrap;overflow-wrap:anywhere}</style></head><body>";
   html += "<h1>Sim-to-real gap diagnosis</h1><p>Log: " + Escape(r.log_name) + "<br>Attitude taken as truth: " +
           Escape(r.attitude_source) + "<br>Field model: " + Escape(r.field_model) + "</p>";
   html += "<pre>" + Escape(Summary(r)) + "</pre>";
@@ -127,16 +164,7 @@ Status WriteGapHtml(const GapReport& r, const std::string& dir) {
       html += "</ul>";
     }
     html += TimingHtml(c.timing) + NuisanceHtml(c) + LeftHtml(c.residual_left);
-    html += "<table><tr><th>effect</th><th>probability</th><th>explained share</th><th>magnitude [95 % CI]</th>"
-            "<th>physical range</th><th>plausible</th><th>selected</th></tr>";
-    for (const auto& k : c.candidates) {
-      html += fmt::format("<tr><td>{}</td><td>{:.2f}</td><td>{:.0f} %</td><td>{:.4g} [{:.4g}, {:.4g}] {}</td><td>{}</td>"
-                          "<td>{}</td><td>{}</td></tr>",
-                          k.effect, k.probability, 100 * k.explained_share, k.magnitude, k.magnitude_ci95[0],
-                          k.magnitude_ci95[1], Escape(k.magnitude_unit), Escape(k.physical_range),
-                          k.plausible ? "yes" : "<b>no: model mismatch</b>", k.selected ? "yes" : "");
-    }
-    html += "</table>";
+    html += EffectsHtml(c) + CandidatesHtml(c);
     // Residual vs time with phases.
     render::Plot2D p;
     p.title = c.channel + ": |residual| against time";

@@ -74,6 +74,10 @@ struct DiagnoseOptions {
   // least one standard error of the fold differences (one-standard-error rule) and is material.
   // Ambiguous: two as-simple effects within one standard error of each other, neither nesting the other.
   bool timing_scan = true;  // compass latency and current staleness before fitting
+  // The compass latency the vehicle file models (s). hexsim's simulated compasses are stamped at
+  // their measurement epoch, so 0; a measured latency whose interval excludes it is an effect (the
+  // gap is relative to the simulator), named when its alignment removes min_effect_share or more.
+  double compass_latency_s = 0.0;
   // The channels to diagnose, by name (mag, mag2, …, gyro, accel, dynamics); empty: every channel.
   // Each channel's bootstrap draws its own random stream (seed, channel name), so a channel's
   // result does not depend on which others are diagnosed.
