@@ -112,7 +112,7 @@ void AddGapCommand(CLI::App& app, int* exit_code) {
   self->add_option("--trials", st->options.trials, "Trials per class")->capture_default_str();
   self->add_option("--seed", st->options.seed, "Seed")->capture_default_str();
   self->add_option("--profile", st->options.profile, "real: logs at real rates with nuisance terms and out-of-library "
-                   "forms; ideal: the first wave's logs")
+                   "forms; ideal: exact logs (100 Hz rows, exact timing)")
       ->capture_default_str();
   self->add_option("--threshold-trials", st->options.threshold_trials, "Trials per magnitude in the threshold sweep")
       ->capture_default_str();

@@ -22,6 +22,7 @@
 #include <string>
 
 #include "hexsim/gap/diagnose.h"
+#include "hexsim/gap/json.h"
 #include "hexsim/logs/flight_log.h"
 #include "hexsim/sim/run_config.h"
 #include "hexsim/sim/simulation.h"

@@ -1,6 +1,7 @@
 #include "hexsim/experiments/log_diagnosis.h"
 
 #include "hexsim/common/paths.h"
+#include "hexsim/gap/json.h"
 #include "hexsim/identify/identify.h"
 
 namespace hexsim::experiments {

@@ -180,7 +180,7 @@ Analyzer::Analyzer(const ChannelData& ch, const DiagnoseOptions& o) : ch_(ch) {
       base_folds_.push_back(SumBlocks(base_eval_.blocks, wf, p0));
     }
   } else if (ch.bias_nuisance) {
-    // First-wave channels: the nuisance intercept removed when the configured sensor has a bias.
+    // Inertial and dynamics channels: the nuisance intercept removed when the configured sensor has a bias.
     Vec3 mean = Vec3::Zero();
     for (const auto& v : y_) mean += v;
     mean /= static_cast<double>(std::max<size_t>(1, n_));

@@ -77,7 +77,7 @@ class Analyzer {
   const std::vector<int>& block() const { return block_; }
   bool nested() const { return baseline_ != nullptr; }
   const Evaluated& baseline() const { return base_eval_; }
-  // c fitted over the baseline (nested) or alone (first-wave channels).
+  // c fitted over the baseline (nested: compass channels) or alone (inertial and dynamics channels).
   Evaluated Evaluate(const Candidate& c) const;
   // The full-data fit only (no cross-validation, no covariance): for refits that need the estimate.
   Evaluated FitOnly(const Candidate& c) const;
@@ -113,7 +113,7 @@ struct Attribution {
   std::vector<size_t> order;             // families by held-out shrink, best first
 };
 // noise_sse: the noise floor's share of the baseline's held-out SSE (nested channels: explained
-// shares are of the held-out residual above it; 0 for first-wave channels).
+// shares are of the held-out residual above it).
 Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseOptions& o, RngStream* rng,
                       double noise_sse = 0.0);
 

@@ -65,7 +65,7 @@ struct ChannelData {
   // structured residual but little of the whole one (noise included).
   bool explain_above_noise = false;
   std::string note;  // appended to the channel's explanation (e.g. fitted nuisance parameters)
-  // Compass channels (second wave): the nuisance baseline fitted under every candidate (its
+  // Compass channels: the nuisance baseline fitted under every candidate (its
   // coefficients are findings, never effects), the WMM prior, the currents and throttle per sample.
   bool compass = false;
   Candidate baseline;

@@ -89,14 +89,11 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
                                 double shift_s, const DiagnoseOptions& o) {
   CompassTiming tm;
   tm.staleness_s = stale.ok() ? stale.value_s : 0.0;
-  nlohmann::json st = nlohmann::json::object();
   if (stale.ok()) {
-    st["current_A"] = {{"value", stale.value_s}, {"ci95", {stale.ci95_s[0], stale.ci95_s[1]}},
-                       {"against", "control_u"}, {"resolved", !stale.at_grid_edge},
-                       {"plausible", plausibility::IsPlausible("current_staleness", stale.value_s)},
-                       {"applied_shift_s", shift_s}};
+    tm.report.current_staleness = {true,      stale.value_s,      {stale.ci95_s[0], stale.ci95_s[1]},
+                                   "control_u", !stale.at_grid_edge, plausibility::IsPlausible("current_staleness", stale.value_s),
+                                   std::nan(""), shift_s};
   }
-  tm.json["regressor_staleness_s"] = st;
   // Latency grid: −0.1…0.3 s in 10 ms steps; every lag on the same compass samples.
   const std::vector<double> grid = realdata::LagGrid(-0.1, 0.3, 0.01);
   CompassSampler sampler(log, v, c, in, B_N_uT, base.calibrated_log, base.share_exponent);
@@ -108,8 +105,9 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
   tm.latency_s = lat.value_s;
   tm.latency_ci95_s[0] = lat.ci95_s[0];
   tm.latency_ci95_s[1] = lat.ci95_s[1];
-  tm.json["latency_s"] = {{"value", lat.value_s}, {"ci95", {lat.ci95_s[0], lat.ci95_s[1]}}, {"against", "attitude (q_*)"},
-                          {"resolved", !lat.at_grid_edge}, {"plausible", plausibility::IsPlausible("latency", lat.value_s)}};
+  tm.report.latency = {true,           lat.value_s,         {lat.ci95_s[0], lat.ci95_s[1]},
+                       "attitude (q_*)", !lat.at_grid_edge, plausibility::IsPlausible("latency", lat.value_s),
+                       std::nan(""),   std::nan("")};
   // Held-out share of the unaligned baseline residual that the alignment removes, and whether the
   // unaligned residual has structure at all.
   CompassReplayOptions r0 = base, r1 = base;
@@ -124,7 +122,7 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
   const double cv1 = a1.baseline().cv_sse / static_cast<double>(c1.t.size());
   const double noise = 3.0 * NoiseVariance(c1.t, a1.y());
   tm.latency_share = std::max(0.0, ExplainedShare(cv0, cv1, noise));
-  tm.json["latency_s"]["explained_share"] = tm.latency_share;
+  tm.report.latency.explained_share = tm.latency_share;
   return tm;
 }
 
@@ -168,7 +166,7 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
     const NuisanceReport nr = DescribeNuisance(ch, an.baseline(), o);
     for (const CandidateResult& t : nr.terms) m[t.effect] = t.magnitude;
     for (const CandidateResult& k : res->candidates) {
-      if (k.params.contains("nuisance") || k.effect == "latency") continue;
+      if (k.nuisance_term || k.effect == "latency") continue;
       const Candidate* member = nullptr;
       bool profiled_member = false;
       double best_sse = 0, best_magnitude = 0;
@@ -176,7 +174,7 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
         if (cand.effect != k.effect) continue;
         const bool profiled = cand.grid_name == "tau_s";
         if (!profiled && !cand.grid_name.empty() &&
-            !(k.params.contains(cand.grid_name) && k.params[cand.grid_name].get<double>() == cand.grid_value)) {
+            !(k.params.count(cand.grid_name) > 0 && k.params.at(cand.grid_name) == cand.grid_value)) {
           continue;
         }
         if (!profiled) {
@@ -201,7 +199,7 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
       CandidateResult refit;
       refit.effect = k.effect;
       refit.magnitude = MagnitudeOf(e);
-      DescaleMisalignment(nr.json.value("field_scale", 1.0), &refit);
+      DescaleMisalignment(nr.nuisance.field_scale, &refit);
       m[k.effect] = refit.magnitude;
     }
     return m;

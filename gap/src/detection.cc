@@ -68,9 +68,10 @@ std::string Quartile(int q) {
 }  // namespace
 
 // Where: phase, regime bins and frequency band of the residual.
-nlohmann::json Where(const ChannelData& ch, const std::vector<Vec3>& y, const logs::FlightLog& log,
-                     const std::vector<std::string>& phases) {
-  nlohmann::json w;
+Where Locate(const ChannelData& ch, const std::vector<Vec3>& y, const logs::FlightLog& log,
+             const std::vector<std::string>& phases) {
+  Where w;
+  w.present = true;
   const size_t n = y.size();
   const double total_ms = MeanSquare(y);
   // Phase.
@@ -80,18 +81,17 @@ nlohmann::json Where(const ChannelData& ch, const std::vector<Vec3>& y, const lo
     a.first += y[k].squaredNorm() / 3;
     a.second += 1;
   }
-  nlohmann::json rms_phase = nlohmann::json::object();
   std::string worst_phase;
   double worst = -1;
   for (const auto& [ph, a] : by_phase) {
     const double rms = std::sqrt(a.first / a.second);
-    rms_phase[ph] = rms;
+    w.rms_by_phase[ph] = rms;
     if (a.second >= 0.03 * static_cast<double>(n) && rms > worst) {
       worst = rms;
       worst_phase = ph;
     }
   }
-  w["phase"] = {{"rms_by_phase", rms_phase}, {"concentrated", worst_phase}};
+  w.phase_concentrated = worst_phase;
   // Regimes: quartile bins of current, throttle, speed, tilt.
   auto column_at_rows = [&](const std::string& name, auto fn) {
     std::vector<double> v(n, std::nan(""));
@@ -124,7 +124,6 @@ nlohmann::json Where(const ChannelData& ch, const std::vector<Vec3>& y, const lo
                                0 * qw[i] * qz[i];
                       }));
   }
-  nlohmann::json regime = nlohmann::json::object();
   std::string conc;
   double best_ratio = 0;
   for (const auto& [name, v] : regs) {
@@ -144,12 +143,12 @@ nlohmann::json Where(const ChannelData& ch, const std::vector<Vec3>& y, const lo
       s[q] += y[k].squaredNorm() / 3;
       m[q] += 1;
     }
-    nlohmann::json bins = nlohmann::json::array();
+    RegimeSplit split;
     double lo = 1e300, hi = 0;
     int hi_q = 0;
     for (int q = 0; q < 4; ++q) {
       const double rms = m[q] > 0 ? std::sqrt(s[q] / m[q]) : 0.0;
-      bins.push_back({{"bin", Quartile(q)}, {"rms", rms}, {"samples", m[q]}});
+      split.bins.push_back({Quartile(q), rms, m[q]});
       if (m[q] > 0) {
         lo = std::min(lo, rms);
         if (rms > hi) {
@@ -158,15 +157,15 @@ nlohmann::json Where(const ChannelData& ch, const std::vector<Vec3>& y, const lo
         }
       }
     }
-    regime[name] = {{"edges", {edges[0], edges[1], edges[2]}}, {"bins", bins}};
+    split.edges = {edges[0], edges[1], edges[2]};
+    w.regime[name] = split;
     const double ratio = lo > 0 ? hi / lo : 0;
     if (ratio > best_ratio) {
       best_ratio = ratio;
       conc = Quartile(hi_q) + " " + name;
     }
   }
-  regime["concentrated"] = best_ratio > 1.2 ? conc : "uniform";
-  w["regime"] = regime;
+  w.regime_concentrated = best_ratio > 1.2 ? conc : "uniform";
   // Band: moving averages split low (< ~0.1 Hz), mid, high (> ~1 Hz) parts.
   auto moving_avg = [&](double window_s) {
     std::vector<Vec3> out(n, Vec3::Zero());
@@ -188,15 +187,14 @@ nlohmann::json Where(const ChannelData& ch, const std::vector<Vec3>& y, const lo
     e_hi += (y[k] - mid[k]).squaredNorm();
   }
   const double e_sum = e_lo + e_mid + e_hi;
-  nlohmann::json band = {{"below_0.2Hz", e_sum > 0 ? e_lo / e_sum : 0.0},
-                         {"0.2_to_2Hz", e_sum > 0 ? e_mid / e_sum : 0.0},
-                         {"above_2Hz", e_sum > 0 ? e_hi / e_sum : 0.0}};
+  w.band_below_0p2Hz = e_sum > 0 ? e_lo / e_sum : 0.0;
+  w.band_0p2_to_2Hz = e_sum > 0 ? e_mid / e_sum : 0.0;
+  w.band_above_2Hz = e_sum > 0 ? e_hi / e_sum : 0.0;
   std::string dom = "below_0.2Hz";
   if (e_mid >= e_lo && e_mid >= e_hi) dom = "0.2_to_2Hz";
   if (e_hi >= e_lo && e_hi >= e_mid) dom = "above_2Hz";
-  band["concentrated"] = dom;
-  w["band"] = band;
-  w["rms"] = std::sqrt(total_ms);
+  w.band_concentrated = dom;
+  w.rms = std::sqrt(total_ms);
   return w;
 }
 
@@ -326,10 +324,11 @@ Structure DetectStructure(const std::vector<double>& t, const std::vector<Vec3>&
   return s;
 }
 
-nlohmann::json ResidualLeft(const std::vector<double>& t, const std::vector<Vec3>& after, double share_left,
-                            const nlohmann::json& where_after) {
-  nlohmann::json j;
-  j["share"] = std::clamp(share_left, 0.0, 1.0);
+ResidualLeft DescribeLeft(const std::vector<double>& t, const std::vector<Vec3>& after, double share_left,
+                          const Where& where_after) {
+  ResidualLeft j;
+  j.present = true;
+  j.share = std::clamp(share_left, 0.0, 1.0);
   const size_t n = after.size();
   // Dominant frequency: periodogram on the sample index (median spacing), every ⌊n/2048⌋-th sample
   // (m < 4096), summed over the three axes, by FFT.
@@ -358,7 +357,7 @@ nlohmann::json ResidualLeft(const std::vector<double>& t, const std::vector<Vec3
       }
     }
   }
-  j["dominant_freq_Hz"] = f_dom;
+  j.dominant_freq_Hz = f_dom;
   // Trend: share of the residual mean square a straight line in time explains (per axis).
   double trend_ss = 0, total_ss = 0;
   if (n >= 3) {
@@ -374,12 +373,12 @@ nlohmann::json ResidualLeft(const std::vector<double>& t, const std::vector<Vec3
     }
     if (stt > 0) trend_ss = sty.squaredNorm() / stt;
   }
-  j["trend"] = total_ss > 0 ? trend_ss / total_ss : 0.0;
-  j["spikes"] = CountSpikes(after);
-  std::string conc = where_after.value("phase", nlohmann::json::object()).value("concentrated", std::string());
-  const std::string regime = where_after.value("regime", nlohmann::json::object()).value("concentrated", std::string());
+  j.trend = total_ss > 0 ? trend_ss / total_ss : 0.0;
+  j.spikes = CountSpikes(after);
+  std::string conc = where_after.phase_concentrated;
+  const std::string& regime = where_after.regime_concentrated;
   if (!regime.empty() && regime != "uniform") conc += (conc.empty() ? "" : ", ") + regime;
-  j["concentrated"] = conc;
+  j.concentrated = conc;
   return j;
 }
 

@@ -24,8 +24,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "channels.h"
 
 namespace hexsim::gap::internal {
@@ -36,8 +34,8 @@ double NoiseVariance(const std::vector<double>& t, const std::vector<Vec3>& e);
 double HighPassVariance(const std::vector<double>& t, const std::vector<Vec3>& e, double window_s);
 double MeanSquare(const std::vector<Vec3>& e);
 // Where: phase, regime bins and frequency band of the residual.
-nlohmann::json Where(const ChannelData& ch, const std::vector<Vec3>& y, const logs::FlightLog& log,
-                     const std::vector<std::string>& phases);
+Where Locate(const ChannelData& ch, const std::vector<Vec3>& y, const logs::FlightLog& log,
+             const std::vector<std::string>& phases);
 
 inline constexpr double kSpikeSigma = 25.0;
 inline constexpr int kMinSpikes = 3;
@@ -65,8 +63,8 @@ struct Structure {
 // corrected); flex_gain_ms: the mean square it removes.
 Structure DetectStructure(const std::vector<double>& t, const std::vector<Vec3>& r, double heldout_sse, double materiality,
                           double flex_p, double flex_gain_ms, double alpha);
-// What is left after the reported model: {share, dominant_freq_Hz, trend, concentrated}.
-nlohmann::json ResidualLeft(const std::vector<double>& t, const std::vector<Vec3>& after, double share_left,
-                            const nlohmann::json& where_after);
+// What is left after the reported model: share, dominant frequency, trend, spikes, where.
+ResidualLeft DescribeLeft(const std::vector<double>& t, const std::vector<Vec3>& after, double share_left,
+                          const Where& where_after);
 
 }  // namespace hexsim::gap::internal

@@ -1,6 +1,6 @@
 // The diagnosis in order: windows (realdata), replay, per compass the timing scan and the nested
 // fits over the nuisance baseline (nuisance.cc, attribution.cc, detection.cc, verdict.cc), the
-// first-wave rule for the inertial and dynamics channels (verdict_first_wave.cc).
+// inertial rule for the gyro, accel and dynamics channels (verdict_inertial.cc).
 #include "hexsim/gap/diagnose.h"
 
 #include <algorithm>
@@ -33,7 +33,8 @@ realdata::FlightWindows Windows(const logs::FlightLog& log, const DiagnoseOption
 
 // The throttle-driven field in current terms: |d| / (dI/d(u^r)), the log's current-vs-throttle slope.
 void AddCurrentEquivalent(const ChannelData& ch, CandidateResult* r) {
-  const double ex = r->params.value("exponent", 1.0);
+  const auto it = r->params.find("exponent");
+  const double ex = it != r->params.end() ? it->second : 1.0;
   double mu = 0, mi = 0;
   size_t n = 0;
   for (size_t k = 0; k < ch.t.size(); ++k) {
@@ -68,7 +69,10 @@ void AddPerMotorEquivalent(const ChannelData& ch, CandidateResult* r) {
   }
   if (!cand || cand->X.size() != ch.t.size() || ch.t.size() < 10) return;
   Eigen::VectorXd beta(cand->p());
-  for (int j = 0; j < cand->p(); ++j) beta[j] = r->params.value(cand->names[j], 0.0);
+  for (int j = 0; j < cand->p(); ++j) {
+    const auto it = r->params.find(cand->names[j]);
+    beta[j] = it != r->params.end() ? it->second : 0.0;
+  }
   const size_t n = ch.t.size();
   std::vector<internal::Vec3> B(n);
   internal::Vec3 Bm = internal::Vec3::Zero();
@@ -142,6 +146,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
   rep.attitude_source = rr.attitude_source;
   rep.field_model = rr.field_model;
   rep.earth_field_N_uT = rr.earth_field_N_uT;
+  rep.headline_share = options.headline_share;
   rep.not_diagnosed = rr.not_diagnosed;
   const bool sim_truth = log.meta.value("source", std::string()) == "hexsim";
   const realdata::LagEstimate stale = internal::CurrentStaleness(log, fw.row_kind, options);
@@ -207,7 +212,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
     if (options.timing_scan) {
       internal::PropagatePlugIns(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro, timing, stale, options, &r);
     }
-    if (std::isfinite(fitted_share_exponent)) r.nuisance["current_split_exponent"] = fitted_share_exponent;
+    r.nuisance.current_split_exponent = fitted_share_exponent;
     for (CandidateResult& k : r.candidates) {
       if (k.effect == "throttle_hard_iron") AddCurrentEquivalent(ch, &k);
       if (k.effect == "per_motor_current_hard_iron") AddPerMotorEquivalent(ch, &k);
@@ -215,7 +220,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
     ro.want = realdata::RowKind::kGround;
     ro.baseline_only = true;  // the ground-vs-flight check reads the residual, baseline and current only
     const ChannelData ground = internal::ReplayCompass(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro);
-    r.ground_vs_flight = internal::GroundVsFlight(ch, ground, r.nuisance);
+    r.ground_vs_flight = internal::CompareGroundFlight(ch, ground, r.nuisance);
     if (ro.calibrated_log) {
       r.findings.emplace_back("logged values are the autopilot's calibrated ones: the vehicle file's hard and soft iron are "
                            "not applied to them; its wiring (current) field still is");
@@ -233,9 +238,12 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
       continue;
     }
     RngStream rng(options.seed, "gap_bootstrap/" + ch.name);
-    finish(internal::AnalyzeFirstWave(ch, log, phases, options, &rng), ch);
+    finish(internal::AnalyzeInertial(ch, log, phases, options, &rng), ch);
   }
-  for (ChannelResult& r : rep.channels) r.headline = Headline(r);
+  for (ChannelResult& r : rep.channels) {
+    internal::RefreshEffects(&r);
+    r.headline = Headline(r);
+  }
   return rep;
 }
 

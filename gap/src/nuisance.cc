@@ -28,8 +28,6 @@ namespace {
 
 constexpr double kMilliGaussPerMicroTesla = 10.0;
 
-nlohmann::json Vec(const Vec3& v) { return {v.x(), v.y(), v.z()}; }
-
 double WaldSub(const Eigen::VectorXd& b, const Eigen::MatrixXd& V, int G) {
   const int q = static_cast<int>(b.size());
   const double tr = V.trace();
@@ -50,7 +48,7 @@ CandidateResult Term(const std::string& effect, double value, double sd, double 
   r.physical_range = plausibility::RangeText(effect);
   r.parameters = 3;
   r.probability = std::nan("");
-  r.params["nuisance"] = true;
+  r.nuisance_term = true;
   return r;
 }
 
@@ -95,22 +93,26 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
   const double s_ci_sd = Bs2 > 0 ? along(Jd, B_s) / Bs2 : 0.0;
   const double perp_norm = d_perp.norm();
   const double perp_sd = perp_norm > 0 ? std::sqrt(std::max(0.0, (d_perp / perp_norm).dot(Vd * (d_perp / perp_norm)))) : 0.0;
-  nr.json = {{"offset_uT", Vec(b)},
-             {"offset_ci95_uT", {std::max(0.0, b_norm - t975 * b_ci_sd), b_norm + t975 * b_ci_sd}},
-             {"field_scale", scale},
-             {"field_scale_horizontal", 1.0 + s_along},
-             {"field_vector_N_uT", Vec(Bfit)},
-             {"field_prior_N_uT", Vec(B)},
-             {"field_correction_N_uT", Vec(d)},
-             {"field_direction_error_uT", perp_norm},
-             {"undone_compensation", ch.undone_compensation},
-             {"ranges", o.nuisance_ranges}};
+  Nuisance& nu = nr.nuisance;
+  nu.present = true;
+  nu.offset_uT = b;
+  nu.offset_ci95_uT = {std::max(0.0, b_norm - t975 * b_ci_sd), b_norm + t975 * b_ci_sd};
+  nu.field_scale = scale;
+  nu.field_scale_horizontal = 1.0 + s_along;
+  nu.field_vector_N_uT = Bfit;
+  nu.field_prior_N_uT = B;
+  nu.field_correction_N_uT = d;
+  nu.field_direction_error_uT = perp_norm;
+  nu.undone_compensation = ch.undone_compensation;
+  nu.ranges = o.nuisance_ranges;
   nr.terms.push_back(Term("hard_iron_offset", b_norm, b_ci_sd, t975, "uT", true));
   nr.terms.back().params["b_x_uT"] = b.x();
   nr.terms.back().params["b_y_uT"] = b.y();
   nr.terms.back().params["b_z_uT"] = b.z();
   nr.terms.push_back(Term("local_anomaly", d_norm, d_ci_sd, t975, "uT", true));
-  nr.terms.back().params["anomaly_N_uT"] = Vec(d);
+  nr.terms.back().params["anomaly_N_uT"] = d.x();
+  nr.terms.back().params["anomaly_E_uT"] = d.y();
+  nr.terms.back().params["anomaly_D_uT"] = d.z();
   nr.terms.push_back(Term("scale_error", s_along, s_ci_sd, t975, "1", false));
   nr.terms.back().parameters = 1;
   nr.terms.back().params["scale_minus_1"] = s_along;
@@ -247,24 +249,17 @@ void DescaleMisalignment(double field_scale, CandidateResult* r) {
   r->magnitude /= field_scale;
   r->magnitude_ci95[0] /= field_scale;
   r->magnitude_ci95[1] /= field_scale;
-  for (auto& [name, v] : r->params.items()) {
-    if (v.is_number()) v = v.get<double>() / field_scale;
-  }
-  for (auto& [name, ci] : r->ci95.items()) {
-    if (ci.is_array() && ci.size() == 2) ci = {ci[0].get<double>() / field_scale, ci[1].get<double>() / field_scale};
-  }
+  for (auto& [name, v] : r->params) v /= field_scale;
+  for (auto& [name, ci] : r->ci95) ci = {ci.lo / field_scale, ci.hi / field_scale};
 }
 
-nlohmann::json GroundVsFlight(const ChannelData& flight, const ChannelData& ground, const nlohmann::json& nuisance) {
-  nlohmann::json j = nlohmann::json::object();
+GroundVsFlight CompareGroundFlight(const ChannelData& flight, const ChannelData& ground, const Nuisance& nuisance) {
+  GroundVsFlight j;
   constexpr size_t kMinSamples = 20;
   constexpr double kMinCurrentStep_A = 1.0;  // below this the ratio is noise
-  if (ground.t.size() < kMinSamples || flight.t.size() < kMinSamples || !nuisance.contains("offset_uT")) return j;
+  if (ground.t.size() < kMinSamples || flight.t.size() < kMinSamples || !nuisance.present) return j;
   Eigen::VectorXd beta(6);
-  for (int i = 0; i < 3; ++i) {
-    beta[i] = nuisance["offset_uT"][i].get<double>();
-    beta[3 + i] = nuisance["field_correction_N_uT"][i].get<double>();
-  }
+  beta << nuisance.offset_uT, nuisance.field_correction_N_uT;
   auto mean_residual = [&](const ChannelData& ch, double* mean_I) {
     Vec3 m = Vec3::Zero();
     double I = 0;
@@ -280,8 +275,11 @@ nlohmann::json GroundVsFlight(const ChannelData& flight, const ChannelData& grou
   const Vec3 r_g = mean_residual(ground, &I_g);
   const Vec3 dB = r_f - r_g;
   const double dI = I_f - I_g;
-  j = {{"ground_samples", ground.t.size()}, {"delta_B_uT", Vec(dB)}, {"delta_I_A", dI}};
-  if (std::fabs(dI) >= kMinCurrentStep_A) j["mG_per_A"] = kMilliGaussPerMicroTesla * dB.norm() / std::fabs(dI);
+  j.present = true;
+  j.ground_samples = static_cast<int>(ground.t.size());
+  j.delta_B_uT = dB;
+  j.delta_I_A = dI;
+  if (std::fabs(dI) >= kMinCurrentStep_A) j.mG_per_A = kMilliGaussPerMicroTesla * dB.norm() / std::fabs(dI);
   return j;
 }
 

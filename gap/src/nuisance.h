@@ -1,8 +1,6 @@
 // Timing scan and ground-vs-flight evidence of compass channels (private to gap/; see nuisance.cc).
 #pragma once
 
-#include <nlohmann/json.hpp>
-
 #include "attribution.h"
 #include "channels.h"
 #include "hexsim/realdata/timing.h"
@@ -36,6 +34,6 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
                      const Vec3& B_N_uT, const CompassReplayOptions& used, const CompassTiming& timing,
                      const realdata::LagEstimate& stale, const DiagnoseOptions& o, ChannelResult* res);
 // ΔB/ΔI between flight and ground with the flight's baseline (compassmot's principle).
-nlohmann::json GroundVsFlight(const ChannelData& flight, const ChannelData& ground, const nlohmann::json& nuisance);
+GroundVsFlight CompareGroundFlight(const ChannelData& flight, const ChannelData& ground, const Nuisance& nuisance);
 
 }  // namespace hexsim::gap::internal

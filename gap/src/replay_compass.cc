@@ -1,6 +1,6 @@
 // Compass replay: the configured compass model driven by the log's attitude and currents, on the
 // aligned time base of the timing scan, with the nuisance baseline and the candidate effects'
-// regressors (CONTRACTS.md "Second wave").
+// regressors (CONTRACTS.md "Gap diagnosis", real-data keys).
 //
 // Timing: a compass sample stamped t measured the field at t − L (L: compass latency against the
 // attitude); the current logged at t is the current of t − S (S: its staleness beyond the configured

@@ -1,22 +1,156 @@
-// gap.json (hexsim.gap/1, with the second wave's keys) and the stdout summary.
-#include "hexsim/gap/diagnose.h"
+// gap.json (hexsim.gap/1 with the real-data keys of CONTRACTS.md) and the stdout summary.
+#include <cmath>
 
 #include <fmt/format.h>
 
 #include "compass_terms_fit.h"
+#include "hexsim/gap/diagnose.h"
+#include "hexsim/gap/json.h"
 
 namespace hexsim::gap {
 
+namespace {
+
+using nlohmann::json;
+
+json Vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+json Pair(const Interval& i) { return {i.lo, i.hi}; }
+
+json ParamsJson(const CandidateResult& k) {
+  json p = json::object();
+  for (const auto& [name, v] : k.params) p[name] = v;
+  if (k.nuisance_term) p["nuisance"] = true;
+  return p;
+}
+
+json IntervalsJson(const ParamIntervals& ci) {
+  json j = json::object();
+  for (const auto& [name, i] : ci) j[name] = Pair(i);
+  return j;
+}
+
+json WhereJson(const Where& w) {
+  if (!w.present) return json::object();
+  json regime = json::object();
+  for (const auto& [name, split] : w.regime) {
+    json bins = json::array();
+    for (const RegimeBin& b : split.bins) bins.push_back({{"bin", b.bin}, {"rms", b.rms}, {"samples", b.samples}});
+    regime[name] = {{"edges", {split.edges[0], split.edges[1], split.edges[2]}}, {"bins", bins}};
+  }
+  regime["concentrated"] = w.regime_concentrated;
+  json rms_phase = json::object();
+  for (const auto& [ph, rms] : w.rms_by_phase) rms_phase[ph] = rms;
+  return {{"phase", {{"rms_by_phase", rms_phase}, {"concentrated", w.phase_concentrated}}},
+          {"regime", regime},
+          {"band",
+           {{"below_0.2Hz", w.band_below_0p2Hz},
+            {"0.2_to_2Hz", w.band_0p2_to_2Hz},
+            {"above_2Hz", w.band_above_2Hz},
+            {"concentrated", w.band_concentrated}}},
+          {"rms", w.rms}};
+}
+
+json NuisanceJson(const Nuisance& n) {
+  if (!n.present) {
+    return std::isfinite(n.current_split_exponent) ? json{{"current_split_exponent", n.current_split_exponent}}
+                                                   : json::object();
+  }
+  json j = {{"offset_uT", Vec(n.offset_uT)},
+            {"offset_ci95_uT", Pair(n.offset_ci95_uT)},
+            {"field_scale", n.field_scale},
+            {"field_scale_horizontal", n.field_scale_horizontal},
+            {"field_vector_N_uT", Vec(n.field_vector_N_uT)},
+            {"field_prior_N_uT", Vec(n.field_prior_N_uT)},
+            {"field_correction_N_uT", Vec(n.field_correction_N_uT)},
+            {"field_direction_error_uT", n.field_direction_error_uT},
+            {"undone_compensation", n.undone_compensation},
+            {"ranges", n.ranges}};
+  if (std::isfinite(n.current_split_exponent)) j["current_split_exponent"] = n.current_split_exponent;
+  return j;
+}
+
+json LagJson(const LagReport& l) {
+  json j = {{"value", l.value_s}, {"ci95", Pair(l.ci95_s)}, {"against", l.against}, {"resolved", l.resolved},
+            {"plausible", l.plausible}};
+  if (std::isfinite(l.explained_share)) j["explained_share"] = l.explained_share;
+  if (std::isfinite(l.applied_shift_s)) j["applied_shift_s"] = l.applied_shift_s;
+  return j;
+}
+
+json TimingJson(const Timing& t) {
+  json j = json::object();
+  if (!t.latency.present && !t.current_staleness.present) return j;
+  json st = json::object();
+  if (t.current_staleness.present) st["current_A"] = LagJson(t.current_staleness);
+  j["regressor_staleness_s"] = st;
+  if (t.latency.present) j["latency_s"] = LagJson(t.latency);
+  return j;
+}
+
+json ResidualLeftJson(const ResidualLeft& r) {
+  if (!r.present) return json::object();
+  return {{"share", r.share}, {"dominant_freq_Hz", r.dominant_freq_Hz}, {"trend", r.trend}, {"spikes", r.spikes},
+          {"concentrated", r.concentrated}};
+}
+
+json GroundVsFlightJson(const GroundVsFlight& g) {
+  if (!g.present) return json::object();
+  json j = {{"ground_samples", g.ground_samples}, {"delta_B_uT", Vec(g.delta_B_uT)}, {"delta_I_A", g.delta_I_A}};
+  if (std::isfinite(g.mG_per_A)) j["mG_per_A"] = g.mG_per_A;
+  return j;
+}
+
+json EffectsJson(const std::vector<EffectShare>& effects) {
+  json a = json::array();
+  for (const EffectShare& e : effects) {
+    json j = {{"effect", e.effect},       {"magnitude", e.magnitude}, {"ci95", Pair(e.ci95)},
+              {"unit", e.unit},           {"explained_share", e.explained_share}, {"source", e.source}};
+    if (!e.autopilot_unit.empty()) {
+      j["autopilot_unit"] = e.autopilot_unit;
+      j["autopilot_magnitude"] = e.autopilot_factor * e.magnitude;
+      j["autopilot_ci95"] = {e.autopilot_factor * e.ci95.lo, e.autopilot_factor * e.ci95.hi};
+    }
+    a.push_back(j);
+  }
+  return a;
+}
+
+json CandidateJson(const CandidateResult& k) {
+  return {{"effect", k.effect},
+          {"probability", k.probability},
+          {"params", ParamsJson(k)},
+          {"ci95", IntervalsJson(k.ci95)},
+          {"heldout_shrink", k.heldout_shrink},
+          {"p_value", k.p_value},
+          {"magnitude", k.magnitude},
+          {"magnitude_ci95", {k.magnitude_ci95[0], k.magnitude_ci95[1]}},
+          {"magnitude_unit", k.magnitude_unit},
+          {"selected", k.selected},
+          {"explained_share", k.explained_share},
+          {"plausible", k.plausible},
+          {"physical_range", k.physical_range},
+          {"parameters", k.parameters}};
+}
+
+}  // namespace
+
+std::string ParamsText(const Params& params) {
+  std::string s;
+  for (const auto& [name, v] : params) s += fmt::format("{}{}={:.4g}", s.empty() ? "" : ", ", name, v);
+  return s;
+}
+
 nlohmann::json ToJson(const GapReport& r) {
-  nlohmann::json j;
+  json j;
   j["schema"] = "hexsim.gap/1";
   j["log"] = r.log_name;
   j["attitude_source"] = r.attitude_source;
   j["field_model"] = r.field_model;
-  j["earth_field_N_uT"] = {r.earth_field_N_uT.x(), r.earth_field_N_uT.y(), r.earth_field_N_uT.z()};
-  j["channels"] = nlohmann::json::array();
+  j["earth_field_N_uT"] = Vec(r.earth_field_N_uT);
+  j["headline_share"] = r.headline_share;
+  j["channels"] = json::array();
   for (const auto& c : r.channels) {
-    nlohmann::json cj;
+    json cj;
     cj["channel"] = c.channel;
     cj["unit"] = c.unit;
     cj["samples"] = c.samples;
@@ -27,44 +161,31 @@ nlohmann::json ToJson(const GapReport& r) {
     cj["p_value"] = c.p_value;
     cj["ljung_box_p"] = c.ljung_box_p;
     cj["reference_contaminated"] = c.reference_contaminated;
-    cj["where"] = c.where;
+    cj["where"] = WhereJson(c.where);
     cj["verdict"] = c.verdict;
+    cj["partial"] = c.partial;
     cj["explanation"] = c.explanation;
-    cj["candidates"] = nlohmann::json::array();
-    for (const auto& k : c.candidates) {
-      cj["candidates"].push_back({{"effect", k.effect},
-                                  {"probability", k.probability},
-                                  {"params", k.params},
-                                  {"ci95", k.ci95},
-                                  {"heldout_shrink", k.heldout_shrink},
-                                  {"p_value", k.p_value},
-                                  {"magnitude", k.magnitude},
-                                  {"magnitude_ci95", {k.magnitude_ci95[0], k.magnitude_ci95[1]}},
-                                  {"magnitude_unit", k.magnitude_unit},
-                                  {"selected", k.selected},
-                                  {"explained_share", k.explained_share},
-                                  {"plausible", k.plausible},
-                                  {"physical_range", k.physical_range},
-                                  {"parameters", k.parameters}});
-    }
+    cj["effects"] = EffectsJson(c.effects);
+    cj["candidates"] = json::array();
+    for (const auto& k : c.candidates) cj["candidates"].push_back(CandidateJson(k));
     cj["heldout_shrink"] = c.heldout_shrink;
     cj["not_available"] = c.not_available;
     cj["explained_share"] = c.explained_share;
-    cj["nuisance"] = c.nuisance;
-    cj["timing"] = c.timing;
-    cj["residual_left"] = c.residual_left;
-    cj["ground_vs_flight"] = c.ground_vs_flight;
+    cj["nuisance"] = NuisanceJson(c.nuisance);
+    cj["timing"] = TimingJson(c.timing);
+    cj["residual_left"] = ResidualLeftJson(c.residual_left);
+    cj["ground_vs_flight"] = GroundVsFlightJson(c.ground_vs_flight);
     cj["findings"] = c.findings;
     cj["headline"] = c.headline;
     if (c.absolute_terms) cj["absolute_terms"] = internal::CompassTermsJson(*c.absolute_terms);
     j["channels"].push_back(cj);
   }
-  j["not_diagnosed"] = nlohmann::json::array();
+  j["not_diagnosed"] = json::array();
   for (const auto& [ch, why] : r.not_diagnosed) j["not_diagnosed"].push_back({{"channel", ch}, {"why", why}});
-  j["phases"] = nlohmann::json::array();
+  j["phases"] = json::array();
   for (const auto& p : r.phases) j["phases"].push_back({{"phase", p.phase}, {"t0_s", p.t0_s}, {"t1_s", p.t1_s}});
   j["effects_not_built"] = r.effects_not_built;
-  j["windows"] = nlohmann::json::array();
+  j["windows"] = json::array();
   for (const auto& w : r.windows) {
     j["windows"].push_back({{"start_s", w.start_s}, {"end_s", w.end_s}, {"kind", w.kind}, {"why", w.why}});
   }
@@ -72,45 +193,48 @@ nlohmann::json ToJson(const GapReport& r) {
   return j;
 }
 
+namespace {
+
+// An effect's size in its physical unit and, where one exists, the autopilot's (mG/A for a current
+// term, also for a throttle or per-motor form through its battery-current equivalent).
+std::string EffectSize(const EffectShare& e) {
+  if (e.unit == "s") return fmt::format("{:.0f} [{:.0f}, {:.0f}] ms", 1000 * e.magnitude, 1000 * e.ci95.lo, 1000 * e.ci95.hi);
+  if (e.unit == "uT/A") return fmt::format("{:.1f} [{:.1f}, {:.1f}] mG/A", 10 * e.magnitude, 10 * e.ci95.lo, 10 * e.ci95.hi);
+  if (e.unit == "uT" && e.autopilot_unit == "mG") return fmt::format("{:.1f} [{:.1f}, {:.1f}] mG", 10 * e.magnitude, 10 * e.ci95.lo, 10 * e.ci95.hi);
+  std::string m = fmt::format("{:.3g} [{:.3g}, {:.3g}] {}", e.magnitude, e.ci95.lo, e.ci95.hi, e.unit);
+  if (e.autopilot_unit == "mG/A") {
+    m += fmt::format(" (= {:.1f} [{:.1f}, {:.1f}] mG/A in battery-current terms)", e.autopilot_factor * e.magnitude,
+                     e.autopilot_factor * e.ci95.lo, e.autopilot_factor * e.ci95.hi);
+  }
+  return m;
+}
+
+std::string LeftText(const ResidualLeft& l) {
+  if (!l.present) return "";
+  return fmt::format("; left: {:.0f} %, dominant {:.2g} Hz, trend {:.0f} %, in {}", 100 * l.share, l.dominant_freq_Hz,
+                     100 * l.trend, l.concentrated.empty() ? "no phase or regime" : l.concentrated);
+}
+
+}  // namespace
+
 std::string Headline(const ChannelResult& c) {
-  const bool mag = c.unit == "uT";
   if (!c.gap_detected) {
-    if (c.verdict != "none") return fmt::format("{}: {} (a nuisance term outside its normal range): {}", c.channel, c.verdict, c.explanation);
     return fmt::format("{}: no gap: residual at the noise floor (power ratio {:.2f})", c.channel, c.noise_floor_ratio);
   }
-  const CandidateResult* top = nullptr;
-  for (const auto& k : c.candidates) {
-    if (k.selected) {
-      top = &k;
-      break;
-    }
+  if (c.effects.empty() || c.verdict == "unexplained" || c.verdict == "ambiguous") {
+    return fmt::format("{}: {}: {}{}", c.channel, c.verdict, c.explanation, LeftText(c.residual_left));
   }
-  if (c.verdict == "unexplained" || c.verdict == "ambiguous" || top == nullptr) {
-    std::string s = fmt::format("{}: {}: {}", c.channel, c.verdict, c.explanation);
-    if (c.residual_left.contains("share")) {
-      s += fmt::format("; left: {:.0f} % of the baseline residual, dominant {:.2g} Hz, in {}",
-                       100 * c.residual_left.value("share", 1.0), c.residual_left.value("dominant_freq_Hz", 0.0),
-                       c.residual_left.value("concentrated", std::string("?")));
-    }
-    return s;
+  const EffectShare& top = c.effects.front();
+  if (top.source == "nuisance") {
+    return fmt::format("{}: {} {} (a nuisance term outside its normal range): {}", c.channel, c.verdict, EffectSize(top),
+                       c.explanation);
   }
-  std::string m = fmt::format("{:.3g} [{:.3g}, {:.3g}] {}", top->magnitude, top->magnitude_ci95[0], top->magnitude_ci95[1],
-                              top->magnitude_unit);
-  if (mag && top->magnitude_unit == "uT/A") {
-    m = fmt::format("{:.1f} [{:.1f}, {:.1f}] mG/A", 10 * top->magnitude, 10 * top->magnitude_ci95[0], 10 * top->magnitude_ci95[1]);
+  std::string s = fmt::format("{}: {} {}, explains {:.0f} % of the held-out structure above the noise floor{}", c.channel,
+                              c.verdict, EffectSize(top), 100 * top.explained_share, c.partial ? " (partial)" : "");
+  for (size_t i = 1; i < c.effects.size(); ++i) {
+    s += fmt::format("; also {} {} ({:.0f} %)", c.effects[i].effect, EffectSize(c.effects[i]), 100 * c.effects[i].explained_share);
   }
-  if (top->params.contains("current_equivalent_uT_per_A")) {
-    const auto& ci = top->ci95["current_equivalent_uT_per_A"];
-    m += fmt::format(" (= {:.1f} [{:.1f}, {:.1f}] mG/A in battery-current terms)",
-                     10 * top->params["current_equivalent_uT_per_A"].get<double>(), 10 * ci[0].get<double>(),
-                     10 * ci[1].get<double>());
-  }
-  if (top->magnitude_unit == "s") m = fmt::format("{:.0f} [{:.0f}, {:.0f}] ms", 1000 * top->magnitude, 1000 * top->magnitude_ci95[0], 1000 * top->magnitude_ci95[1]);
-  std::string s = fmt::format("{}: {} {}, explains {:.0f} % of the held-out residual above the baseline", c.channel, c.verdict, m,
-                              100 * c.explained_share);
-  if (!c.explanation.empty()) s += " (" + c.explanation + ")";
-  if (c.residual_left.contains("share")) s += fmt::format("; {:.0f} % left", 100 * c.residual_left.value("share", 0.0));
-  return s;
+  return s + LeftText(c.residual_left);
 }
 
 std::string Summary(const GapReport& r) {
@@ -128,32 +252,31 @@ std::string Summary(const GapReport& r) {
     if (c.reference_contaminated) s += " [reference-contaminated]";
     s += "\n  verdict: " + c.headline + "\n";
     if (c.absolute_terms) s += internal::CompassTermsText(*c.absolute_terms) + "\n";
-    if (c.timing.contains("latency_s")) {
-      const auto& l = c.timing["latency_s"];
-      s += fmt::format("  timing: compass latency {:.0f} ms [{:.0f}, {:.0f}]", 1000 * l.value("value", 0.0),
-                       1000 * l["ci95"][0].get<double>(), 1000 * l["ci95"][1].get<double>());
-      if (c.timing.contains("regressor_staleness_s") && c.timing["regressor_staleness_s"].contains("current_A")) {
-        const auto& st = c.timing["regressor_staleness_s"]["current_A"];
-        s += fmt::format("; current staleness {:.0f} ms [{:.0f}, {:.0f}]", 1000 * st.value("value", 0.0),
-                         1000 * st["ci95"][0].get<double>(), 1000 * st["ci95"][1].get<double>());
+    if (c.timing.latency.present) {
+      const LagReport& l = c.timing.latency;
+      s += fmt::format("  timing: compass latency {:.0f} ms [{:.0f}, {:.0f}]", 1000 * l.value_s, 1000 * l.ci95_s.lo,
+                       1000 * l.ci95_s.hi);
+      if (c.timing.current_staleness.present) {
+        const LagReport& st = c.timing.current_staleness;
+        s += fmt::format("; current staleness {:.0f} ms [{:.0f}, {:.0f}]", 1000 * st.value_s, 1000 * st.ci95_s.lo,
+                         1000 * st.ci95_s.hi);
       }
       s += "\n";
     }
-    if (c.nuisance.contains("offset_uT")) {
-      const auto& o = c.nuisance["offset_uT"];
+    if (c.nuisance.present) {
+      const Eigen::Vector3d& o = c.nuisance.offset_uT;
       s += fmt::format("  nuisance: offset ({:.0f}, {:.0f}, {:.0f}) mG, field norm {:+.1f} % against WMM (horizontal {:+.1f} %)",
-                       10 * o[0].get<double>(), 10 * o[1].get<double>(), 10 * o[2].get<double>(),
-                       100 * (c.nuisance.value("field_scale", 1.0) - 1),
-                       100 * (c.nuisance.value("field_scale_horizontal", 1.0) - 1));
+                       10 * o.x(), 10 * o.y(), 10 * o.z(), 100 * (c.nuisance.field_scale - 1),
+                       100 * (c.nuisance.field_scale_horizontal - 1));
       // Without per-motor currents: how the replay split the battery current over the motors.
-      if (c.nuisance.contains("current_split_exponent")) {
-        s += fmt::format("; motor currents split as output^{:.2f}", c.nuisance["current_split_exponent"].get<double>());
+      if (std::isfinite(c.nuisance.current_split_exponent)) {
+        s += fmt::format("; motor currents split as output^{:.2f}", c.nuisance.current_split_exponent);
       }
       s += "\n";
     }
-    if (c.ground_vs_flight.contains("mG_per_A")) {
-      s += fmt::format("  ground vs flight: {:.1f} mG/A over {:.1f} A\n", c.ground_vs_flight["mG_per_A"].get<double>(),
-                       c.ground_vs_flight["delta_I_A"].get<double>());
+    if (c.ground_vs_flight.present && std::isfinite(c.ground_vs_flight.mG_per_A)) {
+      s += fmt::format("  ground vs flight: {:.1f} mG/A over {:.1f} A\n", c.ground_vs_flight.mG_per_A,
+                       c.ground_vs_flight.delta_I_A);
     }
     for (const auto& f : c.findings) s += "  finding: " + f + "\n";
   }

@@ -93,8 +93,18 @@ const std::vector<EffectRange>& RealInjectableEffects() {
       {"local_anomaly", 6.0, 12.0, false},     {"current_lag", 0.1, 0.5, false},
       {"hard_iron_offset", 10.0, 20.0, false}, {"throttle_hard_iron", 15.0, 40.0, false},
       {"temperature_drift", 0.05, 0.2, false},
+      // Forms beyond the library's names: one axis' gain off by a few per cent (a static per-axis
+      // scale: a calibration error, not a current effect), and a compass later than the vehicle
+      // file models (by 40..80 ms; the modelled part is the log's latency less it, at least 0).
+      {"axis_scale_error", 0.03, 0.08, true},  {"unmodelled_latency", 0.04, 0.08, false},
   };
   return kEffects;
+}
+
+std::string TruthLabel(const std::string& injected) {
+  if (injected == "axis_scale_error") return "scale_error";
+  if (injected == "unmodelled_latency") return "latency";
+  return injected;
 }
 
 Result<Trial> MakeTrial(const SelftestOptions& o, uint64_t seed, const std::vector<Injection>& injections, RngStream* rng) {
@@ -137,6 +147,14 @@ Result<Trial> MakeTrial(const SelftestOptions& o, uint64_t seed, const std::vect
       cp.error.R_SB = QuatExp(phi).toRotationMatrix() * cp.error.R_SB;
     } else if (inj.effect == "scale_error") {
       cp.error.scale *= 1.0 + inj.magnitude;
+    } else if (inj.effect == "axis_scale_error") {
+      // One sensor axis' gain: K = diag(1 + s on that axis)·K. The reported spread of the gains is s.
+      // A horizontal axis: a nearly level flight turns only the horizontal field through the axes,
+      // so a vertical axis' gain reads as a constant offset there (no flight separates them).
+      const int ax = rng->Uniform() < 0.5 ? 0 : 1;
+      cp.error.soft_iron.row(ax) *= 1.0 + inj.magnitude;
+    } else if (inj.effect == "unmodelled_latency") {
+      // Applied to the log by the real profile (fly): the configured vehicle models less latency.
     } else if (inj.effect == "local_anomaly") {
       trial.truth.world.anomaly_N_uT = RandomUnit(rng) * inj.magnitude;
     } else if (inj.effect == "current_lag") {
@@ -221,6 +239,7 @@ namespace {
 struct ClassStats {
   int n = 0, top1 = 0, detected = 0, unexplained = 0, confident_wrong = 0, covered = 0, coverage_n = 0;
   int any_compass_alarm = 0;
+  int all_in_effects = 0;  // two effects: both listed in `effects`
   int dynamics_alarm = 0, dynamics_n = 0;  // clean logs: gap flagged on the dynamics channel
   std::vector<double> shrink, share;
   std::map<std::string, std::pair<int, int>> per_effect;  // effect → (top1, n)
@@ -280,6 +299,7 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
     internal::RealLogTruth lt;
     auto deg = internal::DegradeToRealLog(*log, trial->configured, rng, &lt);
     if (!deg.ok()) return deg.status();
+    trial->compass_latency_s = lt.latency_s;
     const auto& ct = trial->truth.vehicle.compasses[kSelftestCompass].error;
     const auto& cc = trial->configured.compasses[kSelftestCompass].error;
     // The logged compass is (1 + s)·(sensor reading) + b: every effect the sensor reads reaches the
@@ -301,6 +321,10 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
       } else if (e == "current_hard_iron" || e == "current_soft_iron" || e == "throttle_hard_iron" ||
                  e == "temperature_drift") {
         tm *= 1 + lt.scale;
+      } else if (e == "unmodelled_latency") {
+        // The log's latency is the measured one; the vehicle models it less the withheld part.
+        trial->compass_latency_s = std::max(0.0, lt.latency_s - trial->injections[i].magnitude);
+        tm = lt.latency_s;
       }
     }
     return deg;
@@ -322,7 +346,9 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
       if (!trial.ok()) return trial.status();
       auto log = fly(&*trial, "", &rng);
       if (!log.ok()) return log.status();
-      auto rep = Diagnose(*log, trial->configured, selftest_only);
+      DiagnoseOptions opt = selftest_only;
+      opt.compass_latency_s = trial->compass_latency_s;
+      auto rep = Diagnose(*log, trial->configured, opt);
       if (!rep.ok()) return rep.status();
       const ChannelResult* r = Find(*rep, ch_name);
       return nlohmann::json{{"flagged", r && r->gap_detected}, {"magnitude", trial->true_magnitude[0]},
@@ -361,7 +387,9 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
     if (!trial.ok()) return trial.status();
     auto log = fly(&*trial, family, &rng);
     if (!log.ok()) return log.status();
-    auto rep = Diagnose(*log, trial->configured, c == "clean" ? every_compass : selftest_only);
+    DiagnoseOptions opt = c == "clean" ? every_compass : selftest_only;
+    opt.compass_latency_s = trial->compass_latency_s;
+    auto rep = Diagnose(*log, trial->configured, opt);
     if (!rep.ok()) return rep.status();
     const bool dyn_class = c == "dynamics_one_effect";
     const std::string cls_channel = dyn_class ? "dynamics" : ch_name;
@@ -373,12 +401,27 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
                           {"any_compass_alarm", false},  {"effects", nlohmann::json::array()},
                           {"covered", nlohmann::json::array()}};
     for (const Injection& x : inj) out["effects"].push_back(x.effect);
+    out["labels"] = nlohmann::json::array();
+    for (const Injection& x : inj) out["labels"].push_back(TruthLabel(x.effect));
+    // Honest about an out-of-library form: not explained, ambiguous, partial, or the structure it
+    // leaves reported beside the headline (CONTRACTS.md: the leftover is never a veto).
+    bool left_reported = false;
+    for (const std::string& f : r->findings) left_reported = left_reported || f.find("structure no candidate describes") != std::string::npos;
+    out["not_confident"] = r->verdict == "unexplained" || r->verdict == "ambiguous" || r->partial || left_reported;
+    int in_effects = 0;
+    for (const Injection& x : inj) {
+      for (const EffectShare& e : r->effects) in_effects += e.effect == TruthLabel(x.effect) ? 1 : 0;
+    }
+    out["all_in_effects"] = in_effects >= static_cast<int>(inj.size()) && !inj.empty();
     // The trial as it came out (reported under "trials"): the truth beside what was reported of it.
     out["true_magnitude"] = trial->true_magnitude;
     out["explained_share"] = r->explained_share;
     nlohmann::json reported = nlohmann::json::object();
     for (const auto& cand : r->candidates) {
-      if (std::find_if(inj.begin(), inj.end(), [&](const Injection& x) { return x.effect == cand.effect; }) == inj.end()) continue;
+      if (std::find_if(inj.begin(), inj.end(), [&](const Injection& x) { return TruthLabel(x.effect) == cand.effect; }) ==
+          inj.end()) {
+        continue;
+      }
       reported[cand.effect] = {{"magnitude", cand.magnitude}, {"ci95", {cand.magnitude_ci95[0], cand.magnitude_ci95[1]}},
                                {"explained_share", cand.explained_share}, {"selected", cand.selected}};
     }
@@ -401,13 +444,19 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
       // The true effect's held-out explained share (of the baseline residual), 0 when not reported.
       double true_share = 0;
       for (const auto& cand : r->candidates) {
-        if (cand.effect == inj[0].effect) true_share = cand.explained_share;
+        if (cand.effect == TruthLabel(inj[0].effect) && (cand.selected || true_share == 0)) true_share = cand.explained_share;
       }
       out["true_share"] = true_share;
       for (const auto& cand : r->candidates) {
-        if (cand.effect != inj[0].effect) continue;
-        const double tm = trial->true_magnitude[0];
+        // The reported candidate of the injected form (the nuisance term for a uniform scale).
+        if (cand.effect != TruthLabel(inj[0].effect) || (inj[0].effect == "axis_scale_error" && cand.nuisance_term) ||
+            (inj[0].effect == "scale_error" && !cand.nuisance_term)) {
+          continue;
+        }
+        // The per-axis family reports the spread of the gains (≥ 0); every other form its signed size.
+        const double tm = inj[0].effect == "axis_scale_error" ? std::fabs(trial->true_magnitude[0]) : trial->true_magnitude[0];
         out["covered"].push_back(tm >= cand.magnitude_ci95[0] && tm <= cand.magnitude_ci95[1]);
+        break;
       }
     }
     return out;
@@ -437,6 +486,7 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
       const std::string verdict = out.at("verdict").get<std::string>();
       const std::string family = out.at("family").get<std::string>();
       const auto inj = out.at("effects").get<std::vector<std::string>>();
+      const auto labels = out.at("labels").get<std::vector<std::string>>();
       if (!family.empty()) ++st.per_effect[family].second;
       if (out.contains("dynamics_detected")) {
         ++st.dynamics_n;
@@ -446,7 +496,8 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
       st.detected += out.at("gap_detected").get<bool>();
       ++st.verdicts[verdict];
       st.any_compass_alarm += out.at("any_compass_alarm").get<bool>();
-      const bool hit = std::find(inj.begin(), inj.end(), verdict) != inj.end();
+      const bool hit = std::find(labels.begin(), labels.end(), verdict) != labels.end();
+      if (c == "two_effects") st.all_in_effects += out.at("all_in_effects").get<bool>();
       if (c == "one_effect" || c == "two_effects" || dyn_class) {
         st.top1 += hit;
         auto& pe = st.per_effect[c != "two_effects" ? inj[0] : inj[0] + "+" + inj[1]];
@@ -465,9 +516,9 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
         }
       }
       if (c == "out_of_library") {
-        if (!family.empty()) st.per_effect[family].first += verdict == "unexplained";
-        st.unexplained += verdict == "unexplained";
-        st.confident_wrong += verdict != "unexplained" && verdict != "ambiguous";
+        if (!family.empty()) st.per_effect[family].first += out.at("not_confident").get<bool>();
+        st.unexplained += out.at("not_confident").get<bool>();
+        st.confident_wrong += !out.at("not_confident").get<bool>();
       }
     }
   }
@@ -501,19 +552,19 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
   const double coverage = one.coverage_n > 0 ? static_cast<double>(one.covered) / one.coverage_n : 0.0;
   const double median_shrink = one.MedianShrink();
   const double median_share = one.MedianShare();
-  // The first wave's targets on the ideal profile; issue 16's on the real one.
+  // The ideal profile's targets (exact logs), and the real profile's (logs at real rates).
   nlohmann::json targets =
       real ? nlohmann::json{{"single_top1_ge_0.90", single_top1 >= 0.9},
                             {"overall_top1_ge_0.75", overall_top1 >= 0.75},
                             {"false_alarm_le_0.05", false_alarm <= 0.05},
-                            {"unexplained_ge_0.85", unexplained >= 0.85},
+                            {"not_confident_ge_0.85", unexplained >= 0.85},
                             {"coverage_ge_0.90", coverage >= 0.9},
                             {"median_explained_share_ge_0.50", median_share >= 0.5},
                             {"current_hard_iron_threshold_le_0.1uT_per_A", std::isfinite(threshold) && threshold <= 0.1}}
            : nlohmann::json{{"single_top1_ge_0.90", single_top1 >= 0.9},
                             {"overall_top1_ge_0.70", overall_top1 >= 0.7},
                             {"false_alarm_le_0.05", false_alarm <= 0.05},
-                            {"unexplained_ge_0.80", unexplained >= 0.8},
+                            {"not_confident_ge_0.80", unexplained >= 0.8},
                             {"coverage_ge_0.90", coverage >= 0.9},
                             {"median_shrink_ge_0.50", median_shrink >= 0.5},
                             {"current_hard_iron_threshold_le_0.1uT_per_A", std::isfinite(threshold) && threshold <= 0.1}};
@@ -568,6 +619,7 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
       cj["coverage_95"] = dyn_coverage;
       cj["median_heldout_shrink"] = dyn.MedianShrink();
     }
+    if (cname == "two_effects") cj["both_in_effects_rate"] = s.Rate(s.all_in_effects);
     if (cname == "clean") {
       cj["false_alarm_rate"] = false_alarm;
       cj["dynamics_false_alarm_rate"] = dyn_false_alarm;
@@ -575,10 +627,11 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
     if (std::string(cls) == "out_of_library") {
       if (real) {
         nlohmann::json pf = nlohmann::json::object();
-        for (const auto& [e, v] : s.per_effect) pf[e] = {{"unexplained", v.first}, {"trials", v.second}};
+        for (const auto& [e, v] : s.per_effect) pf[e] = {{"not_confident", v.first}, {"trials", v.second}};
         cj["per_family"] = pf;
       }
-      cj["unexplained_rate"] = unexplained;
+      // Not a confident wrong answer: unexplained, ambiguous, partial, or its leftover reported.
+      cj["not_confident_rate"] = unexplained;
       cj["confident_wrong_rate"] = s.Rate(s.confident_wrong);
     }
     j["classes"].push_back(cj);
@@ -615,8 +668,8 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
     const auto cov = it == one.per_effect_coverage.end() ? std::pair<int, int>{0, 0} : it->second;
     t += fmt::format("      {:<20} top-1 {}/{}  interval covers truth {}/{}\n", e, v.first, v.second, cov.first, cov.second);
   }
-  t += fmt::format("  two effects      top-1 {:5.1f} %; overall top-1 {:5.1f} % (target >= {} %)\n", 100 * two.Rate(two.top1),
-                   100 * overall_top1, real ? 75 : 70);
+  t += fmt::format("  two effects      top-1 {:5.1f} %; overall top-1 {:5.1f} % (target >= {} %); both in effects {:5.1f} %\n",
+                   100 * two.Rate(two.top1), 100 * overall_top1, real ? 75 : 70, 100 * two.Rate(two.all_in_effects));
   for (const char* cls : classes) {
     t += fmt::format("      verdicts {:<15}", cls);
     for (const auto& [v, k] : stats[cls].verdicts) t += fmt::format(" {}:{}", v, k);
@@ -635,10 +688,11 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
     const auto cov = it == dyn.per_effect_coverage.end() ? std::pair<int, int>{0, 0} : it->second;
     t += fmt::format("      {:<20} top-1 {}/{}  interval covers truth {}/{}\n", e, v.first, v.second, cov.first, cov.second);
   }
-  t += fmt::format("  out of library   unexplained {:5.1f} % (target >= {} %), confident wrong {:5.1f} %\n",
+  t += fmt::format("  out of library   not confident (unexplained, ambiguous, partial or leftover reported) {:5.1f} % "
+                   "(target >= {} %), confident wrong {:5.1f} %\n",
                    100 * unexplained, real ? 85 : 80, 100 * ool.Rate(ool.confident_wrong));
   if (real) {
-    for (const auto& [e, v] : ool.per_effect) t += fmt::format("      {:<20} unexplained {}/{}\n", e, v.first, v.second);
+    for (const auto& [e, v] : ool.per_effect) t += fmt::format("      {:<20} not confident {}/{}\n", e, v.first, v.second);
   }
   t += "  current_hard_iron detection threshold: ";
   t += std::isfinite(threshold) ? fmt::format("{:.3g} uT/A ({:.3g} mG/A)", threshold, 10 * threshold) : std::string("not reached");

@@ -28,8 +28,13 @@ YAML::Node Mat(const Eigen::Matrix3d& m) {
   return n;
 }
 
-Eigen::Vector3d ParamVec(const nlohmann::json& p, const char* a, const char* b, const char* c) {
-  return {p.value(a, 0.0), p.value(b, 0.0), p.value(c, 0.0)};
+double Value(const Params& p, const char* name) {
+  const auto it = p.find(name);
+  return it != p.end() ? it->second : 0.0;
+}
+
+Eigen::Vector3d ParamVec(const Params& p, const char* a, const char* b, const char* c) {
+  return {Value(p, a), Value(p, b), Value(p, c)};
 }
 
 int CompassIndex(const std::string& channel) {
@@ -44,14 +49,14 @@ void AddDynamicsEffects(const ChannelResult& ch, const vehicle::VehicleParams& v
   if (ch.verdict == "none") return;
   for (const CandidateResult& k : ch.candidates) {
     if (!k.selected) continue;
-    const nlohmann::json& p = k.params;
+    const Params& p = k.params;
     if (k.effect == "rotor_drag") {
       (*root)["aero"]["rotor_drag_N_per_radps_mps"] =
-          v.aero.rotor_drag_N_per_radps_mps + p.value("rotor_drag_N_per_radps_mps", 0.0);
+          v.aero.rotor_drag_N_per_radps_mps + Value(p, "rotor_drag_N_per_radps_mps");
     } else if (k.effect == "ground_effect") {
-      (*root)["aero"]["ground_effect_radius_m"] = p.value("radius_m", 0.0);
+      (*root)["aero"]["ground_effect_radius_m"] = Value(p, "radius_m");
     } else if (k.effect == "battery_sag") {
-      const double dR = p.value("delta_R_ohm", 0.0);
+      const double dR = Value(p, "delta_R_ohm");
       (*root)["battery"]["internal_resistance_ohm"] = std::max(0.0, v.battery.internal_resistance_ohm + dR);
       notes->push_back(fmt::format("dynamics: battery_sag {:.4f} ohm added to battery.internal_resistance_ohm (the ESCs "
                                    "see that much less voltage per ampere than the thrust model assumed)",
@@ -60,13 +65,13 @@ void AddDynamicsEffects(const ChannelResult& ch, const vehicle::VehicleParams& v
       // τ ∝ J at a given rotor speed: scale the motor inertia so hover gains the fitted extra τ.
       const double tau = HoverRotorTimeConstant_s(v);
       if (!(tau > 0)) continue;
-      const double factor = std::max(0.1, 1.0 + p.value("tau_extra_s", 0.0) / tau);
+      const double factor = std::max(0.1, 1.0 + Value(p, "tau_extra_s") / tau);
       (*root)["motor"]["inertia_kgm2"] = v.motor.inertia_kgm2 * factor;
       notes->push_back(fmt::format("dynamics: motor_time_constant +{:.3f} s at hover: motor.inertia_kgm2 x {:.3f} (rotors "
                                    "with their own inertia_kgm2 are not changed)",
-                                   p.value("tau_extra_s", 0.0), factor));
+                                   Value(p, "tau_extra_s"), factor));
     } else if (k.effect == "thrust_scale") {
-      const double s = 1.0 + p.value("thrust_scale_minus_1", 0.0);
+      const double s = 1.0 + Value(p, "thrust_scale_minus_1");
       if ((*root)["rotor_defaults"] && (*root)["rotor_defaults"]["k_T_Nprps2"]) {
         (*root)["rotor_defaults"]["k_T_Nprps2"] = (*root)["rotor_defaults"]["k_T_Nprps2"].as<double>() * s;
       } else {
@@ -74,7 +79,7 @@ void AddDynamicsEffects(const ChannelResult& ch, const vehicle::VehicleParams& v
       }
     } else {
       notes->push_back(fmt::format("dynamics: {} fitted ({}) but the vehicle schema has no key for it{}", k.effect,
-                                   p.dump(), k.effect == "wind" ? " (it is the world's wind.mean_N_mps)" : ""));
+                                   ParamsText(p), k.effect == "wind" ? " (it is the world's wind.mean_N_mps)" : ""));
     }
   }
 }
@@ -101,11 +106,11 @@ Result<std::string> UpdatedVehicleYaml(const std::string& text, const vehicle::V
     const Eigen::Matrix3d M = cp.error.R_SB * cp.error.scale * cp.error.soft_iron;
     for (const CandidateResult& k : ch.candidates) {
       if (!k.selected || ch.verdict == "none") continue;
-      const nlohmann::json& p = k.params;
+      const Params& p = k.params;
       if (k.effect == "hard_iron_offset") {
         node["hard_iron_uT"] = Vec(cp.error.hard_iron_uT + ParamVec(p, "b_x_uT", "b_y_uT", "b_z_uT"));
       } else if (k.effect == "scale_error") {
-        node["scale"] = cp.error.scale * (1.0 + p.value("scale_minus_1", 0.0));
+        node["scale"] = cp.error.scale * (1.0 + Value(p, "scale_minus_1"));
       } else if (k.effect == "misalignment") {
         const Eigen::Vector3d phi = ParamVec(p, "phi_x_deg", "phi_y_deg", "phi_z_deg") * kDegToRad;
         // R_SB_new = exp([φ]×)·R_SB; orientation_rpy_deg holds the body-to-sensor rotation.
@@ -116,12 +121,12 @@ Result<std::string> UpdatedVehicleYaml(const std::string& text, const vehicle::V
         Eigen::Matrix3d E;
         const char* n[9] = {"dK_xx_per_A", "dK_xy_per_A", "dK_xz_per_A", "dK_yx_per_A", "dK_yy_per_A",
                             "dK_yz_per_A", "dK_zx_per_A", "dK_zy_per_A", "dK_zz_per_A"};
-        for (int i = 0; i < 9; ++i) E(i / 3, i % 3) = p.value(n[i], 0.0);
+        for (int i = 0; i < 9; ++i) E(i / 3, i % 3) = Value(p, n[i]);
         // E·M = R_SB·scale·dK  →  dK = (R_SB·scale)⁻¹·E·M
         const Eigen::Matrix3d dK = (cp.error.R_SB * cp.error.scale).inverse() * E * M;
         node["soft_iron_per_A"] = Mat(cp.error.soft_iron_per_A + dK);
       } else if (k.effect == "current_lag") {
-        node["current_lag_tau_s"] = p.value("tau_s", 0.0);
+        node["current_lag_tau_s"] = Value(p, "tau_s");
       } else if (k.effect == "current_hard_iron") {
         // A short battery-current segment next to the compass whose field there is d_B per ampere:
         // wire along u ⊥ d̂, compass at ρ·(d̂ × u) from its middle; B = μ0 I/(4πρ)·2L/√(L² + ρ²).
@@ -147,7 +152,7 @@ Result<std::string> UpdatedVehicleYaml(const std::string& text, const vehicle::V
                                     ch.channel, mag, seg["name"].as<std::string>()));
       } else {
         notes.push_back(fmt::format("{}: {} fitted ({}) but the vehicle schema has no key for it", ch.channel, k.effect,
-                                    p.dump()));
+                                    ParamsText(p)));
       }
     }
   }

@@ -1,16 +1,15 @@
-// Verdicts (private to gap/). CONTRACTS.md "Second wave" orders the compass verdict: (1) no
-// structure above the noise floor after the (timing-aligned) baseline: the out-of-range nuisance or
-// timing term, else none; (2) structure: the effect with the largest held-out
-// explained_share, if it reaches 0.5 and is plausible, chosen by the one-standard-error rule over
-// the CV folds (the fewest parameters among the candidates within one standard error of the best);
-// ambiguous when another candidate as simple is within one standard error and neither nests the
-// other; (3) otherwise unexplained, with residual_left.
+// Verdicts (private to gap/), a decomposition (CONTRACTS.md "The verdict is a decomposition"):
+// every channel's shares are ExplainedShare (attribution.h) over its baseline and noise floor; the
+// material effects, grown from the one-standard-error choice, are listed by share; the headline is
+// the largest, partial below DiagnoseOptions::headline_share; ambiguous when an as-simple rival
+// within one standard error neither nests nor is nested; what is left is described, never a veto;
+// unexplained only when structure stands above the floor and no effect is material. Compasses
+// first compare what the baseline absorbed with the vehicle file (the latency: LatencyTerm).
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
 
 #include "attribution.h"
 #include "channels.h"
@@ -21,13 +20,55 @@ namespace hexsim::gap::internal {
 // Which manoeuvre separates two collinear candidates.
 std::string SeparatingManoeuvre(const std::string& a, const std::string& b);
 
-// The first wave's rule, for the gyro, accel and dynamics channels.
-ChannelResult AnalyzeFirstWave(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
+// The rule of the gyro, accel and dynamics channels (verdict_inertial.cc).
+ChannelResult AnalyzeInertial(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
                                const DiagnoseOptions& o, RngStream* rng);
+
+// ---- the decomposition shared by every channel (verdict_model.cc) ----
+// Σ_f (a_f − b_f) and its standard error √(F·var(a_f − b_f)) over the CV folds.
+struct FoldDiff {
+  double sum = 0.0, se = 0.0;
+};
+FoldDiff Diff(const std::vector<double>& a, const std::vector<double>& b);
+// Does a's column space (over the samples) hold b's?
+bool Nests(const Candidate& a, const Candidate& b);
+// Fitted quantities of a candidate for the parsimony rules: its linear parameters, plus one for a
+// nonlinear parameter profiled over a grid (a throttle exponent other than the linear default, a
+// lag τ): choosing the best of several grid values is a fit too.
+int Dof(const Candidate& c);
+// Families that may enter a model: plausible and significant (family-corrected p ≤ alpha).
+std::vector<bool> Eligible(const Attribution& at, const DiagnoseOptions& o);
+// The first effect: the one-standard-error rule over the CV folds among the eligible families (F: none).
+size_t ChooseFirst(const Attribution& at, const std::vector<bool>& eligible);
+// Material: removes at least o.materiality of the noise floor's power on held-out blocks.
+bool IsMaterial(const Analyzer& an, const Evaluated& e, double cv_before, double noise_var, const DiagnoseOptions& o);
+// The reported model: the first family, then (forward) each further family that beats the model
+// by more than one standard error over the folds, is significant over it and material.
+struct SelectedModel {
+  std::vector<size_t> fams;          // families, in the order they entered
+  std::unique_ptr<Candidate> joint;  // their regressors side by side
+  Evaluated eval;                    // its fit (eval.cand == joint)
+};
+SelectedModel GrowModel(const Analyzer& an, const Attribution& at, size_t first, const std::vector<bool>& eligible,
+                        double noise_var, const DiagnoseOptions& o);
+// An eligible family outside the model, as simple as its first, within one standard error of it and
+// neither nesting the other (F: none): the verdict is then "ambiguous".
+size_t AmbiguousRival(const Attribution& at, const SelectedModel& m, const std::vector<bool>& eligible);
+// The effects-list entry of a selected candidate (its autopilot unit where one exists).
+EffectShare ToEffect(const CandidateResult& k, double share, const std::string& source);
+void SortEffects(std::vector<EffectShare>* effects);
+// The effects' sizes again from their selected candidates (after the plug-in propagation widened
+// their intervals and the current equivalents were added).
+void RefreshEffects(ChannelResult* res);
+// Selected candidates in the effects' order first, then library candidates by explained share,
+// then the timing and nuisance terms.
+std::vector<CandidateResult> OrderCandidates(const std::vector<EffectShare>& effects, std::vector<CandidateResult> all);
+// The finding printed for an implausible fit that is why its family was refused.
+std::string RefusedFinding(const CandidateResult& k, bool beside_a_model);
 
 // What the timing scan found for one compass (nuisance.cc).
 struct CompassTiming {
-  nlohmann::json json = nlohmann::json::object();  // reported under `timing`
+  Timing report;  // reported under `timing`
   bool latency_ok = false;
   double latency_s = 0.0, latency_ci95_s[2] = {0.0, 0.0};
   double latency_share = 0.0;        // held-out share of the unaligned baseline residual the alignment removes
@@ -36,7 +77,7 @@ struct CompassTiming {
 
 // The nuisance baseline's estimates as findings (nuisance.cc).
 struct NuisanceReport {
-  nlohmann::json json = nlohmann::json::object();  // reported under `nuisance`
+  Nuisance nuisance;  // reported under `nuisance`
   std::vector<CandidateResult> terms;  // hard_iron_offset, local_anomaly, scale_error as candidates
   std::string out_of_range;            // the term named as the verdict when nothing else is found
   std::vector<std::string> findings;   // plain language
@@ -48,7 +89,7 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& baseline
 // the misalignment's magnitude, interval and parameters divided by it.
 void DescaleMisalignment(double field_scale, CandidateResult* r);
 
-// The second wave's rule, for compass channels.
+// The rule of compass channels (verdict.cc).
 ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
                              const DiagnoseOptions& o, const CompassTiming& timing, RngStream* rng);
 

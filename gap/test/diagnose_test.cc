@@ -48,7 +48,7 @@ TEST(GapDiagnose, GivenAWithheldCurrentHardIronWhenDiagnosedThenItIsAttributedAn
   // The replay's systematic error (see effects_test.cc): 5 % of the magnitude beside the interval.
   EXPECT_LE(c.magnitude_ci95[0] - 0.05 * c.magnitude, f.trial.true_magnitude[0]);
   EXPECT_GE(c.magnitude_ci95[1] + 0.05 * c.magnitude, f.trial.true_magnitude[0]);
-  EXPECT_GE(mag2->explained_share, 0.5);  // of the held-out residual above the baseline (second wave)
+  EXPECT_GE(mag2->explained_share, 0.5);  // of the held-out residual above the baseline
 }
 
 TEST(GapDiagnose, GivenALogWithoutAttitudeWhenDiagnosedThenCompassesAreListedAsNotDiagnosedWithTheReason) {

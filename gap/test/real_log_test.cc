@@ -55,10 +55,10 @@ bool CurrentTerms(const CandidateResult& k, double* mG_per_A, double ci[2]) {
     ci[1] = 10 * k.magnitude_ci95[1];
     return true;
   }
-  if (k.params.contains("current_equivalent_uT_per_A")) {
-    *mG_per_A = 10 * k.params["current_equivalent_uT_per_A"].get<double>();
-    ci[0] = 10 * k.ci95["current_equivalent_uT_per_A"][0].get<double>();
-    ci[1] = 10 * k.ci95["current_equivalent_uT_per_A"][1].get<double>();
+  if (k.params.count("current_equivalent_uT_per_A") > 0) {
+    *mG_per_A = 10 * k.params.at("current_equivalent_uT_per_A");
+    ci[0] = 10 * k.ci95.at("current_equivalent_uT_per_A").lo;
+    ci[1] = 10 * k.ci95.at("current_equivalent_uT_per_A").hi;
     return true;
   }
   return false;
@@ -99,15 +99,16 @@ TEST(GapRealLog, GivenLog171_WhenDiagnosed_ThenCompassLatencyAndCurrentStaleness
   for (const char* name : {"mag", "mag2"}) {
     const ChannelResult* c = gaptest::FindChannel(r, name);
     ASSERT_NE(c, nullptr);
-    ASSERT_TRUE(c->timing.contains("latency_s")) << name;
-    const double L = c->timing["latency_s"]["value"].get<double>();
+    ASSERT_TRUE(c->timing.latency.present) << name;
+    const double L = c->timing.latency.value_s;
     EXPECT_GE(L, 0.020) << name;
     EXPECT_LE(L, 0.100) << name;
-    const auto& s = c->timing["regressor_staleness_s"]["current_A"];
-    EXPECT_GE(s["value"].get<double>(), 0.100) << name;
-    EXPECT_LE(s["value"].get<double>(), 0.400) << name;
-    EXPECT_LE(s["ci95"][0].get<double>(), s["value"].get<double>());
-    EXPECT_GE(s["ci95"][1].get<double>(), s["value"].get<double>());
+    const LagReport& s = c->timing.current_staleness;
+    ASSERT_TRUE(s.present) << name;
+    EXPECT_GE(s.value_s, 0.100) << name;
+    EXPECT_LE(s.value_s, 0.400) << name;
+    EXPECT_LE(s.ci95_s.lo, s.value_s);
+    EXPECT_GE(s.ci95_s.hi, s.value_s);
   }
 }
 

@@ -39,12 +39,103 @@ Status Png(const render::Plot2D& p, const std::string& path) {
   return WriteFileAtomic(path, *png);
 }
 
+// Field quantities are shown in mG (1 mG = 0.1 µT), every other in the channel's own unit.
+bool IsCompass(const gap::ChannelResult& c) { return c.unit == "uT"; }
+double Shown(const gap::ChannelResult& c, double v) { return IsCompass(c) ? 10.0 * v : v; }
+std::string ShownUnit(const gap::ChannelResult& c) { return IsCompass(c) ? "mG" : c.unit; }
+
+std::string LagRow(const char* what, const gap::LagReport& l) {
+  if (!l.present) return "";
+  return fmt::format("<tr><td>{}</td><td>{:.0f} ms [{:.0f}, {:.0f}]</td><td>{}</td><td>{}</td></tr>", what, 1000 * l.value_s,
+                     1000 * l.ci95_s.lo, 1000 * l.ci95_s.hi, Escape(l.against),
+                     !l.resolved ? "at the scan's edge: not resolved"
+                                 : (l.plausible ? "resolved" : "outside its physical range: model mismatch"));
+}
+
+std::string TimingHtml(const gap::Timing& t) {
+  if (!t.latency.present && !t.current_staleness.present) return "";
+  std::string h = "<h3>Timing</h3><table><tr><th>lag</th><th>value [95 % CI]</th><th>measured against</th><th>status</th></tr>";
+  h += LagRow("compass latency", t.latency) + LagRow("logged current's staleness", t.current_staleness) + "</table>";
+  if (t.latency.present && std::isfinite(t.latency.explained_share)) {
+    h += fmt::format("<p>Aligning the compass by its latency removes {:.0f} % of the held-out residual above the noise floor.</p>",
+                     100 * t.latency.explained_share);
+  }
+  return h;
+}
+
+std::string NuisanceHtml(const gap::ChannelResult& c) {
+  const gap::Nuisance& n = c.nuisance;
+  if (!n.present) return "";
+  std::string h = "<h3>Nuisance baseline</h3><p>Fitted under every candidate; its terms are findings only when outside their normal ranges.</p><table>";
+  h += fmt::format("<tr><td>residual offset (x, y, z)</td><td>({:.1f}, {:.1f}, {:.1f}) mG; |offset| [{:.1f}, {:.1f}] mG</td></tr>",
+                   10 * n.offset_uT.x(), 10 * n.offset_uT.y(), 10 * n.offset_uT.z(), 10 * n.offset_ci95_uT.lo,
+                   10 * n.offset_ci95_uT.hi);
+  h += fmt::format("<tr><td>field norm against the field model</td><td>{:+.1f} % (horizontal part {:+.1f} %)</td></tr>",
+                   100 * (n.field_scale - 1), 100 * (n.field_scale_horizontal - 1));
+  h += fmt::format("<tr><td>fitted field (N, E, D)</td><td>({:.0f}, {:.0f}, {:.0f}) mG against ({:.0f}, {:.0f}, {:.0f}) mG</td></tr>",
+                   10 * n.field_vector_N_uT.x(), 10 * n.field_vector_N_uT.y(), 10 * n.field_vector_N_uT.z(),
+                   10 * n.field_prior_N_uT.x(), 10 * n.field_prior_N_uT.y(), 10 * n.field_prior_N_uT.z());
+  h += fmt::format("<tr><td>field direction error</td><td>{:.1f} mG</td></tr>", 10 * n.field_direction_error_uT);
+  if (std::isfinite(n.current_split_exponent)) {
+    h += fmt::format("<tr><td>motor current split</td><td>battery current shared as output<sup>{:.2f}</sup></td></tr>",
+                     n.current_split_exponent);
+  }
+  h += fmt::format("<tr><td>autopilot compensation undone</td><td>{}</td></tr></table>", n.undone_compensation ? "yes" : "no");
+  return h;
+}
+
+std::string EffectsHtml(const gap::ChannelResult& c) {
+  if (c.effects.empty()) return "";
+  std::string h = "<h3>Effects</h3><p>The material effects, largest first; each share is of the held-out structure above "
+                  "the noise floor, the effect alone.</p><table><tr><th>effect</th><th>magnitude [95 % CI]</th>"
+                  "<th>autopilot's unit</th><th>explained share</th><th>from</th></tr>";
+  for (const gap::EffectShare& e : c.effects) {
+    const std::string ap = e.autopilot_unit.empty()
+                               ? std::string("&mdash;")
+                               : fmt::format("{:.4g} [{:.4g}, {:.4g}] {}", e.autopilot_factor * e.magnitude,
+                                             e.autopilot_factor * e.ci95.lo, e.autopilot_factor * e.ci95.hi,
+                                             Escape(e.autopilot_unit));
+    h += fmt::format("<tr><td>{}</td><td>{:.4g} [{:.4g}, {:.4g}] {}</td><td>{}</td><td>{:.0f} %</td><td>{}</td></tr>",
+                     Escape(e.effect), e.magnitude, e.ci95.lo, e.ci95.hi, Escape(e.unit), ap, 100 * e.explained_share,
+                     Escape(e.source));
+  }
+  return h + "</table>";
+}
+
+// Every fitted candidate, for reference, folded: the selection is the effects table above (the
+// bootstrap's information-criterion winner is not the selection rule, so no probability is shown).
+std::string CandidatesHtml(const gap::ChannelResult& c) {
+  std::string h = "<details><summary>Every fitted candidate</summary><table><tr><th>effect</th><th>selected</th>"
+                  "<th>explained share</th><th>p (family-corrected)</th><th>magnitude [95 % CI]</th><th>physical range</th>"
+                  "<th>plausible</th></tr>";
+  for (const auto& k : c.candidates) {
+    h += fmt::format("<tr><td>{}{}</td><td>{}</td><td>{:.0f} %</td><td>{:.2g}</td><td>{:.4g} [{:.4g}, {:.4g}] {}</td><td>{}</td>"
+                     "<td>{}</td></tr>",
+                     Escape(k.effect), k.nuisance_term ? " (nuisance term)" : "", k.selected ? "yes" : "",
+                     100 * k.explained_share, k.p_value, k.magnitude, k.magnitude_ci95[0], k.magnitude_ci95[1],
+                     Escape(k.magnitude_unit), Escape(k.physical_range), k.plausible ? "yes" : "<b>no: model mismatch</b>");
+  }
+  return h + "</table></details>";
+}
+
+std::string LeftHtml(const gap::ResidualLeft& l) {
+  if (!l.present) return "";
+  return fmt::format("<h3>What is left</h3><p>{:.0f} % of the held-out structure above the noise floor is left after the "
+                     "reported effects; its dominant frequency is {:.3g} Hz, a straight line in time holds {:.0f} % of it, "
+                     "{} isolated spikes, concentrated in {}.</p>",
+                     100 * l.share, l.dominant_freq_Hz, 100 * l.trend, l.spikes,
+                     Escape(l.concentrated.empty() ? "no phase or regime" : l.concentrated));
+}
+
 }  // namespace
 
 Status WriteGapHtml(const GapReport& r, const std::string& dir) {
   std::string html = "<!doctype html><html><head><meta charset=\"utf-8\"><title>hexsim gap diagnosis</title>"
-                     "<style>body{font-family:sans-serif;max-width:1150px;margin:auto}table{border-collapse:collapse}"
-                     "td,th{border:1px solid #ccc;padding:3px 6px}img{max-width:100%}</style></head><body>";
+                     "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
+                     "<style>body{font-family:sans-serif;max-width:1150px;margin:auto;padding:0 8px}"
+                     "table{border-collapse:collapse;max-width:100%;display:block;overflow-x:auto}"
+                     "td,th{border:1px solid #ccc;padding:3px 6px}img{max-width:100%;height:auto}"
+                     "pre{white-space:pre-wrap;overflow-wrap:anywhere}</style></head><body>";
   html += "<h1>Sim-to-real gap diagnosis</h1><p>Log: " + Escape(r.log_name) + "<br>Attitude taken as truth: " +
           Escape(r.attitude_source) + "<br>Field model: " + Escape(r.field_model) + "</p>";
   html += "<pre>" + Escape(Summary(r)) + "</pre>";
@@ -59,9 +150,11 @@ Status WriteGapHtml(const GapReport& r, const std::string& dir) {
   static const char* kPhaseColours[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"};
   static const char* kPhases[] = {"ground", "takeoff", "hover", "climb", "cruise", "descent", "landing", "excluded"};
   for (const auto& c : r.channels) {
-    html += "<h2>" + Escape(c.channel) + " (" + Escape(c.unit) + ")</h2>";
-    html += fmt::format("<p>verdict <b>{}</b>; RMS before {:.4g}, noise {:.3g}, p = {:.3g}, held-out shrink {:.0f} %{}</p>",
-                        Escape(c.verdict), c.rms_before, c.noise_rms, c.p_value, 100 * c.heldout_shrink,
+    html += "<h2>" + Escape(c.channel) + "</h2>";
+    html += fmt::format("<p>verdict <b>{}</b>{}; residual RMS {:.3g} {}, noise floor {:.2g} {} RMS, p = {:.3g}, "
+                        "held-out shrink {:.0f} %{}</p>",
+                        Escape(c.verdict), c.partial ? " (partial)" : "", Shown(c, c.rms_before), ShownUnit(c),
+                        Shown(c, c.noise_rms), ShownUnit(c), c.p_value, 100 * c.heldout_shrink,
                         c.reference_contaminated ? " &mdash; <b>reference-contaminated</b>" : "");
     if (!c.headline.empty()) html += "<p><b>" + Escape(c.headline) + "</b></p>";
     if (!c.explanation.empty()) html += "<p>" + Escape(c.explanation) + "</p>";
@@ -70,19 +163,8 @@ Status WriteGapHtml(const GapReport& r, const std::string& dir) {
       for (const auto& f : c.findings) html += "<li>" + Escape(f) + "</li>";
       html += "</ul>";
     }
-    if (!c.timing.empty()) html += "<p>timing: <code>" + Escape(c.timing.dump()) + "</code></p>";
-    if (!c.nuisance.empty()) html += "<p>nuisance: <code>" + Escape(c.nuisance.dump()) + "</code></p>";
-    if (!c.residual_left.empty()) html += "<p>residual left: <code>" + Escape(c.residual_left.dump()) + "</code></p>";
-    html += "<table><tr><th>effect</th><th>probability</th><th>explained share</th><th>magnitude [95 % CI]</th>"
-            "<th>physical range</th><th>plausible</th><th>selected</th></tr>";
-    for (const auto& k : c.candidates) {
-      html += fmt::format("<tr><td>{}</td><td>{:.2f}</td><td>{:.0f} %</td><td>{:.4g} [{:.4g}, {:.4g}] {}</td><td>{}</td>"
-                          "<td>{}</td><td>{}</td></tr>",
-                          k.effect, k.probability, 100 * k.explained_share, k.magnitude, k.magnitude_ci95[0],
-                          k.magnitude_ci95[1], Escape(k.magnitude_unit), Escape(k.physical_range),
-                          k.plausible ? "yes" : "<b>no: model mismatch</b>", k.selected ? "yes" : "");
-    }
-    html += "</table>";
+    html += TimingHtml(c.timing) + NuisanceHtml(c) + LeftHtml(c.residual_left);
+    html += EffectsHtml(c) + CandidatesHtml(c);
     // Residual vs time with phases.
     render::Plot2D p;
     p.title = c.channel + ": |residual| against time";

@@ -24,7 +24,7 @@ Flown FlyInjected(const std::vector<Injection>& injections, uint64_t seed, const
                   const std::string& mission = "");
 
 // The diagnosis options of the ideal profile: the configured vehicle is the calibrated truth, so a
-// significant nuisance term (offset, field, scale) is a finding (CONTRACTS.md "Second wave").
+// significant nuisance term (offset, field, scale) is a finding (CONTRACTS.md "Gap diagnosis").
 DiagnoseOptions IdealOptions();
 
 const ChannelResult* FindChannel(const GapReport& report, const std::string& channel);

@@ -20,12 +20,14 @@
 // temperature_drift is d·(T − T_start) with no offset of its own (hard_iron_offset is separate).
 #pragma once
 
+#include <array>
+#include <cmath>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
-#include <nlohmann/json.hpp>
 
 #include "hexsim/common/status.h"
 #include "hexsim/gap/compass_terms.h"
@@ -38,8 +40,10 @@ struct DiagnoseOptions {
   int blocks = 20;                 // contiguous time blocks (CV folds = blocks / 2, bootstrap unit)
   int bootstrap_samples = 200;     // block bootstrap resamples for attribution probabilities
   double alpha = 0.01;             // family-wise false-alarm level of the gap test
-  double explain_shrink = 0.2928932188134524;  // 1 − √0.5: removes half the held-out mean square
-  double adequacy_ratio = 1.3;     // residual MS / high-frequency noise MS above this: structure left
+  // The verdict names an effect outright when it removes at least this share of the held-out
+  // structure above the noise floor (ExplainedShare): more than any other part can hold, so it is
+  // the largest cause. A material effect below it is the headline marked partial (CONTRACTS.md).
+  double headline_share = 0.5;
   double min_duration_s = 20.0;    // shorter logs are not diagnosed
   int min_samples = 400;           // per channel
   uint64_t seed = 1;               // bootstrap resampling
@@ -50,16 +54,32 @@ struct DiagnoseOptions {
   // Dynamics channel: height of the rotor plane above the ground when the vehicle stands on it
   // (ground effect uses z = CG height above the take-off point + this).
   double rotor_height_at_rest_m = 0.2;
-  // Second wave (compass channels). Windows: --from/--to override the flight windows when from_s <
-  // to_s. Nuisance terms: "normal" judges them against the plausibility table's normal ranges (real
+  // Compass channels. Windows: --from/--to override the flight windows when from_s < to_s.
+  // Nuisance terms: "normal" judges them against the plausibility table's normal ranges (real
   // logs); "exact" treats the configured vehicle as the calibrated truth, so any significant offset,
   // field or scale term is a finding (the ideal selftest).
   double from_s = 0.0, to_s = 0.0;
   std::string nuisance_ranges = "normal";
-  // Structure counts when the held-out residual's power exceeds the noise floor by this fraction:
-  // below a tenth of the noise power a structured part moves no heading by more than the noise does.
+  // An effect (or structure) is material when it removes at least this fraction of the noise
+  // floor's power on held-out blocks: below a tenth of the noise power a structured part moves no
+  // heading by more than the noise does.
   double materiality = 0.1;
+  // Inertial and dynamics channels: an effect is material when it also removes this share of the
+  // held-out structure above the floor (a replay's unresolvable part, commands between log rows,
+  // is not a gap, and a tenth is the smallest part the CV folds resolve on a 20-block log).
+  double min_effect_share = 0.1;
+  // Inertial channels: the residual's mean square must exceed the floor by 1 + floor_margin_z/√n
+  // (n residual components): a z-score of the mean square's sampling spread, 6 so that a clean
+  // replay (its floor estimated from the same residual) never passes it by chance.
+  double floor_margin_z = 6.0;
+  // A second effect joins the first when the pair lowers the held-out SSE below the first's by at
+  // least one standard error of the fold differences (one-standard-error rule) and is material.
+  // Ambiguous: two as-simple effects within one standard error of each other, neither nesting the other.
   bool timing_scan = true;  // compass latency and current staleness before fitting
+  // The compass latency the vehicle file models (s). hexsim's simulated compasses are stamped at
+  // their measurement epoch, so 0; a measured latency whose interval excludes it is an effect (the
+  // gap is relative to the simulator), named when its alignment removes min_effect_share or more.
+  double compass_latency_s = 0.0;
   // The channels to diagnose, by name (mag, mag2, …, gyro, accel, dynamics); empty: every channel.
   // Each channel's bootstrap draws its own random stream (seed, channel name), so a channel's
   // result does not depend on which others are diagnosed.
@@ -69,23 +89,116 @@ struct DiagnoseOptions {
   const logs::FlightLog* compass_model_log = nullptr;
 };
 
+// A 95 % interval [lo, hi].
+struct Interval {
+  double lo = 0.0, hi = 0.0;
+};
+
+// Named physical parameters of a fit (name → value) and their 95 % intervals (same names).
+using Params = std::map<std::string, double>;
+using ParamIntervals = std::map<std::string, Interval>;
+// "name=value, …" (4 significant digits), for plain-language notes.
+std::string ParamsText(const Params& params);
+
 struct CandidateResult {
   std::string effect;
-  double probability = 0.0;          // block-bootstrap attribution probability
+  double probability = 0.0;          // block-bootstrap attribution probability (NaN: not bootstrapped)
   double heldout_shrink = 0.0;       // 1 − RMS_after/RMS_before on held-out blocks, alone
   double p_value = 1.0;              // cluster-robust Wald test against no effect (family-corrected)
   double bic = 0.0;
   double magnitude = 0.0;            // one scalar figure (e.g. |d| µT/A), its unit in magnitude_unit
   double magnitude_ci95[2] = {0.0, 0.0};
   std::string magnitude_unit;
-  nlohmann::json params = nlohmann::json::object();  // named physical parameters
-  nlohmann::json ci95 = nlohmann::json::object();    // same names, [lo, hi]
-  bool selected = false;             // part of the chosen model
-  // Second wave: held-out share over the baseline, plausibility against realdata's table.
-  double explained_share = 0.0;      // 1 − MS_after/MS_baseline on held-out blocks
+  Params params;                     // named physical parameters
+  ParamIntervals ci95;               // same names
+  bool nuisance_term = false;        // a term of the nuisance baseline (offset, anomaly, field scale)
+  bool selected = false;             // part of the chosen model (listed in ChannelResult::effects)
+  // Held-out share over the baseline (ExplainedShare), plausibility against realdata's table.
+  double explained_share = 0.0;
   bool plausible = true;
   std::string physical_range;        // "lo..hi unit"
   int parameters = 0;
+};
+
+// One material effect of the decomposition (CONTRACTS.md "The verdict is a decomposition"), in the
+// order of its explained share.
+struct EffectShare {
+  std::string effect;
+  double magnitude = 0.0;
+  Interval ci95;
+  std::string unit;                  // the magnitude's physical unit (µT/A, s, 1, …)
+  std::string autopilot_unit;        // the autopilot's unit where one exists (mG/A for COMPASS_MOT), else empty
+  double autopilot_factor = 1.0;     // autopilot value = factor · magnitude
+  double explained_share = 0.0;      // alone, over the baseline (ExplainedShare)
+  std::string source;                // "fit" (a library candidate), "timing" (the latency scan), "vehicle" (a
+                                     // baseline term against the vehicle file), "nuisance"
+};
+
+// Where the residual sits: RMS by flight phase, by regime quartile, by frequency band.
+struct RegimeBin {
+  std::string bin;  // low | mid-low | mid-high | high
+  double rms = 0.0, samples = 0.0;
+};
+struct RegimeSplit {
+  std::array<double, 3> edges = {0.0, 0.0, 0.0};
+  std::vector<RegimeBin> bins;
+};
+struct Where {
+  bool present = false;
+  std::map<std::string, double> rms_by_phase;
+  std::string phase_concentrated;
+  std::map<std::string, RegimeSplit> regime;  // current, throttle, speed, tilt
+  std::string regime_concentrated;            // e.g. "high current", or "uniform"
+  double band_below_0p2Hz = 0.0, band_0p2_to_2Hz = 0.0, band_above_2Hz = 0.0;  // shares of the mean square
+  std::string band_concentrated;
+  double rms = 0.0;
+};
+
+// What the reported model leaves: its share of the structure above the floor, dominant frequency,
+// the share of its mean square a straight line in time holds (trend), isolated spikes, and where.
+struct ResidualLeft {
+  bool present = false;
+  double share = 0.0, dominant_freq_Hz = 0.0, trend = 0.0;
+  int spikes = 0;
+  std::string concentrated;  // phase, regime
+};
+
+// The nuisance baseline's fit (compass channels): r = β + M·R_NBᵀ·δB_N.
+struct Nuisance {
+  bool present = false;
+  Eigen::Vector3d offset_uT = Eigen::Vector3d::Zero();
+  Interval offset_ci95_uT;  // of |β|
+  double field_scale = 1.0, field_scale_horizontal = 1.0;
+  Eigen::Vector3d field_vector_N_uT = Eigen::Vector3d::Zero(), field_prior_N_uT = Eigen::Vector3d::Zero(),
+                  field_correction_N_uT = Eigen::Vector3d::Zero();
+  double field_direction_error_uT = 0.0;
+  bool undone_compensation = false;
+  std::string ranges;                            // normal | exact
+  double current_split_exponent = std::nan("");  // NaN: not fitted (per-motor currents, or no current)
+};
+
+// A lag estimate of the timing scan.
+struct LagReport {
+  bool present = false;
+  double value_s = 0.0;
+  Interval ci95_s;
+  std::string against;  // what it is measured against: "attitude (q_*)", "control_u"
+  bool resolved = false, plausible = false;
+  double explained_share = std::nan("");  // latency: held-out share its alignment removes
+  double applied_shift_s = std::nan("");  // staleness: the shift the replay applied
+};
+struct Timing {
+  LagReport latency;            // compass latency against the attitude
+  LagReport current_staleness;  // logged current against the throttle
+};
+
+// ΔB/ΔI between flight and ground with the flight's baseline (compassmot's principle).
+struct GroundVsFlight {
+  bool present = false;
+  int ground_samples = 0;
+  Eigen::Vector3d delta_B_uT = Eigen::Vector3d::Zero();
+  double delta_I_A = 0.0;
+  double mG_per_A = std::nan("");  // NaN: the current step is too small
 };
 
 struct ChannelResult {
@@ -93,28 +206,29 @@ struct ChannelResult {
   std::string unit;
   int samples = 0;
   double rms_before = 0.0;
-  double noise_rms = 0.0;            // high-frequency (first-difference) noise estimate
+  double noise_rms = 0.0;            // the channel's noise floor (RMS per component; ExplainedShare)
   double noise_floor_ratio = 0.0;    // residual mean square / noise floor (1: nothing above the floor)
   bool gap_detected = false;
   double p_value = 1.0;
   double ljung_box_p = 1.0;
   bool reference_contaminated = false;
-  nlohmann::json where = nlohmann::json::object();
+  Where where;
   std::string verdict = "none";      // none | unexplained | ambiguous | <effect>
+  bool partial = false;              // the headline effect's share is below headline_share
   std::string explanation;           // plain-language note (ambiguity manoeuvre, adequacy)
-  std::vector<CandidateResult> candidates;  // best first
+  std::vector<CandidateResult> candidates;  // best first (every fitted candidate; printing is filtered)
+  std::vector<EffectShare> effects;  // the material effects, by explained share, largest first
   double heldout_shrink = 0.0;       // of the selected model
   std::vector<std::string> not_available;  // candidate effects the log cannot support here
   // For plots: sample times, residual before/after (3 axes), the chosen regressor.
   std::vector<double> t_s, chosen_regressor;
   std::string chosen_regressor_name;
   std::vector<Eigen::Vector3d> residual_before, residual_after;
-  // Second wave (compass channels; CONTRACTS.md "Second wave").
-  double explained_share = 0.0;  // of the reported model
-  nlohmann::json nuisance = nlohmann::json::object();
-  nlohmann::json timing = nlohmann::json::object();
-  nlohmann::json residual_left = nlohmann::json::object();
-  nlohmann::json ground_vs_flight = nlohmann::json::object();
+  double explained_share = 0.0;  // of the reported model (all its effects together)
+  Nuisance nuisance;
+  Timing timing;
+  ResidualLeft residual_left;
+  GroundVsFlight ground_vs_flight;
   std::vector<std::string> findings;  // nuisance and timing findings in plain language
   std::string headline;               // one line: the verdict and what to do
   std::optional<CompassTerms> absolute_terms;  // compass channels: the in-flight model's (compass_terms.h)
@@ -141,6 +255,7 @@ struct GapReport {
   std::vector<std::string> effects_not_built;
   std::vector<WindowSpan> windows;
   std::string windows_source;
+  double headline_share = 0.5;  // DiagnoseOptions::headline_share the verdicts used
 };
 
 // Flight phases per log row: ground, takeoff, hover, climb, cruise, descent, landing, excluded
@@ -156,8 +271,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
 // (k_T·ω_h² = m·g/n); the motor_time_constant candidate reports the extra τ at this point.
 double HoverRotorTimeConstant_s(const vehicle::VehicleParams& vehicle);
 
-// gap.json (hexsim.gap/1).
-nlohmann::json ToJson(const GapReport& report);
+// gap.json (hexsim.gap/1): ToJson in hexsim/gap/json.h (serialisation beside the types, not in them).
 // The plain-language summary for stdout.
 std::string Summary(const GapReport& report);
 // One line per channel: the verdict with its magnitude, interval and share, and what to do.

@@ -56,13 +56,20 @@ struct Trial {
   vehicle::VehicleParams configured;  // what the diagnosis is given
   std::vector<Injection> injections;
   std::vector<double> true_magnitude;
+  // The compass latency the configured vehicle models (DiagnoseOptions::compass_latency_s): the
+  // real profile's log latency, less an unmodelled part where the trial withholds one.
+  double compass_latency_s = 0.0;
 };
+
+// The verdict an injected form must read: its own name, or the effect it is a form of
+// (axis_scale_error → scale_error, unmodelled_latency → latency).
+std::string TruthLabel(const std::string& injected);
 
 struct SelftestOptions {
   // real: logs at real rates (10 Hz compass, attitude and current), a reference attitude with a slow
   // estimator error, residual calibration offsets and field-norm errors inside their normal ranges,
   // a stale current channel, compass latency, and out-of-library effect families drawn per trial;
-  // ideal: the first wave's logs (100 Hz rows, exact timing, the configured vehicle exact).
+  // ideal: exact logs (100 Hz rows, exact timing, the configured vehicle exact).
   std::string profile = "real";
   int trials = 100;                 // per class
   uint64_t seed = 1;

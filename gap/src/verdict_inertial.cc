@@ -1,0 +1,181 @@
+// Verdicts of the inertial and dynamics channels (gyro, accel, dynamics), the same decomposition as
+// the compasses' (private to gap/). Baseline: the configured model's prediction with the sensor's
+// constant bias removed where the configured sensor has one (Analyzer). Noise floor: the
+// first-difference variance of that residual (gyro, accel), or, for the dynamics channel whose
+// effects are phase-confined and slow, its variance above ~4 Hz (HighPassVariance, 0.25 s window).
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include <fmt/format.h>
+
+#include "attribution.h"
+#include "detection.h"
+#include "hexsim/common/plausibility.h"
+#include "stats.h"
+#include "verdict.h"
+
+namespace hexsim::gap::internal {
+
+// Which manoeuvre separates two collinear candidates.
+std::string SeparatingManoeuvre(const std::string& a, const std::string& b) {
+  auto is = [&](const char* x, const char* y) { return (a == x && b == y) || (a == y && b == x); };
+  if (is("current_hard_iron", "throttle_hard_iron"))
+    return "hold one throttle while the current changes (a long hover as the battery sags, or a payload change): "
+           "current-driven field follows the current, throttle-driven does not";
+  if (is("current_hard_iron", "current_soft_iron"))
+    return "a slow 360 deg yaw turn at constant high current: a soft-iron change varies with heading, a hard iron does not";
+  if (is("hard_iron_offset", "local_anomaly"))
+    return "yaw turns and large pitch/roll, or the same pattern at another site: an anomaly is fixed in NED, a hard iron in the body";
+  if (is("battery_sag", "thrust_scale"))
+    return "climbs and descents over a wide throttle range, or a long hover as the battery drains: a voltage sag grows "
+           "with current x dT/dV (faster than the thrust), a k_T or mass error stays proportional to the thrust";
+  if (is("wind", "rotor_drag"))
+    return "hover facing several headings and fly the same legs both ways: wind drag is fixed in NED, rotor drag "
+           "follows the air speed and the rotor speed";
+  if (is("latency", "current_lag"))
+    return "fast yaw turns at constant throttle (latency shows) against throttle steps at constant attitude (current lag shows)";
+  if (is("misalignment", "local_anomaly") || is("misalignment", "hard_iron_offset") || is("misalignment", "scale_error"))
+    return "rotate through all attitudes (full yaw turns and large pitch/roll)";
+  return "a manoeuvre that varies the regressor of '" + a + "' while holding that of '" + b + "' fixed";
+}
+
+
+namespace {
+
+// The decision on the fitted families (CONTRACTS.md "The verdict is a decomposition"): a gap when
+// the residual stands above its floor and some plausible family is significant and material; the
+// model grown from the one-standard-error choice; its effects by explained share.
+void Decide(const Analyzer& an, double noise_var, const DiagnoseOptions& o, Attribution* at, ChannelResult* res) {
+  const size_t F = at->fam_names.size();
+  const double cv0 = an.base_sse();
+  const double ms_before = MeanSquare(an.y());
+  res->noise_floor_ratio = noise_var > 0 ? ms_before / noise_var : 0.0;
+  const bool above_floor = res->noise_floor_ratio > 1.0 + o.floor_margin_z / std::sqrt(std::max(1.0, an.total_n()));
+  std::vector<bool> material(F, false);
+  double p_cand = 1.0;
+  for (size_t f = 0; f < F; ++f) {
+    const Evaluated& e = at->all[at->fam_best[f]];
+    CandidateResult& r = at->results[f];
+    r.p_value = std::min(1.0, e.wald_p * static_cast<double>(at->family[at->fam_names[f]].size()) * static_cast<double>(F));
+    material[f] = r.explained_share >= o.min_effect_share && IsMaterial(an, e, cv0, noise_var, o);
+    if (material[f]) p_cand = std::min(p_cand, r.p_value);
+  }
+  double p_lb = 1.0;
+  constexpr int kLjungBoxLags = 20;
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double> x;
+    for (const auto& v : an.y()) x.push_back(v[axis]);
+    p_lb = std::min(p_lb, 3.0 * internal::LjungBoxP(x, kLjungBoxLags));
+  }
+  res->ljung_box_p = std::min(1.0, p_lb);
+  res->p_value = p_cand;
+  res->gap_detected = res->p_value < o.alpha && above_floor;
+  std::vector<bool> eligible = Eligible(*at, o);
+  for (size_t f = 0; f < F; ++f) eligible[f] = eligible[f] && material[f];
+  const size_t first = res->gap_detected ? ChooseFirst(*at, eligible) : F;
+  res->residual_after = an.y();
+  std::vector<CandidateResult> all = at->results;
+  if (!res->gap_detected) {
+    res->verdict = "none";
+    res->explanation = F == 0 ? "no candidate effect could be formed for this channel"
+                       : p_cand < o.alpha
+                           ? fmt::format("a candidate is significant, but the residual is only {:.1f} % above its noise "
+                                         "floor: no material gap",
+                                         100 * (res->noise_floor_ratio - 1))
+                           : "residual is consistent with the configured noise: no significant, material effect";
+  } else if (first == F) {
+    res->verdict = "unexplained";
+    res->explanation = "every significant, material candidate's fit is outside its physical range: model mismatch";
+    for (const CandidateResult& k : all) {
+      if (!k.plausible && k.p_value <= o.alpha && k.explained_share >= o.min_effect_share) res->findings.push_back(RefusedFinding(k, false));
+    }
+  } else {
+    const SelectedModel m = GrowModel(an, *at, first, eligible, noise_var, o);
+    for (size_t f : m.fams) {
+      all[f].selected = true;
+      res->effects.push_back(ToEffect(all[f], all[f].explained_share, "fit"));
+    }
+    SortEffects(&res->effects);
+    res->residual_after = an.After(m.eval);
+    res->heldout_shrink = Shrink(m.eval.cv_sse, cv0);
+    res->explained_share = ExplainedShare(cv0, m.eval.cv_sse, noise_var * an.total_n());
+    res->chosen_regressor_name = m.joint->regressor_name;
+    res->chosen_regressor = at->all[at->fam_best[first]].cand->regressor;
+    const size_t rival = AmbiguousRival(*at, m, eligible);
+    if (rival < F) {
+      res->verdict = "ambiguous";
+      res->explanation = fmt::format("{} and {} explain the held-out residual equally well: {}", at->fam_names[first],
+                                     at->fam_names[rival], SeparatingManoeuvre(at->fam_names[first], at->fam_names[rival]));
+    } else {
+      res->verdict = res->effects.front().effect;
+      res->partial = res->effects.front().explained_share < o.headline_share;
+    }
+  }
+  res->candidates = OrderCandidates(res->effects, std::move(all));
+}
+
+}  // namespace
+
+ChannelResult AnalyzeInertial(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
+                      const DiagnoseOptions& o, RngStream* rng) {
+  ChannelResult res;
+  res.channel = ch.name;
+  res.unit = ch.unit;
+  res.samples = static_cast<int>(ch.t.size());
+  res.not_available = ch.not_available;
+  Analyzer an(ch, o);
+  res.rms_before = std::sqrt(MeanSquare(ch.y));
+  res.t_s = ch.t;
+  res.residual_before = an.y();
+  // Channels whose effects are phase-confined and low-frequency (dynamics) take their floor from
+  // the residual above ~4 Hz, which holds the replay's own unresolvable part.
+  constexpr double kFloorWindow_s = 0.25;
+  auto floor_variance = [&](const std::vector<Vec3>& e) {
+    return ch.explain_above_noise ? HighPassVariance(ch.t, e, kFloorWindow_s) : NoiseVariance(ch.t, e);
+  };
+  const double noise_var = floor_variance(an.y());
+  res.noise_rms = std::sqrt(noise_var);
+  const double noise_sse = noise_var * an.total_n();
+  Attribution at = Attribute(ch, an, o, rng, noise_sse);
+  for (CandidateResult& r : at.results) {
+    if (r.effect == "latency" && ch.known_hold_max_s > 0) {
+      // Report the total latency: the known sample hold removed in the replay plus the excess.
+      r.magnitude += ch.known_hold_s;
+      r.magnitude_ci95[0] += ch.known_hold_s;
+      r.magnitude_ci95[1] += ch.known_hold_s;
+      r.params["latency_s"] = r.magnitude;
+      r.ci95["latency_s"] = {r.magnitude_ci95[0], r.magnitude_ci95[1]};
+      r.params["known_sample_hold_s"] = ch.known_hold_s;
+    }
+    if (r.effect == "ground_effect") {
+      // The linear parameter is a = R²; report the effective radius R (monotone: interval maps).
+      const double a = r.params.count("radius_sq_m2") ? r.params.at("radius_sq_m2") : 0.0;
+      r.magnitude = std::sqrt(std::max(0.0, a));
+      r.magnitude_ci95[0] = std::sqrt(std::max(0.0, r.magnitude_ci95[0]));
+      r.magnitude_ci95[1] = std::sqrt(std::max(0.0, r.magnitude_ci95[1]));
+      r.magnitude_unit = "m";
+      r.params["radius_m"] = r.magnitude;
+      r.ci95["radius_m"] = {r.magnitude_ci95[0], r.magnitude_ci95[1]};
+    }
+    if (r.effect == "thrust_scale") {
+      // The linear parameter is s − 1; the table's range (0.5..2) is for the scale s itself.
+      r.magnitude += 1.0;
+      r.magnitude_ci95[0] += 1.0;
+      r.magnitude_ci95[1] += 1.0;
+      r.params["thrust_scale"] = r.magnitude;
+      r.ci95["thrust_scale"] = {r.magnitude_ci95[0], r.magnitude_ci95[1]};
+    }
+    r.plausible = plausibility::IsPlausible(r.effect, r.magnitude);
+    r.physical_range = plausibility::RangeText(r.effect);
+  }
+  Decide(an, noise_var, o, &at, &res);
+  res.where = Locate(ch, an.y(), log, phases);
+  if (res.gap_detected) {
+    res.residual_left = DescribeLeft(ch.t, res.residual_after, 1.0 - std::max(0.0, res.explained_share),
+                                     Locate(ch, res.residual_after, log, phases));
+  }
+  return res;
+}
+
+}  // namespace hexsim::gap::internal

@@ -1,0 +1,217 @@
+// The decomposition shared by every channel's verdict (see verdict.h): the model grown effect by
+// effect, the ambiguity rule, the effects list and the candidates' order.
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Cholesky>
+#include <fmt/format.h>
+
+#include "hexsim/common/plausibility.h"
+#include "verdict.h"
+
+namespace hexsim::gap::internal {
+
+FoldDiff Diff(const std::vector<double>& a, const std::vector<double>& b) {
+  FoldDiff d;
+  const size_t F = std::min(a.size(), b.size());
+  if (F < 2) return d;
+  double mean = 0;
+  for (size_t f = 0; f < F; ++f) mean += a[f] - b[f];
+  d.sum = mean;
+  mean /= static_cast<double>(F);
+  double var = 0;
+  for (size_t f = 0; f < F; ++f) var += (a[f] - b[f] - mean) * (a[f] - b[f] - mean);
+  d.se = std::sqrt(static_cast<double>(F) * var / static_cast<double>(F - 1));
+  return d;
+}
+
+bool Nests(const Candidate& a, const Candidate& b) {
+  const int pa = a.p(), pb = b.p();
+  if (pb > pa || a.X.size() != b.X.size()) return false;
+  Eigen::MatrixXd Aaa = Eigen::MatrixXd::Zero(pa, pa), Aab = Eigen::MatrixXd::Zero(pa, pb), Abb = Eigen::MatrixXd::Zero(pb, pb);
+  for (size_t k = 0; k < a.X.size(); ++k) {
+    Aaa.noalias() += a.X[k].transpose() * a.X[k];
+    Aab.noalias() += a.X[k].transpose() * b.X[k];
+    Abb.noalias() += b.X[k].transpose() * b.X[k];
+  }
+  const double tr = Abb.trace();
+  if (!(tr > 0)) return true;
+  // b's residual on a's column space below kNestedResidual of its own energy: a holds b.
+  constexpr double kNestedResidual = 1e-3;
+  const Eigen::MatrixXd reg = Aaa + Eigen::MatrixXd::Identity(pa, pa) * 1e-12 * Aaa.trace();
+  const Eigen::MatrixXd left = Abb - Aab.transpose() * reg.ldlt().solve(Aab);
+  return left.trace() < kNestedResidual * tr;
+}
+
+int Dof(const Candidate& c) {
+  const bool profiled = (c.grid_name == "exponent" && c.grid_value != 1.0) || c.grid_name == "tau_s";
+  return c.p() + (profiled ? 1 : 0);
+}
+
+std::vector<bool> Eligible(const Attribution& at, const DiagnoseOptions& o) {
+  std::vector<bool> ok(at.results.size(), false);
+  for (size_t f = 0; f < at.results.size(); ++f) ok[f] = at.results[f].plausible && at.results[f].p_value <= o.alpha;
+  return ok;
+}
+
+size_t ChooseFirst(const Attribution& at, const std::vector<bool>& eligible) {
+  const size_t F = at.fam_names.size();
+  size_t best = F;
+  for (size_t f = 0; f < F; ++f) {
+    if (eligible[f] && (best == F || at.all[at.fam_best[f]].cv_sse < at.all[at.fam_best[best]].cv_sse)) best = f;
+  }
+  if (best == F) return F;
+  // One-standard-error rule: the fewest fitted quantities among the families within one standard
+  // error of the best.
+  size_t chosen = best;
+  const Evaluated& eb = at.all[at.fam_best[best]];
+  for (size_t f = 0; f < F; ++f) {
+    if (f == best || !eligible[f]) continue;
+    const Evaluated& e = at.all[at.fam_best[f]];
+    const FoldDiff d = Diff(e.fold_sse, eb.fold_sse);
+    const Evaluated& ec = at.all[at.fam_best[chosen]];
+    if (d.sum <= d.se && (Dof(*e.cand) < Dof(*ec.cand) || (Dof(*e.cand) == Dof(*ec.cand) && e.cv_sse < ec.cv_sse))) {
+      chosen = f;
+    }
+  }
+  return chosen;
+}
+
+bool IsMaterial(const Analyzer& an, const Evaluated& e, double cv_before, double noise_var, const DiagnoseOptions& o) {
+  return (cv_before - e.cv_sse) / an.total_n() >= o.materiality * noise_var;
+}
+
+SelectedModel GrowModel(const Analyzer& an, const Attribution& at, size_t first, const std::vector<bool>& eligible,
+                        double noise_var, const DiagnoseOptions& o) {
+  SelectedModel m;
+  const size_t F = at.fam_names.size();
+  m.fams.push_back(first);
+  m.joint = std::make_unique<Candidate>(*at.all[at.fam_best[first]].cand);
+  m.eval = at.all[at.fam_best[first]];
+  m.eval.cand = m.joint.get();
+  // A flight log separates a few effects at most; each step fits every remaining family jointly.
+  constexpr size_t kMaxEffects = 3;
+  while (m.fams.size() < kMaxEffects) {
+    size_t add = F;
+    std::unique_ptr<Candidate> best_joint;
+    Evaluated best_eval;
+    for (size_t f = 0; f < F; ++f) {
+      if (!eligible[f] || std::find(m.fams.begin(), m.fams.end(), f) != m.fams.end()) continue;
+      auto j = std::make_unique<Candidate>(Join(*m.joint, *at.all[at.fam_best[f]].cand));
+      Evaluated ej = an.Evaluate(*j);
+      if (!ej.full.ok || ej.cov.size() == 0) continue;
+      const FoldDiff d = Diff(ej.fold_sse, m.eval.fold_sse);
+      const double p_partial =
+          WaldP(ej.full.beta, ej.cov, Range(ej.off + m.joint->p(), ej.p()), an.G()) * static_cast<double>(F);
+      // Beats the model by more than one standard error over the folds, significant over it, and
+      // material (held out).
+      if (d.sum < -d.se && p_partial < o.alpha && IsMaterial(an, ej, m.eval.cv_sse, noise_var, o) &&
+          (add == F || ej.cv_sse < best_eval.cv_sse)) {
+        add = f;
+        best_joint = std::move(j);
+        best_eval = std::move(ej);
+      }
+    }
+    if (add == F) break;
+    m.fams.push_back(add);
+    m.joint = std::move(best_joint);
+    m.eval = std::move(best_eval);
+    m.eval.cand = m.joint.get();
+  }
+  return m;
+}
+
+size_t AmbiguousRival(const Attribution& at, const SelectedModel& m, const std::vector<bool>& eligible) {
+  const size_t F = at.fam_names.size();
+  const size_t first = m.fams.front();
+  const Evaluated& e1 = at.all[at.fam_best[first]];
+  for (size_t f = 0; f < F; ++f) {
+    if (!eligible[f] || std::find(m.fams.begin(), m.fams.end(), f) != m.fams.end()) continue;
+    const Evaluated& e = at.all[at.fam_best[f]];
+    if (Dof(*e.cand) > Dof(*e1.cand)) continue;
+    const FoldDiff d = Diff(e.fold_sse, e1.fold_sse);
+    if (d.sum > d.se || Nests(*e.cand, *e1.cand) || Nests(*e1.cand, *e.cand)) continue;
+    return f;
+  }
+  return F;
+}
+
+EffectShare ToEffect(const CandidateResult& k, double share, const std::string& source) {
+  EffectShare e;
+  e.effect = k.effect;
+  e.magnitude = k.magnitude;
+  e.ci95 = {k.magnitude_ci95[0], k.magnitude_ci95[1]};
+  e.unit = k.magnitude_unit;
+  e.explained_share = share;
+  e.source = source;
+  // The autopilot's unit: ArduPilot's COMPASS_MOT is in mGauss per ampere (1 µT = 10 mG); a
+  // throttle or per-motor form carries its battery-current equivalent.
+  const auto eq = k.params.find("current_equivalent_uT_per_A");
+  const auto eq_ci = k.ci95.find("current_equivalent_uT_per_A");
+  if (k.magnitude_unit == "uT/A") {
+    e.autopilot_unit = "mG/A";
+    e.autopilot_factor = 10.0;
+  } else if (eq != k.params.end() && eq_ci != k.ci95.end() && k.magnitude != 0) {
+    e.autopilot_unit = "mG/A";
+    e.autopilot_factor = 10.0 * eq->second / k.magnitude;
+  } else if (k.magnitude_unit == "uT") {
+    e.autopilot_unit = "mG";
+    e.autopilot_factor = 10.0;
+  } else if (k.magnitude_unit == "s") {
+    e.autopilot_unit = "ms";
+    e.autopilot_factor = 1000.0;
+  }
+  return e;
+}
+
+void RefreshEffects(ChannelResult* res) {
+  for (EffectShare& e : res->effects) {
+    for (const CandidateResult& k : res->candidates) {
+      if (k.selected && k.effect == e.effect) {
+        e = ToEffect(k, e.explained_share, e.source);
+        break;
+      }
+    }
+  }
+}
+
+void SortEffects(std::vector<EffectShare>* effects) {
+  std::stable_sort(effects->begin(), effects->end(),
+                   [](const EffectShare& a, const EffectShare& b) { return a.explained_share > b.explained_share; });
+}
+
+std::vector<CandidateResult> OrderCandidates(const std::vector<EffectShare>& effects, std::vector<CandidateResult> all) {
+  std::vector<CandidateResult> out;
+  std::vector<bool> used(all.size(), false);
+  for (const EffectShare& e : effects) {
+    for (size_t i = 0; i < all.size(); ++i) {
+      if (!used[i] && all[i].selected && all[i].effect == e.effect) {
+        out.push_back(all[i]);
+        used[i] = true;
+        break;
+      }
+    }
+  }
+  std::vector<size_t> rest;
+  for (size_t i = 0; i < all.size(); ++i) {
+    if (!used[i]) rest.push_back(i);
+  }
+  // Library candidates by explained share, then the timing and nuisance terms.
+  std::stable_sort(rest.begin(), rest.end(), [&](size_t a, size_t b) {
+    const bool ta = all[a].nuisance_term || all[a].effect == "latency";
+    const bool tb = all[b].nuisance_term || all[b].effect == "latency";
+    if (ta != tb) return tb;
+    return !ta && all[a].explained_share > all[b].explained_share;
+  });
+  for (size_t i : rest) out.push_back(all[i]);
+  return out;
+}
+
+std::string RefusedFinding(const CandidateResult& k, bool beside_a_model) {
+  return fmt::format("{} fits {:.3g} {}, outside its physical range {}: implausible, model mismatch ({})", k.effect, k.magnitude,
+                     k.magnitude_unit, k.physical_range,
+                     beside_a_model ? "refused although it explains more than the reported effects"
+                                    : "refused: why no effect is reported");
+}
+
+}  // namespace hexsim::gap::internal

@@ -1,0 +1,103 @@
+// The verdict as a decomposition (CONTRACTS.md "The verdict is a decomposition"): effects by
+// share, the gap relative to the vehicle file, a static per-axis scale as a calibration error, and
+// no boilerplate findings.
+#include <cmath>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "../src/selftest_real.h"
+#include "support/gap_fixtures.h"
+
+#include "hexsim/common/rng.h"
+#include "hexsim/gap/diagnose.h"
+#include "hexsim/gap/selftest.h"
+
+namespace hexsim::gap {
+namespace {
+
+bool InEffects(const ChannelResult& c, const std::string& effect) {
+  for (const EffectShare& e : c.effects) {
+    if (e.effect == effect) return true;
+  }
+  return false;
+}
+
+// Given a clean simulated log, when diagnosed with the default options, then no compass prints an
+// implausible fit: an unselected candidate's grid-edge fit (current_lag at 2.2 s) is not a finding.
+TEST(GapDecomposition, GivenACleanSimulatedLog_WhenDiagnosed_ThenNoImplausibleFitIsPrinted) {
+  gaptest::Flown f = gaptest::FlyInjected({}, 2101, "decomposition");
+  auto rep = Diagnose(f.log, f.trial.configured);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  for (const ChannelResult& c : rep->channels) {
+    if (c.unit != "uT") continue;
+    for (const std::string& s : c.findings) EXPECT_EQ(s.find("implausible"), std::string::npos) << c.channel << ": " << s;
+    EXPECT_TRUE(c.effects.empty()) << Summary(*rep);
+  }
+}
+
+// Given a log whose compasses are later than the vehicle file models, when diagnosed, then the
+// latency is an effect named with its size (the gap is relative to the simulator); given the vehicle
+// models that latency, it is not.
+TEST(GapDecomposition, GivenACompassLaterThanTheVehicleModels_WhenDiagnosed_ThenLatencyIsAnEffectWithItsSize) {
+  gaptest::Flown f = gaptest::FlyInjected({}, 2102, "decomposition", "selftest_flight");
+  RngStream rng(2102, "decomposition/degrade");
+  internal::RealLogTruth truth;
+  auto log = internal::DegradeToRealLog(f.log, f.trial.configured, &rng, &truth);
+  ASSERT_TRUE(log.ok()) << log.status().message();
+  DiagnoseOptions unmodelled;
+  unmodelled.channels = {"mag"};
+  auto rep = Diagnose(*log, f.trial.configured, unmodelled);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag = gaptest::FindChannel(*rep, "mag");
+  ASSERT_NE(mag, nullptr) << Summary(*rep);
+  EXPECT_EQ(mag->verdict, "latency") << Summary(*rep);
+  ASSERT_TRUE(InEffects(*mag, "latency")) << Summary(*rep);
+  const EffectShare& lat = mag->effects.front();
+  EXPECT_LE(lat.ci95.lo, truth.latency_s + 0.01) << Summary(*rep);
+  EXPECT_GE(lat.ci95.hi, truth.latency_s - 0.01) << Summary(*rep);
+  EXPECT_EQ(lat.autopilot_unit, "ms");
+
+  DiagnoseOptions modelled = unmodelled;
+  modelled.compass_latency_s = truth.latency_s;
+  auto rep2 = Diagnose(*log, f.trial.configured, modelled);
+  ASSERT_TRUE(rep2.ok());
+  const ChannelResult* mag_m = gaptest::FindChannel(*rep2, "mag");
+  ASSERT_NE(mag_m, nullptr);
+  EXPECT_FALSE(InEffects(*mag_m, "latency")) << Summary(*rep2);
+}
+
+// Given one compass axis reading 6 % large, when diagnosed, then it is a calibration error
+// (scale_error, the gains' spread in its interval), not a current effect.
+TEST(GapDecomposition, GivenOneAxisReadingLarge_WhenDiagnosed_ThenItIsAScaleErrorNotACurrentEffect) {
+  gaptest::Flown f = gaptest::FlyInjected({{"axis_scale_error", 0.06}}, 2103, "decomposition");
+  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr);
+  EXPECT_EQ(mag2->verdict, "scale_error") << Summary(*rep);
+  EXPECT_FALSE(InEffects(*mag2, "current_soft_iron")) << Summary(*rep);
+  ASSERT_FALSE(mag2->effects.empty()) << Summary(*rep);
+  const EffectShare& e = mag2->effects.front();
+  // The replay's systematic error (effects_test.cc): 5 % of the magnitude beside the interval.
+  EXPECT_LE(e.ci95.lo - 0.05 * e.magnitude, 0.06) << Summary(*rep);
+  EXPECT_GE(e.ci95.hi + 0.05 * e.magnitude, 0.06) << Summary(*rep);
+}
+
+// Given two withheld effects at once, when diagnosed, then both are listed in effects, largest first.
+TEST(GapDecomposition, GivenTwoWithheldEffects_WhenDiagnosed_ThenBothAreInEffectsByShare) {
+  gaptest::Flown f = gaptest::FlyInjected({{"current_hard_iron", 0.4}, {"misalignment", 4.0}}, 2104, "decomposition");
+  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr);
+  EXPECT_TRUE(InEffects(*mag2, "current_hard_iron")) << Summary(*rep);
+  EXPECT_TRUE(InEffects(*mag2, "misalignment")) << Summary(*rep);
+  for (size_t i = 1; i < mag2->effects.size(); ++i) {
+    EXPECT_GE(mag2->effects[i - 1].explained_share, mag2->effects[i].explained_share);
+  }
+  EXPECT_EQ(mag2->verdict, mag2->effects.front().effect);
+}
+
+}  // namespace
+}  // namespace hexsim::gap
