@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <fstream>
 #include <cstdlib>
+#include <map>
+#include <set>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -137,6 +139,31 @@ TEST(RunPool, GivenARunThatHangsWhenATimeoutIsSetThenItIsKilledAndRecordedAsTime
   ASSERT_TRUE(rows.ok());
   ASSERT_EQ(rows->size(), 2u);
   for (const auto& r : *rows) EXPECT_EQ(r.status, r.seed == 1 ? "timeout" : "completed");
+}
+
+// The parent gets each run's summary typed, as the worker's summary.json read back once (compare
+// used to turn it into JSON and straight back into a struct); none for a run that left none.
+TEST(RunPool, GivenFinishedAndCrashedRunsWhenRecordedThenEachFinishedRunsSummaryArrivesTyped) {
+  const std::string dir = testing::TempDir("pool_typed");
+  PoolOptions opt;
+  opt.jobs = 2;
+  opt.out_dir = dir;
+  opt.progress_stream = nullptr;
+  std::map<uint64_t, double> energy;
+  std::set<uint64_t> without;
+  auto stats = RunPool(Points(4), FakeRun, opt, [&](const RunRow& row, const sim::RunSummary* s) {
+    if (s == nullptr) {
+      without.insert(row.seed);
+    } else {
+      energy[row.seed] = s->energy_Wh;
+    }
+    return Status::Ok();
+  });
+  ASSERT_TRUE(stats.ok());
+  EXPECT_EQ(without, (std::set<uint64_t>{3, 4}));  // 3 aborts, 4 reports an error
+  ASSERT_EQ(energy.size(), 2u);
+  EXPECT_DOUBLE_EQ(energy[1], 2.5);
+  EXPECT_DOUBLE_EQ(energy[2], 3.5);
 }
 
 // Interruption (CONTRACTS: exit 130). The handler counts signals as apps/cmd_batch.cc's does; a worker
