@@ -189,16 +189,29 @@ Result<json> Completed() {
   return sim::ToJson(done);
 }
 
+// Pools `n` points of `run` on two workers into DIR/results.sqlite, interruptible by SIGINT.
+struct InterruptiblePool {
+  std::string dir;
+  std::vector<RunPoint> points;
+  Result<PoolStats> stats = Status::BadInput("not run");
+  std::vector<RunRow> rows;
+
+  InterruptiblePool(const std::string& name, int n, const RunFn& run) : dir(testing::TempDir(name)), points(Points(n)) {
+    auto db = ResultsDb::Open(dir + "/results.sqlite", true);
+    if (!db.ok()) return;
+    PoolOptions opt;
+    opt.jobs = 2;
+    opt.out_dir = dir;
+    opt.progress_stream = nullptr;
+    opt.stop = &g_test_interrupts;
+    stats = RunPool(points, run, opt, &*db);
+    auto read = db->ReadAll();
+    if (read.ok()) rows = *read;
+  }
+};
+
 TEST(RunPool, GivenOneInterruptWhenRunsAreGoingThenNoMoreStartAndTheRunningOnesFinishAndAreRecorded) {
   const CountingHandler handler;
-  const std::string dir = testing::TempDir("pool_interrupt_once");
-  auto db = ResultsDb::Open(dir + "/results.sqlite", true);
-  ASSERT_TRUE(db.ok());
-  PoolOptions opt;
-  opt.jobs = 2;
-  opt.out_dir = dir;
-  opt.progress_stream = nullptr;
-  opt.stop = &g_test_interrupts;
   auto run = [](const RunPoint& p) -> Result<json> {
     if (p.seed == 1) {
       std::this_thread::sleep_for(std::chrono::milliseconds(50));  // both workers have started
@@ -208,31 +221,20 @@ TEST(RunPool, GivenOneInterruptWhenRunsAreGoingThenNoMoreStartAndTheRunningOnesF
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     return Completed();
   };
-  const std::vector<RunPoint> points = Points(6);
-  auto stats = RunPool(points, run, opt, &*db);
-  ASSERT_TRUE(stats.ok()) << stats.status().message();
-  EXPECT_TRUE(stats->interrupted);
-  EXPECT_EQ(stats->finished, 2u);
-  EXPECT_EQ(stats->not_run, 4u);
-  auto rows = db->ReadAll();
-  ASSERT_TRUE(rows.ok());
-  ASSERT_EQ(rows->size(), 2u);
-  for (const auto& r : *rows) EXPECT_EQ(r.status, "completed") << r.seed << ": " << r.reason;
-  for (size_t i = 2; i < points.size(); ++i) {
-    EXPECT_FALSE(std::filesystem::exists(dir + "/runs/" + points[i].RunId())) << "a run folder for an unstarted run";
+  const InterruptiblePool pool("pool_interrupt_once", 6, run);
+  ASSERT_TRUE(pool.stats.ok()) << pool.stats.status().message();
+  EXPECT_TRUE(pool.stats->interrupted);
+  EXPECT_EQ(pool.stats->finished, 2u);
+  EXPECT_EQ(pool.stats->not_run, 4u);
+  ASSERT_EQ(pool.rows.size(), 2u);
+  for (const auto& r : pool.rows) EXPECT_EQ(r.status, "completed") << r.seed << ": " << r.reason;
+  for (size_t i = 2; i < pool.points.size(); ++i) {
+    EXPECT_FALSE(std::filesystem::exists(pool.dir + "/runs/" + pool.points[i].RunId())) << "an unstarted run's folder";
   }
 }
 
 TEST(RunPool, GivenASecondInterruptWhenRunsAreGoingThenTheyAreKilledNotRecordedAndTheirFoldersRemoved) {
   const CountingHandler handler;
-  const std::string dir = testing::TempDir("pool_interrupt_twice");
-  auto db = ResultsDb::Open(dir + "/results.sqlite", true);
-  ASSERT_TRUE(db.ok());
-  PoolOptions opt;
-  opt.jobs = 2;
-  opt.out_dir = dir;
-  opt.progress_stream = nullptr;
-  opt.stop = &g_test_interrupts;
   auto run = [](const RunPoint& p) -> Result<json> {
     if (p.seed == 1) {
       kill(getppid(), SIGINT);
@@ -242,19 +244,16 @@ TEST(RunPool, GivenASecondInterruptWhenRunsAreGoingThenTheyAreKilledNotRecordedA
     std::this_thread::sleep_for(std::chrono::seconds(30));
     return Completed();
   };
-  const std::vector<RunPoint> points = Points(4);
   const auto t0 = std::chrono::steady_clock::now();
-  auto stats = RunPool(points, run, opt, &*db);
+  const InterruptiblePool pool("pool_interrupt_twice", 4, run);
   const double took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  ASSERT_TRUE(stats.ok()) << stats.status().message();
+  ASSERT_TRUE(pool.stats.ok()) << pool.stats.status().message();
   EXPECT_LT(took_s, 10.0);
-  EXPECT_TRUE(stats->interrupted);
-  EXPECT_EQ(stats->finished, 0u);
-  EXPECT_EQ(stats->not_run, 4u);
-  auto rows = db->ReadAll();
-  ASSERT_TRUE(rows.ok());
-  EXPECT_TRUE(rows->empty());
-  for (const auto& p : points) EXPECT_FALSE(std::filesystem::exists(dir + "/runs/" + p.RunId()));
+  EXPECT_TRUE(pool.stats->interrupted);
+  EXPECT_EQ(pool.stats->finished, 0u);
+  EXPECT_EQ(pool.stats->not_run, 4u);
+  EXPECT_TRUE(pool.rows.empty());
+  for (const auto& p : pool.points) EXPECT_FALSE(std::filesystem::exists(pool.dir + "/runs/" + p.RunId()));
 }
 
 // Task i sleeps longer the smaller i is, so with two workers the tasks end out of order.

@@ -602,7 +602,7 @@ Result<Image> RenderCentreLine(const std::vector<Point3>& centres_uT, const std:
 std::string FlightModeLabel(const nlohmann::json& meta, double mode) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "mode %g", mode);
-  const std::string fallback = buf;
+  std::string fallback = buf;
   if (!std::isfinite(mode) || mode != std::floor(mode) || std::fabs(mode) > 1e6) return fallback;
   const int n = static_cast<int>(mode);
   if (meta.is_object() && meta.contains("mode_names") && meta["mode_names"].is_object()) {
