@@ -4,7 +4,9 @@
 # on the simulated turntable), and the comparison report is written.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/setup.sh build >&2
+# Only the hexsim command and its libraries: the tests, benchmarks, examples and Python module are
+# built by scripts/test.sh (through the same ccache).
+scripts/setup.sh build hexsim >&2
 OUT=${HEXSIM_OUT:-out/main}
 rm -rf "$OUT"
 ./build/apps/hexsim compare --out "$OUT"

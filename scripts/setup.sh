@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs what hexsim needs from Debian 12's packages (only the missing ones) and builds it.
-# Safe to run twice. Usage: scripts/setup.sh [BUILD_DIR]   (default: build)
+# Safe to run twice. Usage: scripts/setup.sh [BUILD_DIR [TARGET...]]   (default: build, every target;
+# scripts/main.sh builds only the hexsim command and its libraries: `scripts/setup.sh build hexsim`)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -27,4 +28,6 @@ fi
 BUILD_DIR=${1:-build}
 cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE=Release \
   -DCMAKE_CXX_COMPILER_LAUNCHER=ccache ${HEXSIM_CMAKE_ARGS:-} >/dev/null
-cmake --build "$BUILD_DIR" -j"$(nproc)"
+targets=()
+for t in "${@:2}"; do targets+=(--target "$t"); done
+cmake --build "$BUILD_DIR" -j"$(nproc)" "${targets[@]}"

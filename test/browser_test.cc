@@ -1,5 +1,6 @@
 // The HTML reports in a real browser: headless Chromium opens report.html (compare), gap.html (gap
-// diagnose) and the batch report, every <img> must load with a non-zero natural size, and a
+// diagnose) and the batch report, every <img> must load with a non-zero natural size, no block may
+// be wider than a 1280 px window (unless inside a scrolling box), no text may be raw JSON, and a
 // screenshot of the page must not be blank. Skipped, saying so, where Chromium is not installed
 // (scripts/test.sh installs Debian's `chromium`).
 #include <sys/wait.h>
@@ -63,8 +64,31 @@ window.addEventListener('load', function () {
   imgs.forEach(function (i) {
     if (!(i.complete && i.naturalWidth > 0 && i.naturalHeight > 0)) bad.push(i.getAttribute('src'));
   });
+  // Blocks wider than the viewport that no scrolling container of theirs holds.
+  var width = document.documentElement.clientWidth, over = [];
+  function scrolls(e) {
+    for (var a = e.parentElement; a && a !== document.body; a = a.parentElement) {
+      var o = getComputedStyle(a).overflowX;
+      if (o === 'auto' || o === 'scroll' || o === 'hidden') return true;
+    }
+    return false;
+  }
+  Array.prototype.forEach.call(document.body.querySelectorAll('*'), function (e) {
+    var st = getComputedStyle(e);
+    if (st.display === 'inline' || st.display === 'none' || st.position === 'fixed') return;
+    var r = e.getBoundingClientRect();
+    if (r.width > 0 && r.right > width + 1 && !scrolls(e)) over.push(e.tagName.toLowerCase() + (e.className ? '.' + e.className : ''));
+  });
+  // Raw JSON shown as text: a visible text node holding an object or array with quoted keys.
+  var json = 0, walker = document.createTreeWalker(document.body, NodeFilter.SHOW_TEXT);
+  for (var n = walker.nextNode(); n; n = walker.nextNode()) {
+    var t = n.nodeValue.trim();
+    if (n.parentElement && n.parentElement.closest('script,style')) continue;
+    if (t.length > 20 && /^[\[{]/.test(t) && /"[A-Za-z_][A-Za-z0-9_]*"\s*:/.test(t)) ++json;
+  }
   var p = document.createElement('pre');
-  p.textContent = 'HEXSIM-IMAGES ' + imgs.length + ' BROKEN ' + bad.length + ' ' + bad.join(' ');
+  p.textContent = 'HEXSIM-IMAGES ' + imgs.length + ' BROKEN ' + bad.length + ' ' + bad.join(' ') +
+                  ' OVERFLOW ' + over.length + ' RAWJSON ' + json + ' ' + over.slice(0, 5).join(' ');
   document.body.appendChild(p);
 });
 </script>
@@ -97,32 +121,47 @@ class Browser : public ::testing::Test {
     }
   }
 
-  // Opens `page` headless: every image loads with a natural size, and the screenshot is not blank.
-  static void ExpectPageLoads(const fs::path& page) {
-    ASSERT_TRUE(fs::exists(page)) << page << " was not written";
+  // What the check script found on a page opened headless in a 1280 px window.
+  struct PageCheck {
+    size_t img_tags = 0, images = 0, broken = 0, overflow = 0, raw_json = 0;
+    std::string result;  // the script's line
+  };
+  static PageCheck Inspect(const fs::path& page) {
+    PageCheck c;
     const fs::path check = page.parent_path() / ".browser_check.html";
     std::string html = Slurp(page);
     const size_t body_end = html.rfind("</body>");
     html.insert(body_end == std::string::npos ? html.size() : body_end, kImageCheck);
     std::ofstream(check) << html;
-    const size_t img_tags = [&] {
-      size_t n = 0;
-      for (size_t at = html.find("<img"); at != std::string::npos; at = html.find("<img", at + 1)) ++n;
-      return n;
-    }();
-
+    for (size_t at = html.find("<img"); at != std::string::npos; at = html.find("<img", at + 1)) ++c.img_tags;
     std::string dom;
     const std::string base = Chromium(*chromium_, *dir_ / "profile");
-    ASSERT_EQ(Shell(base + "--virtual-time-budget=10000 --dump-dom 'file://" + check.string() + "'", &dom), 0);
-    const size_t at = dom.rfind("HEXSIM-IMAGES ");  // the result, after the script that writes it
-    ASSERT_NE(at, std::string::npos) << "the check script did not run in " << page;
-    size_t images = 0, broken = 0;
-    char names[512] = {0};
-    ASSERT_GE(std::sscanf(dom.c_str() + at, "HEXSIM-IMAGES %zu BROKEN %zu %511[^<]", &images, &broken, names), 2);
-    EXPECT_EQ(images, img_tags) << page;
-    EXPECT_GT(images, 0U) << page << ": no figures";
-    EXPECT_EQ(broken, 0U) << page << ": broken images: " << names;
+    Shell(base + "--window-size=1280,1600 --virtual-time-budget=10000 --dump-dom 'file://" + check.string() + "'", &dom);
     fs::remove(check);
+    const size_t at = dom.rfind("HEXSIM-IMAGES ");  // the result, after the script that writes it
+    if (at == std::string::npos) return c;
+    c.result = dom.substr(at, dom.find('<', at) - at);
+    std::sscanf(c.result.c_str(), "HEXSIM-IMAGES %zu BROKEN %zu", &c.images, &c.broken);
+    const size_t over_at = c.result.find(" OVERFLOW ");
+    if (over_at != std::string::npos) std::sscanf(c.result.c_str() + over_at, " OVERFLOW %zu RAWJSON %zu", &c.overflow, &c.raw_json);
+    return c;
+  }
+
+  // Opens `page` headless: every image loads with a natural size, no block is wider than the window
+  // (outside a scrolling box), no text is raw JSON (unless `layout` is false), and the screenshot is
+  // not blank.
+  static void ExpectPageLoads(const fs::path& page, bool layout = true) {
+    ASSERT_TRUE(fs::exists(page)) << page << " was not written";
+    const PageCheck c = Inspect(page);
+    ASSERT_FALSE(c.result.empty()) << "the check script did not run in " << page;
+    EXPECT_EQ(c.images, c.img_tags) << page;
+    EXPECT_GT(c.images, 0U) << page << ": no figures";
+    EXPECT_EQ(c.broken, 0U) << page << ": " << c.result;
+    if (layout) {
+      EXPECT_EQ(c.overflow, 0U) << page << ": blocks wider than the window: " << c.result;
+      EXPECT_EQ(c.raw_json, 0U) << page << ": raw JSON shown as text: " << c.result;
+    }
+    const std::string base = Chromium(*chromium_, *dir_ / "profile");
 
     const fs::path shot = *dir_ / (page.parent_path().filename().string() + "_screenshot.png");
     ASSERT_EQ(Shell(base + "--hide-scrollbars --window-size=1280,1600 --screenshot=" + shot.string() + " 'file://" +
@@ -160,7 +199,23 @@ TEST_F(Browser, GivenACompareReportWhenOpenedHeadlessThenEveryImageLoadsAndThePa
 TEST_F(Browser, GivenAGapReportWhenOpenedHeadlessThenEveryImageLoadsAndThePageIsNotBlank) {
   Hexsim("import " + std::string(HEXSIM_SOURCE_DIR) + "/data/real/ardupilot_copter_log171.bin --out {}/real/log.csv");
   Hexsim("gap diagnose --real {}/real/log.csv --sim quad_x --out {}/gap");
-  ExpectPageLoads(*dir_ / "gap" / "gap.html");
+  // gap.html still shows raw JSON (9 blocks at 45f04d0): the real-log issue is rewriting that page;
+  // switch its layout check on with that change.
+  ExpectPageLoads(*dir_ / "gap" / "gap.html", /*layout=*/false);
+}
+
+// The layout check itself: a page with a block twice the window's width and a JSON dump as text.
+TEST_F(Browser, GivenAPageWithAWideBlockAndRawJsonWhenInspectedThenBothAreFound) {
+  const fs::path page = *dir_ / "bad" / "bad.html";
+  fs::create_directories(page.parent_path());
+  std::ofstream(page) << "<!doctype html><html><body><h1>x</h1><div style=\"width:2600px\">wide</div>"
+                         "<pre>{\"rows\": [1, 2], \"name\": \"uncorrected\"}</pre>"
+                         "<div style=\"overflow-x:auto\"><table style=\"width:3000px\"><tr><td>ok</td></tr></table></div>"
+                         "</body></html>";
+  const PageCheck c = Inspect(page);
+  ASSERT_FALSE(c.result.empty());
+  EXPECT_EQ(c.overflow, 1U) << c.result;  // the wide div; the table scrolls inside its box
+  EXPECT_EQ(c.raw_json, 1U) << c.result;
 }
 
 TEST_F(Browser, GivenABatchReportWhenOpenedHeadlessThenEveryImageLoadsAndThePageIsNotBlank) {

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <set>
 #include <thread>
 
@@ -61,8 +62,8 @@ struct Running {
   bool timed_out = false;
 };
 
-// The row for a reaped worker, and the summary it left (null when none).
-RunRow Collect(const Running& r, int wait_status, double wall_s, json* summary) {
+// The row for a reaped worker, and the summary it left (none when it left none).
+RunRow Collect(const Running& r, int wait_status, double wall_s, std::optional<sim::RunSummary>* summary) {
   const std::string& dir = r.dir;
   if (r.timed_out) return FailedRow(r.point, "timeout", fmt::format("killed after {:.1f} s wall time", wall_s), wall_s);
   if (WIFSIGNALED(wait_status)) {
@@ -74,13 +75,13 @@ RunRow Collect(const Running& r, int wait_status, double wall_s, json* summary) 
     auto text = ReadFile(dir + "/summary.json");
     if (text.ok()) {
       try {
-        *summary = json::parse(*text);
-        auto typed = sim::RunSummaryFromJson(*summary, dir + "/summary.json");
-        if (typed.ok()) return RowFromSummary(r.point, *typed, wall_s);
-        *summary = nullptr;
-        return FailedRow(r.point, "crashed", "unreadable summary.json: " + typed.status().message(), wall_s);
+        auto typed = sim::RunSummaryFromJson(json::parse(*text), dir + "/summary.json");
+        if (!typed.ok()) {
+          return FailedRow(r.point, "crashed", "unreadable summary.json: " + typed.status().message(), wall_s);
+        }
+        *summary = std::move(*typed);
+        return RowFromSummary(r.point, **summary, wall_s);
       } catch (const json::exception& e) {
-        *summary = nullptr;
         return FailedRow(r.point, "crashed", std::string("unreadable summary.json: ") + e.what(), wall_s);
       }
     }
@@ -96,7 +97,7 @@ RunRow Collect(const Running& r, int wait_status, double wall_s, json* summary) 
 
 Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, const PoolOptions& options,
                           ResultsDb* db) {
-  return RunPool(runs, fn, options, [db](const RunRow& row, const json& /*summary*/) { return db->Insert(row); });
+  return RunPool(runs, fn, options, [db](const RunRow& row, const sim::RunSummary* /*summary*/) { return db->Insert(row); });
 }
 
 Status ForkEach(size_t n, int jobs, double timeout_s, const std::function<Status(size_t)>& before_fork,
@@ -208,9 +209,9 @@ Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, co
   };
   auto child = [&](size_t i) { return WorkerMain(runs[i], fn, dirs[i]); };
   auto reaped = [&](size_t i, int wait_status, double wall_s, bool timed_out) {
-    json summary;
+    std::optional<sim::RunSummary> summary;
     const RunRow row = Collect(Running{runs[i], dirs[i], 0.0, timed_out}, wait_status, wall_s, &summary);
-    Status s = record(row, summary);
+    Status s = record(row, summary ? &*summary : nullptr);
     ++stats.finished;
     if (IsFailure(row.status)) ++stats.failed;
     progress.RunFinished(row, VariedText(runs[i], varied));

@@ -8,6 +8,8 @@
 #include <filesystem>
 #include <fstream>
 #include <cstdlib>
+#include <map>
+#include <set>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -139,6 +141,31 @@ TEST(RunPool, GivenARunThatHangsWhenATimeoutIsSetThenItIsKilledAndRecordedAsTime
   for (const auto& r : *rows) EXPECT_EQ(r.status, r.seed == 1 ? "timeout" : "completed");
 }
 
+// The parent gets each run's summary typed, as the worker's summary.json read back once (compare
+// used to turn it into JSON and straight back into a struct); none for a run that left none.
+TEST(RunPool, GivenFinishedAndCrashedRunsWhenRecordedThenEachFinishedRunsSummaryArrivesTyped) {
+  const std::string dir = testing::TempDir("pool_typed");
+  PoolOptions opt;
+  opt.jobs = 2;
+  opt.out_dir = dir;
+  opt.progress_stream = nullptr;
+  std::map<uint64_t, double> energy;
+  std::set<uint64_t> without;
+  auto stats = RunPool(Points(4), FakeRun, opt, [&](const RunRow& row, const sim::RunSummary* s) {
+    if (s == nullptr) {
+      without.insert(row.seed);
+    } else {
+      energy[row.seed] = s->energy_Wh;
+    }
+    return Status::Ok();
+  });
+  ASSERT_TRUE(stats.ok());
+  EXPECT_EQ(without, (std::set<uint64_t>{3, 4}));  // 3 aborts, 4 reports an error
+  ASSERT_EQ(energy.size(), 2u);
+  EXPECT_DOUBLE_EQ(energy[1], 2.5);
+  EXPECT_DOUBLE_EQ(energy[2], 3.5);
+}
+
 // Interruption (CONTRACTS: exit 130). The handler counts signals as apps/cmd_batch.cc's does; a worker
 // plays the user's Ctrl-C by signalling its parent (and itself: a terminal signals the whole group).
 volatile std::sig_atomic_t g_test_interrupts = 0;
@@ -162,16 +189,29 @@ Result<json> Completed() {
   return sim::ToJson(done);
 }
 
+// Pools `n` points of `run` on two workers into DIR/results.sqlite, interruptible by SIGINT.
+struct InterruptiblePool {
+  std::string dir;
+  std::vector<RunPoint> points;
+  Result<PoolStats> stats = Status::BadInput("not run");
+  std::vector<RunRow> rows;
+
+  InterruptiblePool(const std::string& name, int n, const RunFn& run) : dir(testing::TempDir(name)), points(Points(n)) {
+    auto db = ResultsDb::Open(dir + "/results.sqlite", true);
+    if (!db.ok()) return;
+    PoolOptions opt;
+    opt.jobs = 2;
+    opt.out_dir = dir;
+    opt.progress_stream = nullptr;
+    opt.stop = &g_test_interrupts;
+    stats = RunPool(points, run, opt, &*db);
+    auto read = db->ReadAll();
+    if (read.ok()) rows = *read;
+  }
+};
+
 TEST(RunPool, GivenOneInterruptWhenRunsAreGoingThenNoMoreStartAndTheRunningOnesFinishAndAreRecorded) {
   const CountingHandler handler;
-  const std::string dir = testing::TempDir("pool_interrupt_once");
-  auto db = ResultsDb::Open(dir + "/results.sqlite", true);
-  ASSERT_TRUE(db.ok());
-  PoolOptions opt;
-  opt.jobs = 2;
-  opt.out_dir = dir;
-  opt.progress_stream = nullptr;
-  opt.stop = &g_test_interrupts;
   auto run = [](const RunPoint& p) -> Result<json> {
     if (p.seed == 1) {
       std::this_thread::sleep_for(std::chrono::milliseconds(50));  // both workers have started
@@ -181,31 +221,20 @@ TEST(RunPool, GivenOneInterruptWhenRunsAreGoingThenNoMoreStartAndTheRunningOnesF
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     return Completed();
   };
-  const std::vector<RunPoint> points = Points(6);
-  auto stats = RunPool(points, run, opt, &*db);
-  ASSERT_TRUE(stats.ok()) << stats.status().message();
-  EXPECT_TRUE(stats->interrupted);
-  EXPECT_EQ(stats->finished, 2u);
-  EXPECT_EQ(stats->not_run, 4u);
-  auto rows = db->ReadAll();
-  ASSERT_TRUE(rows.ok());
-  ASSERT_EQ(rows->size(), 2u);
-  for (const auto& r : *rows) EXPECT_EQ(r.status, "completed") << r.seed << ": " << r.reason;
-  for (size_t i = 2; i < points.size(); ++i) {
-    EXPECT_FALSE(std::filesystem::exists(dir + "/runs/" + points[i].RunId())) << "a run folder for an unstarted run";
+  const InterruptiblePool pool("pool_interrupt_once", 6, run);
+  ASSERT_TRUE(pool.stats.ok()) << pool.stats.status().message();
+  EXPECT_TRUE(pool.stats->interrupted);
+  EXPECT_EQ(pool.stats->finished, 2u);
+  EXPECT_EQ(pool.stats->not_run, 4u);
+  ASSERT_EQ(pool.rows.size(), 2u);
+  for (const auto& r : pool.rows) EXPECT_EQ(r.status, "completed") << r.seed << ": " << r.reason;
+  for (size_t i = 2; i < pool.points.size(); ++i) {
+    EXPECT_FALSE(std::filesystem::exists(pool.dir + "/runs/" + pool.points[i].RunId())) << "an unstarted run's folder";
   }
 }
 
 TEST(RunPool, GivenASecondInterruptWhenRunsAreGoingThenTheyAreKilledNotRecordedAndTheirFoldersRemoved) {
   const CountingHandler handler;
-  const std::string dir = testing::TempDir("pool_interrupt_twice");
-  auto db = ResultsDb::Open(dir + "/results.sqlite", true);
-  ASSERT_TRUE(db.ok());
-  PoolOptions opt;
-  opt.jobs = 2;
-  opt.out_dir = dir;
-  opt.progress_stream = nullptr;
-  opt.stop = &g_test_interrupts;
   auto run = [](const RunPoint& p) -> Result<json> {
     if (p.seed == 1) {
       kill(getppid(), SIGINT);
@@ -215,19 +244,16 @@ TEST(RunPool, GivenASecondInterruptWhenRunsAreGoingThenTheyAreKilledNotRecordedA
     std::this_thread::sleep_for(std::chrono::seconds(30));
     return Completed();
   };
-  const std::vector<RunPoint> points = Points(4);
   const auto t0 = std::chrono::steady_clock::now();
-  auto stats = RunPool(points, run, opt, &*db);
+  const InterruptiblePool pool("pool_interrupt_twice", 4, run);
   const double took_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  ASSERT_TRUE(stats.ok()) << stats.status().message();
+  ASSERT_TRUE(pool.stats.ok()) << pool.stats.status().message();
   EXPECT_LT(took_s, 10.0);
-  EXPECT_TRUE(stats->interrupted);
-  EXPECT_EQ(stats->finished, 0u);
-  EXPECT_EQ(stats->not_run, 4u);
-  auto rows = db->ReadAll();
-  ASSERT_TRUE(rows.ok());
-  EXPECT_TRUE(rows->empty());
-  for (const auto& p : points) EXPECT_FALSE(std::filesystem::exists(dir + "/runs/" + p.RunId()));
+  EXPECT_TRUE(pool.stats->interrupted);
+  EXPECT_EQ(pool.stats->finished, 0u);
+  EXPECT_EQ(pool.stats->not_run, 4u);
+  EXPECT_TRUE(pool.rows.empty());
+  for (const auto& p : pool.points) EXPECT_FALSE(std::filesystem::exists(pool.dir + "/runs/" + p.RunId()));
 }
 
 // Task i sleeps longer the smaller i is, so with two workers the tasks end out of order.

@@ -107,20 +107,19 @@ Result<CompareResult> RunComparison(const CompareOptions& o, const std::string& 
   // its stem), not necessarily the point's.
   std::map<std::string, sim::RunSummary> summaries;
   std::vector<std::string> failures;
-  const batch::RecordFn record = [&](const batch::RunRow& row, const json& summary) {
+  const batch::RecordFn record = [&](const batch::RunRow& row, const sim::RunSummary* s) {
     if (batch::IsFailure(row.status) && row.status != "diverged") {
       failures.push_back(fmt::format("{} seed {}: {}: {}", row.calibration, row.seed, row.status, row.reason));
       return Status::Ok();
     }
-    auto s = sim::RunSummaryFromJson(summary, RunDir(row.calibration, row.seed) + "/summary.json");
-    if (!s.ok()) {
-      failures.push_back(s.status().message());
+    if (s == nullptr) {
+      failures.push_back(fmt::format("{} seed {}: no summary", row.calibration, row.seed));
       return Status::Ok();
     }
     std::fprintf(stderr, "compare: %-17s seed %-4llu %-13s yaw max %6.2f deg  cross-track rms %5.2f m\n",
                  row.calibration.c_str(), static_cast<unsigned long long>(row.seed), sim::RunStatusName(s->status),
                  s->yaw_error_deg.max, s->cross_track_m.rms);
-    summaries[row.run_id] = std::move(*s);
+    summaries[row.run_id] = *s;
     return Status::Ok();
   };
   auto stats = batch::RunPool(points, fly, pool, record);

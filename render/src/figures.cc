@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <map>
+#include <string>
 
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/rotation.h"
@@ -59,6 +61,18 @@ void BreakWraps(std::vector<double>* x, std::vector<double>* y) {
   *y = std::move(oy);
 }
 
+// ArduCopter's mode numbers (ArduCopter/mode.h, Mode::Number) and PX4's navigation states
+// (vehicle_status.nav_state), as their ground stations name them.
+const std::map<int, const char*> kArduCopterModes = {
+    {0, "Stabilize"}, {1, "Acro"},     {2, "AltHold"},  {3, "Auto"},      {4, "Guided"},    {5, "Loiter"},
+    {6, "RTL"},       {7, "Circle"},   {9, "Land"},     {11, "Drift"},    {13, "Sport"},    {14, "Flip"},
+    {15, "AutoTune"}, {16, "PosHold"}, {17, "Brake"},   {18, "Throw"},    {19, "Avoid_ADSB"}, {20, "Guided_NoGPS"},
+    {21, "Smart_RTL"}, {22, "FlowHold"}, {23, "Follow"}, {24, "ZigZag"}, {25, "SystemID"}, {27, "Auto_RTL"}};
+const std::map<int, const char*> kPx4NavStates = {
+    {0, "Manual"},   {1, "Altitude"}, {2, "Position"}, {3, "Mission"},    {4, "Hold"},      {5, "Return"},
+    {10, "Acro"},    {12, "Descend"}, {13, "Termination"}, {14, "Offboard"}, {15, "Stabilized"}, {17, "Takeoff"},
+    {18, "Land"},    {19, "Follow target"}, {20, "Precision land"}, {21, "Orbit"}};
+
 // Flight phases: runs of constant `mode`, shaded alternately.
 std::vector<XSpan> Phases(const logs::FlightLog& log) {
   std::vector<XSpan> spans;
@@ -73,9 +87,7 @@ std::vector<XSpan> Phases(const logs::FlightLog& log) {
       XSpan s;
       s.lo = t[start];
       s.hi = i < t.size() ? t[i] : t[i - 1];
-      char buf[32];
-      std::snprintf(buf, sizeof buf, "mode %g", mode[start]);
-      s.label = buf;
+      s.label = FlightModeLabel(log.meta, mode[start]);
       s.colour = spans.size() % 2 == 0 ? Colour{0.12f, 0.47f, 0.71f, 0.07f} : Colour{0.5f, 0.5f, 0.5f, 0.10f};
       spans.push_back(s);
     }
@@ -584,6 +596,29 @@ Result<Image> RenderCentreLine(const std::vector<Point3>& centres_uT, const std:
   }
   f.panels = {view, proj[0], proj[1], proj[2]};
   return Render(f, width_px, height_px);
+}
+
+
+std::string FlightModeLabel(const nlohmann::json& meta, double mode) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "mode %g", mode);
+  std::string fallback = buf;
+  if (!std::isfinite(mode) || mode != std::floor(mode) || std::fabs(mode) > 1e6) return fallback;
+  const int n = static_cast<int>(mode);
+  if (meta.is_object() && meta.contains("mode_names") && meta["mode_names"].is_object()) {
+    const auto it = meta["mode_names"].find(std::to_string(n));
+    if (it != meta["mode_names"].end() && it->is_string()) return it->get<std::string>();
+  }
+  const std::string format = meta.is_object() ? meta.value("format", "") : "";
+  const std::string type = meta.is_object() ? meta.value("vehicle_type", "copter") : "";
+  // Plane, Rover and Sub number their modes differently: only Copter's table is known here.
+  const bool copter = type == "copter" || type == "unknown";
+  const std::map<int, const char*>* names = format == "ardupilot-dataflash" && copter ? &kArduCopterModes
+                                            : format == "px4-ulog"          ? &kPx4NavStates
+                                                                            : nullptr;
+  if (names == nullptr) return fallback;
+  const auto it = names->find(n);
+  return it == names->end() ? fallback : std::string(it->second);
 }
 
 }  // namespace hexsim::render

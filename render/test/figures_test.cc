@@ -205,5 +205,22 @@ TEST(ProjectedOutlineTest, GivenARotatedEllipsoidThenTheOutlineReachesTheSupport
   }
 }
 
+// Plots named phases "mode 0", "mode 2": the numbers are the autopilot's, named by the log's meta.
+TEST(FlightModeLabel, GivenALogsFormatWhenAModeNumberIsNamedThenItIsTheAutopilotsName) {
+  const nlohmann::json ardupilot = {{"format", "ardupilot-dataflash"}, {"vehicle_type", "copter"}};
+  EXPECT_EQ(FlightModeLabel(ardupilot, 0), "Stabilize");
+  EXPECT_EQ(FlightModeLabel(ardupilot, 5), "Loiter");
+  EXPECT_EQ(FlightModeLabel(ardupilot, 16), "PosHold");
+  EXPECT_EQ(FlightModeLabel(ardupilot, 8), "mode 8");  // not a Copter mode number
+  EXPECT_EQ(FlightModeLabel({{"format", "ardupilot-dataflash"}, {"vehicle_type", "plane"}}, 5), "mode 5");
+  const nlohmann::json px4 = {{"format", "px4-ulog"}};
+  EXPECT_EQ(FlightModeLabel(px4, 3), "Mission");
+  EXPECT_EQ(FlightModeLabel(px4, 2), "Position");
+  const nlohmann::json sim = {{"mode_names", {{"2", "waypoint"}}}};
+  EXPECT_EQ(FlightModeLabel(sim, 2), "waypoint");
+  EXPECT_EQ(FlightModeLabel(nlohmann::json::object(), 2), "mode 2");
+  EXPECT_EQ(FlightModeLabel(ardupilot, 2.5), "mode 2.5");
+}
+
 }  // namespace
 }  // namespace hexsim::render

@@ -212,6 +212,10 @@ RunOutput Simulation::Impl::Finish() {
   log.meta["world"] = setup.world_name;
   log.meta["calibration"] = setup.calibration_name;
   log.meta["estimator"] = autopilot.estimator_name();
+  // The `mode` column holds control::FlightMode numbers; plots name them.
+  for (int m = static_cast<int>(control::FlightMode::kIdle); m <= static_cast<int>(control::FlightMode::kDone); ++m) {
+    log.meta["mode_names"][std::to_string(m)] = control::FlightModeName(static_cast<control::FlightMode>(m));
+  }
   log.meta["seed"] = opt.seed;
   log.meta["log_rate_hz"] = 1.0 / (log_every * dt);
   log.meta["physics_dt_s"] = dt;

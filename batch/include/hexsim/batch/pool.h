@@ -44,9 +44,9 @@ struct PoolStats {
   double wall_s = 0.0;
 };
 
-// Runs in the parent as each run ends: its row, and the summary it left (null when it left none).
-// An error stops new runs from starting; the running ones are still collected.
-using RecordFn = std::function<Status(const RunRow& row, const nlohmann::json& summary)>;
+// Runs in the parent as each run ends: its row, and the summary it left, read back typed (null when
+// it left none). An error stops new runs from starting; the running ones are still collected.
+using RecordFn = std::function<Status(const RunRow& row, const sim::RunSummary* summary)>;
 
 // Runs every point, at most options.jobs at a time, each in a forked worker, and records each as it ends.
 Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, const PoolOptions& options,

@@ -3,6 +3,8 @@
 #pragma once
 
 #include <string>
+
+#include <nlohmann/json.hpp>
 #include <vector>
 
 #include "hexsim/common/status.h"
@@ -22,6 +24,11 @@ inline constexpr int kFigureHeight_px = 680;
 // track_3d.png. Flight phases (runs of constant `mode`) are shaded. Appends the paths written.
 Status RenderStandardFigures(const logs::FlightLog& log, const std::string& out_dir,
                              std::vector<std::string>* written);
+
+// The name of flight mode number `mode` in a log: the log meta's `mode_names` (a simulated log: the
+// sequencer's idle/takeoff/waypoint/...), else by its format the ArduCopter mode numbers
+// (ardupilot-dataflash) or PX4's vehicle_status.nav_state (px4-ulog); "mode N" when unknown.
+std::string FlightModeLabel(const nlohmann::json& meta, double mode);
 
 // A track in NED metres. Plots show East right, North up, altitude = −down.
 struct Track {
