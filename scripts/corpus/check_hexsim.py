@@ -4,8 +4,10 @@ For each log: `hexsim import`, `hexsim gap diagnose` without --sim and with --si
 `hexsim calibrate LOG --method flight --compass magN` per compass. Per compass it tabulates
 the reference |k| [lo, hi] (reference.py), calibrate's and both gap paths' verdict and size,
 and PASS/FAIL against issue 29's "Done when":
-  * internal compass, usable current: gap's verdict current- or throttle-driven with its
-    mG/A point inside [lo - 0.2 w, hi + 0.2 w] of the reference interval (w = hi - lo);
+  * internal compass, usable current: gap's verdict (or an effect of its decomposition) current-
+    or throttle-driven, with the mG/A point of its absolute current term (gap.json absolute_terms:
+    the in-flight compass model's, which calibrate prints too; gap's own candidate where there is
+    none) inside [lo - 0.2 w, hi + 0.2 w] of the reference interval (w = hi - lo);
   * external compass: no material current effect, or one whose interval includes 0 - unless
     the reference resolves one (its k interval excludes 0): then a reported effect must lie in
     the widened reference interval like an internal compass's (real logs have such masts);
@@ -90,10 +92,19 @@ def gap_compass(gdir, name):
                                         if c.get("selected") and not c.get("plausible", True)],
                "findings": ch.get("findings", [])}
         out["mg"] = mg_per_a(cand) if cand else None
-        # a current effect anywhere among the selected ones (the headline may be another)
+        # a current effect anywhere among the selected ones (the headline may be another), or in the
+        # channel's decomposition (`effects`, material effects only)
         cur = [c for c in ch.get("candidates", []) if c.get("selected")
                and any(w in c.get("effect", "") for w in CURRENT_WORDS)]
-        out["current_selected"] = [c["effect"] for c in cur]
+        out["current_selected"] = [c["effect"] for c in cur] + [
+            e["effect"] for e in ch.get("effects", [])
+            if any(w in e.get("effect", "") for w in CURRENT_WORDS)]
+        # the in-flight compass model's absolute current term (the number calibrate prints too)
+        term = (ch.get("absolute_terms") or {}).get("current_term") or {}
+        out["abs"] = None
+        if term.get("fitted") and term.get("norm_mG_per_A") is not None:
+            lo, hi = term["norm_ci95_mG_per_A"]
+            out["abs"] = (term["norm_mG_per_A"], lo, hi)
         if out["mg"] is None and cur:
             out["mg"] = mg_per_a(cur[0])
         return out
@@ -114,6 +125,10 @@ def calib_current(cdir):
     cur = d.get("flight_fit", {}).get("current", {})
     if not cur.get("fitted"):
         return {"fitted": False, "note": cur.get("note", "")}
+    if cur.get("norm_mG_per_A") is None:  # the throttle form (no usable current): no mG/A figure
+        return {"fitted": True, "mg": None, "form": cur.get("form", "throttle"),
+                "applied": cur.get("applied"), "plausible": cur.get("plausible"),
+                "resolved": cur.get("resolved")}
     lo, hi = cur.get("norm_ci95_mG_per_A", [None, None])
     return {"fitted": True, "mg": (cur.get("norm_mG_per_A"), lo, hi),
             "applied": cur.get("applied"), "plausible": cur.get("plausible"),
@@ -166,11 +181,11 @@ def judge(c, ref_c, usable, gaps, cal, notes):
         if usable and ext is False and rc_.get("status") == "fitted":
             if not is_cur:
                 fails.append("%s: internal compass not current-driven (%s)" % (path, g["verdict"]))
-            elif g["mg"] is None:
+            elif (g.get("abs") or g["mg"]) is None:
                 fails.append("%s: current verdict without a mG/A size" % path)
-            elif not inside(g["mg"][0], rc_["k_norm_lo_mg"], rc_["k_norm_hi_mg"], SLACK):
-                fails.append("%s: %.1f mG/A outside reference [%.1f, %.1f] +-0.2w" % (
-                    path, g["mg"][0], rc_["k_norm_lo_mg"], rc_["k_norm_hi_mg"]))
+            elif not inside((g.get("abs") or g["mg"])[0], rc_["k_norm_lo_mg"], rc_["k_norm_hi_mg"], SLACK):
+                fails.append("%s: %.1f mG/A (absolute term) outside reference [%.1f, %.1f] +-0.2w" % (
+                    path, (g.get("abs") or g["mg"])[0], rc_["k_norm_lo_mg"], rc_["k_norm_hi_mg"]))
         real_ext = ext is True and rc_.get("status") == "fitted" and not rc_["zero_inside"]
         if real_ext and is_cur and g["mg"] is not None:
             # the reference resolves a current effect on this external compass: judge the size
@@ -188,14 +203,15 @@ def judge(c, ref_c, usable, gaps, cal, notes):
                                         <= reference.K_RANGE_MG_PER_A[1]):
             fails.append("%s: %.1f mG/A outside 0..%g" % (path, g["mg"][0],
                                                           reference.K_RANGE_MG_PER_A[1]))
-        if cal and cal.get("fitted") and g["mg"] is not None and None not in cal["mg"]:
+        gabs = g.get("abs") or g["mg"]  # calibrate agrees with gap's absolute term (issue 29 item 2)
+        if cal and cal.get("fitted") and gabs is not None and cal["mg"] and None not in cal["mg"]:
             cp, clo, chi = cal["mg"]
-            gp, glo, ghi = g["mg"]
+            gp, glo, ghi = gabs
             if not (glo <= cp <= ghi and clo <= gp <= chi):
                 fails.append("%s vs calibrate: %.1f [%.1f, %.1f] vs %.1f [%.1f, %.1f] mG/A" % (
                     path, gp, glo, ghi, cp, clo, chi))
     if cal and cal.get("fitted") and usable and rc_.get("status") == "fitted" and \
-            None not in cal["mg"]:
+            cal["mg"] and None not in cal["mg"]:
         cp, clo, chi = cal["mg"]
         lo, hi = rc_["k_norm_lo_mg"], rc_["k_norm_hi_mg"]
         if not inside(cp, lo, hi, SLACK) and not clo <= rc_["k_norm_mg"] <= chi:
@@ -206,9 +222,9 @@ def judge(c, ref_c, usable, gaps, cal, notes):
                          (cp, lo, hi))
     if cal is None:
         pass   # calibrate refused the compass: its exit and line are checked by the caller
-    elif cal.get("fitted") and not usable:
+    elif cal.get("fitted") and not usable and cal["mg"]:
         fails.append("calibrate: current term fitted on an unusable current")
-    elif cal.get("fitted") and cal["mg"][0] is not None and \
+    elif cal.get("fitted") and cal["mg"] and cal["mg"][0] is not None and \
             cal["mg"][0] > reference.K_RANGE_MG_PER_A[1]:
         fails.append("calibrate: %.1f mG/A outside 0..%g" % (cal["mg"][0],
                                                               reference.K_RANGE_MG_PER_A[1]))
@@ -293,11 +309,14 @@ def table(rows):
         refs = ("%.1f [%.1f, %.1f]" % (ref["k_norm_mg"], ref["k_norm_lo_mg"], ref["k_norm_hi_mg"])
                 if ref.get("status") == "fitted" else ref.get("status", "-"))
         cal = r["calibrate"]
-        cals = ("-" if cal is None else fmt_mg(cal["mg"]) if cal.get("fitted") else "not fitted")
+        cals = ("-" if cal is None else fmt_mg(cal["mg"]) if cal.get("fitted") and cal["mg"] else
+            "%s form" % cal.get("form") if cal.get("fitted") else "not fitted")
         gs = []
         for p in ("gap", "gap --sim"):
             g = r["gap"][p]
-            gs.append("-" if g is None else "%s %s" % (g["verdict"], fmt_mg(g["mg"])))
+            gs.append("-" if g is None else "%s %s%s" % (
+                g["verdict"], fmt_mg(g["mg"]),
+                "; absolute %s" % fmt_mg(g["abs"]) if g.get("abs") else ""))
         res = "PASS" if not r["fails"] else "FAIL: " + "; ".join(r["fails"])
         if r.get("notes"):
             res += " (" + "; ".join(r["notes"]) + ")"
