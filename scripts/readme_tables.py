@@ -5,6 +5,7 @@
     readme_tables.py compare COMPARISON.json               > table.md
     readme_tables.py selftest SELFTEST.json MACHINE DATE   > table.md
     readme_tables.py speed MACHINE DATE BENCH.json...      > table.md
+    readme_tables.py log171 GAP_SIM.json GAP_NOSIM.json magN/calib.report.json... > table.md
     readme_tables.py splice README NAME TABLE.md   (replace the block between NAME's markers)
     readme_tables.py check README NAME TABLE.md    (exit 1, with a diff, when they disagree)
 
@@ -126,7 +127,7 @@ def selftest(path, machine, date):
             parts = [f"{e.replace('_', ' ')} {v[hit]}/{v[total]}" for e, v in sorted(pe.items()) if v[hit] < v[total]]
             return ", ".join(parts) + (", the rest all" if parts else "all")
         cov = misses(one, "covered", "coverage_trials")
-        ool_miss = misses(ool, "unexplained", "trials")
+        ool_miss = misses(ool, "not_confident" if "not_confident_rate" in ool else "unexplained", "trials")
         sweep = j.get("detection_threshold", {}).get("current_hard_iron", {}) or {}
         grid, rate = sweep.get("grid_uT_per_A", []), sweep.get("flagged_rate", [])
         flagged = ", ".join(f"{100 * r:.0f} % at {g:g}" for g, r in zip(grid, rate))
@@ -143,7 +144,9 @@ def selftest(path, machine, date):
                     target(t, "median_explained_share" if share else "median_shrink")])),
         ("two effects", f"top-1 {pct(two.get('top1_rate'))}; overall top-1 {pct(j.get('overall_top1_rate'))}",
          "overall " + target(t, "overall_top1")),
-        (ool_label, f"\"unexplained\" {pct(ool.get('unexplained_rate'))}{ool_detail}", target(t, "unexplained")),
+        # Out of library: not read confidently (unexplained, ambiguous, partial, or leftover reported).
+        (ool_label, f"not confident {pct(ool.get('not_confident_rate', ool.get('unexplained_rate')))}{ool_detail}",
+         target(t, "not_confident", "unexplained")),
         ("detection threshold, current hard iron", thr_text, target(t, "current_hard_iron_threshold")),
     ]
     # The dynamics channel's rows, where the profile runs that channel (it then has its targets).
@@ -160,6 +163,55 @@ def selftest(path, machine, date):
            f"{date}; targets {'met' if j.get('targets_met') else 'missed'}:", "",
            "| class | result | target |", "|---|---|---|"]
     out += [f"| {a} | {b} | {tt} |" for a, b, tt in rows]
+    return "\n".join(out) + "\n"
+
+
+def log171(gap_sim, gap_nosim, calibs):
+    """The shared real log per compass: calibrate --method flight, gap's absolute term and verdicts."""
+    gs, gn = json.load(open(gap_sim)), json.load(open(gap_nosim))
+    chans = lambda g: {c["channel"]: c for c in g.get("channels", [])}
+    cs, cn = chans(gs), chans(gn)
+
+    def mg(t):
+        if not t or not t.get("fitted") or t.get("norm_mG_per_A") is None:
+            return "not fitted" if not t or not t.get("fitted") else "throttle form"
+        lo, hi = t["norm_ci95_mG_per_A"]
+        return f"{t['norm_mG_per_A']:.1f} [{lo:.1f}, {hi:.1f}] mG/A" + ("" if t.get("resolved", True)
+                                                                        else ", not resolved from zero")
+
+    def verdict(c):
+        if c is None:
+            return "not diagnosed"
+        effects = c.get("effects", [])
+        if not effects:
+            return c.get("verdict", "–")
+        parts = []
+        for e in effects:
+            unit = e.get("autopilot_unit") or e.get("unit", "")
+            m = e.get("autopilot_magnitude", e.get("magnitude"))
+            ci = e.get("autopilot_ci95", e.get("ci95")) or [None, None]
+            size = f"{m:.3g} [{ci[0]:.3g}, {ci[1]:.3g}] {unit}" if None not in ci and m is not None else ""
+            parts.append(f"{e['effect'].replace('_', ' ')} {size} ({pct(e.get('explained_share'))})".replace("  ", " "))
+        head = "partial: " if c.get("partial") else ""
+        return head + "; ".join(parts)
+
+    def timing(c):
+        t = (c or {}).get("timing", {}).get("latency_s")
+        if not t:
+            return "–"
+        return f"{1000 * t['value']:.0f} ms [{1000 * t['ci95'][0]:.0f}, {1000 * t['ci95'][1]:.0f}]"
+
+    out = ["| compass | `calibrate --method flight` | gap: absolute term (in-flight model) | "
+           "gap --sim quad_x: effects (share) | gap, identified vehicle: effects (share) | compass latency |",
+           "|---|---|---|---|---|---|"]
+    for name in sorted(set(cs) | set(cn)):
+        if not name.startswith("mag"):
+            continue
+        cal = json.load(open(calibs[name])) if name in calibs else {}
+        cal_t = (cal.get("flight_fit") or {}).get("current")
+        abs_t = ((cs.get(name) or {}).get("absolute_terms") or {}).get("current_term")
+        out.append(f"| {name.upper()} | {mg(cal_t)} | {mg(abs_t)} | {verdict(cs.get(name))} | "
+                   f"{verdict(cn.get(name))} | {timing(cs.get(name))} |")
     return "\n".join(out) + "\n"
 
 
@@ -231,6 +283,9 @@ def main(argv):
         sys.stdout.write(compare(argv[2]))
     elif cmd == "selftest" and len(argv) == 5:
         sys.stdout.write(selftest(argv[2], argv[3], argv[4]))
+    elif cmd == "log171" and len(argv) >= 4:
+        calibs = {os.path.basename(os.path.dirname(p)): p for p in argv[4:]}
+        sys.stdout.write(log171(argv[2], argv[3], calibs))
     elif cmd == "speed" and len(argv) >= 5:
         sys.stdout.write(speed(argv[2], argv[3], argv[4:]))
     elif cmd == "splice" and len(argv) == 5:
