@@ -6,6 +6,7 @@
 
 #include "hexsim/common/rotation.h"
 #include "hexsim/control/mixer.h"
+#include "hexsim/sim/mixer_geometry.h"
 #include "hexsim/vehicle/powertrain.h"
 
 namespace hexsim::envs {
@@ -84,18 +85,11 @@ VehicleLayout LayoutOf(const sim::RunSetup& setup) {
   const vehicle::VehicleParams& v = setup.vehicle;
   VehicleLayout out;
   out.rotors = v.rotors.size();
-  std::vector<control::RotorGeometry> geometry;
   for (const auto& r : v.rotors) {
     out.rotor_p_B_m.push_back(r.position_B_m);
     out.spin.push_back(r.spin);
-    control::RotorGeometry g;
-    g.p_B_m = r.position_B_m;
-    g.thrust_axis_B = r.axis_B;
-    g.spin = r.spin;
-    g.torque_to_thrust_m = r.k_T_Nprps2 > 0 ? r.k_Q_Nmprps2 / r.k_T_Nprps2 : 0.0;
-    geometry.push_back(g);
   }
-  out.mixer = control::AllocationMatrix(geometry);
+  out.mixer = control::AllocationMatrix(sim::MixerGeometry(v));
   const control::VehicleModelForControl model = sim::ControlModelFor(v);
   out.mass_kg = model.mass_kg;
   out.inertia_kgm2 = model.inertia_kgm2;

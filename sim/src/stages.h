@@ -15,14 +15,13 @@
 #include "hexsim/control/sequencer.h"
 #include "hexsim/control/spool.h"
 #include "hexsim/magnetics/wmm.h"
+#include "hexsim/sim/mixer_geometry.h"
 #include "hexsim/sim/simulation.h"
 #include "hexsim/vehicle/powertrain.h"
 #include "hexsim/vehicle/rotor_wrench.h"
 #include "hexsim/vehicle/sensors.h"
 
 namespace hexsim::sim {
-
-std::vector<control::RotorGeometry> MixerGeometry(const vehicle::VehicleParams& v);
 
 // --- Sensors -------------------------------------------------------------------------------------
 class SensorStage {
