@@ -121,10 +121,10 @@ TEST(FlightFit, GivenAFieldDrivenByThrottle_WhenFittedInThrottleForm_ThenItsFiel
   const SynthFlight f;
   auto samples = Fly(f, 5, /*with_current=*/false);
   const Vector3d d_uT(2.0, -6.0, 4.0);  // 80 mG at full throttle: inside throttle_hard_iron's 0..60 uT
-  for (size_t i = 0; i < samples.size(); ++i) {
-    const double u = 0.5 + 0.15 * std::sin(samples[i].t_s / 4.0);
-    samples[i].throttle = u;
-    samples[i].y_uT += d_uT * u;
+  for (auto& s : samples) {
+    const double u = 0.5 + 0.15 * std::sin(s.t_s / 4.0);
+    s.throttle = u;
+    s.y_uT += d_uT * u;
   }
   FlightFitOptions o = Options(f);
   o.form = FlightTermForm::kThrottle;
