@@ -53,6 +53,7 @@ Status ServeCommand(ServeArgs& args, int* exit_code) {
                             {"sensor_messages", served->stats.sensor_messages},
                             {"actuator_messages", served->stats.actuator_messages},
                             {"stale_actuator_messages", served->stats.stale_actuator_messages},
+                            {"paced_sensor_messages", served->stats.paced_sensor_messages},
                             {"refused_clients", served->stats.refused_clients},
                             {"bad_crc", served->stats.parser.bad_crc},
                             {"unknown_id", served->stats.parser.unknown_id},

@@ -231,6 +231,7 @@ struct Session {
     const bool lockstep = !opt.realtime && got_first_outputs;
     if (!lockstep) std::this_thread::sleep_until(wall0 + std::chrono::duration_cast<Clock::duration>(
                                                              std::chrono::duration<double>(t)));
+    if (!lockstep) ++stats.paced_sensor_messages;
     awaiting_usec = TimeUsec(t);
     answered = false;
     SendSensors(t);

@@ -56,6 +56,7 @@ class FrameEncoder {
   // FindMessage knows and len its max_len (asserted).
   void Encode(uint32_t msgid, const uint8_t* payload, size_t len, std::vector<uint8_t>* out);
   uint8_t next_seq() const { return seq_; }
+  void set_next_seq(uint8_t seq) { seq_ = seq; }
 
  private:
   uint8_t sysid_, compid_;

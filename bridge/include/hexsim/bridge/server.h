@@ -49,6 +49,7 @@ struct ServeStats {
   uint64_t sensor_messages = 0;     // HIL_SENSOR id 0 sent (= lockstep steps)
   uint64_t actuator_messages = 0;   // HIL_ACTUATOR_CONTROLS received
   uint64_t stale_actuator_messages = 0;  // older than the sample being answered (applied, not counted as the answer)
+  uint64_t paced_sensor_messages = 0;    // sent at wall-clock pace before lockstep engaged (or all, realtime)
   uint64_t refused_clients = 0;
   uint64_t ignored_messages = 0;    // well-formed frames of ids the server does not act on
   ParserStats parser;
