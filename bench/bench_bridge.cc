@@ -94,7 +94,12 @@ void BM_LoopbackLockstep(benchmark::State& state) {
   a.sin_family = AF_INET;
   a.sin_port = htons(static_cast<uint16_t>(port.load()));
   inet_pton(AF_INET, "127.0.0.1", &a.sin_addr);
-  ::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    state.SkipWithError("connect to the bridge failed");
+    ::close(fd);
+    server.join();  // the server gives up after accept_timeout_s
+    return;
+  }
   const int one = 1;
   ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
   FrameParser parser;
