@@ -14,6 +14,7 @@ void RegisterCommands(CLI::App& app, int* exit_code) {
   AddImportCommand(app, exit_code);
   AddPlotCommand(app, exit_code);
   AddToolCommands(app, exit_code);
+  AddServePx4Command(app, exit_code);
 }
 
 }  // namespace hexsim::app

@@ -19,5 +19,6 @@ void AddCompareCommand(CLI::App& app, int* exit_code);
 void AddImportCommand(CLI::App& app, int* exit_code);
 void AddPlotCommand(CLI::App& app, int* exit_code);
 void AddToolCommands(CLI::App& app, int* exit_code);
+void AddServePx4Command(CLI::App& app, int* exit_code);
 
 }  // namespace hexsim::app

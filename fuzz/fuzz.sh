@@ -28,7 +28,7 @@ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPI
   -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHEXSIM_BUILD_FUZZ=ON -DHEXSIM_BUILD_TESTS=ON \
   -DHEXSIM_BUILD_BENCH=OFF "${launcher[@]}" > "$build/configure.log" 2>&1 ||
   { cat "$build/configure.log"; exit 1; }
-ninja -C "$build" -j"${HEXSIM_FUZZ_JOBS:-2}" fuzz_dataflash fuzz_flightlog_csv fuzz_ulog fuzz_batch_yaml
+ninja -C "$build" -j"${HEXSIM_FUZZ_JOBS:-2}" fuzz_dataflash fuzz_flightlog_csv fuzz_ulog fuzz_batch_yaml fuzz_mavlink
 
 # A smaller ASan quarantine (default 256 MB) keeps reused memory hot: fresh pages for every freed
 # buffer cost ~15% of a run in page faults. Use-after-free within the last 64 MB is still caught.
@@ -39,7 +39,7 @@ mkdir -p "$build/artifacts"
 # between them so the target still gets N executions in all, in 1/jobs of the wall time.
 workers=${HEXSIM_FUZZ_WORKERS:-${HEXSIM_FUZZ_JOBS:-2}}
 seed=${HEXSIM_FUZZ_SEED:-1}
-for target in dataflash flightlog_csv ulog batch_yaml; do
+for target in dataflash flightlog_csv ulog batch_yaml mavlink; do
   wlimit=()
   for l in "${limit[@]}"; do
     if [[ $l =~ ^-runs=([0-9]+)$ ]]; then l=-runs=$(( (BASH_REMATCH[1] + workers - 1) / workers )); fi

@@ -111,7 +111,7 @@ stage_tidy() {
     -DCMAKE_BUILD_TYPE=Debug -DHEXSIM_BUILD_FUZZ=ON -DHEXSIM_BUILD_BENCH=ON \
     > "$tidy_dir/configure.log" 2>&1 || { cat "$tidy_dir/configure.log"; fail tidy; }
   # The project's own sources only (not generated files in the build dir), each file once.
-  local folders='(common|magnetics|vehicle|nav|control|logs|realdata|sim|identify|batch|gap|experiments|render|reports|envs|apps|python|fuzz|bench|test|examples)'
+  local folders='(common|magnetics|vehicle|nav|control|logs|realdata|sim|bridge|identify|batch|gap|experiments|render|reports|envs|apps|python|fuzz|bench|test|examples)'
   python3 - "$tidy_dir/compile_commands.json" "$root" "$folders" "${HEXSIM_TIDY_FILES:-.}" > "$tidy_dir/files.txt" <<'EOF'
 import json, re, sys
 db, root, folders, only = sys.argv[1:5]

@@ -157,7 +157,7 @@ bool Simulation::Impl::Step() {
     mission_time_s = t;
     status = "completed";
   }
-  if (opt.duration_s <= 0 && landed_at_s && t >= *landed_at_s + opt.settle_after_landing_s) {
+  if (opt.duration_s <= 0 && opt.end_when_landed && landed_at_s && t >= *landed_at_s + opt.settle_after_landing_s) {
     finished = true;
     return false;
   }
@@ -280,6 +280,8 @@ const control::ControlOutput& Simulation::control_output() const { return impl_-
 const magnetics::Currents& Simulation::currents() const { return impl_->sensors.currents(); }
 const std::vector<double>& Simulation::motor_commands() const { return impl_->autopilot.commands(); }
 const vehicle::PowertrainOutput& Simulation::powertrain() const { return impl_->physics.powertrain(); }
+const Eigen::Vector3d& Simulation::specific_force_B_mps2() const { return impl_->physics.specific_force_B_mps2(); }
+double Simulation::soc() const { return impl_->physics.soc(); }
 const logs::FlightLog& Simulation::log() const { return impl_->out.log; }
 double Simulation::payload_kg() const { return impl_->physics.payload_kg(); }
 const control::VehicleModelForControl& Simulation::control_model() const { return impl_->autopilot.model(); }

@@ -29,6 +29,9 @@ struct SimOptions {
   double duration_s = 0.0;       // 0: until the mission is over (or max_duration_s)
   double max_duration_s = 900.0;
   double settle_after_landing_s = 1.0;  // keep logging this long after touchdown
+  // false: the run goes on after the mission's landing until duration_s/max_duration_s or the caller
+  // stops stepping (an external autopilot flies the motors through Plugins::command_hook).
+  bool end_when_landed = true;
   uint64_t seed = 1;
   // "truth" (the controller reads the true state), "eskf" or "complementary".
   std::string estimator = "eskf";
@@ -157,6 +160,10 @@ class Simulation {
   // The powertrain's operating point over the last physics step (motor speeds, currents, bus
   // voltage); its motors are empty before the first step.
   const vehicle::PowertrainOutput& powertrain() const;
+  // The true specific force (a - g, body) of the last physics step, as the accelerometer sees it
+  // before its errors; and the battery's state of charge now.
+  const Eigen::Vector3d& specific_force_B_mps2() const;
+  double soc() const;
   // The FlightLog recorded so far (empty after Finish(), which hands it over).
   const logs::FlightLog& log() const;
   double payload_kg() const;

@@ -1,0 +1,16 @@
+# CTest fixture bridge_peer_npm: copies the peer into DEST and installs node-mavlink there from the
+# committed package-lock.json. Without node/npm it says so and succeeds: bridge_peer_test then skips.
+find_program(NODE node)
+find_program(NPM npm)
+if(NOT NODE OR NOT NPM)
+  message("bridge peer: node/npm not installed: bridge_peer_test will skip (apt-get install nodejs npm)")
+  return()
+endif()
+file(MAKE_DIRECTORY ${DEST})
+file(COPY ${SRC}/package.json ${SRC}/package-lock.json ${SRC}/peer.mjs DESTINATION ${DEST})
+if(NOT EXISTS ${DEST}/node_modules/node-mavlink/package.json)
+  execute_process(COMMAND ${NPM} ci --no-audit --no-fund WORKING_DIRECTORY ${DEST} RESULT_VARIABLE rc)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "bridge peer: npm ci failed (${rc})")
+  endif()
+endif()

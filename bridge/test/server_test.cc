@@ -1,0 +1,142 @@
+// The lockstep server against a scripted client: bad network input is counted and ignored, a second
+// client is refused, a disconnect mid-frame ends the flight cleanly with the log complete.
+#include "hexsim/bridge/server.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "hexsim/bridge/messages.h"
+#include "hexsim/bridge/sim_messages.h"
+#include "hexsim/sim/run_config.h"
+
+namespace hexsim::bridge {
+namespace {
+
+sim::RunSetup QuadSetup() {
+  sim::RunRequest rq;
+  rq.mission = "square";
+  rq.vehicle = "quad_x";
+  rq.estimator = "truth";
+  auto setup = sim::LoadRunSetup(rq);
+  EXPECT_TRUE(setup.ok()) << setup.status().message();
+  setup->mission = control::Mission{};
+  setup->mission.resolved = true;
+  return *setup;
+}
+
+int Connect(int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(static_cast<uint16_t>(port));
+  inet_pton(AF_INET, "127.0.0.1", &a.sin_addr);
+  return ::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0 ? fd : -1;
+}
+
+void SendBytes(int fd, const std::vector<uint8_t>& b) { ASSERT_EQ(::send(fd, b.data(), b.size(), MSG_NOSIGNAL), static_cast<ssize_t>(b.size())); }
+
+// Reads frames until a HIL_SENSOR id 0 arrives; returns its time_usec (0: connection closed).
+uint64_t NextSensorTime(int fd, FrameParser* p) {
+  uint8_t buf[2048];
+  uint64_t t = 0;
+  while (t == 0) {
+    const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
+    if (n <= 0) return 0;
+    p->Feed(buf, static_cast<size_t>(n), [&](const Frame& f) {
+      if (f.msgid == kMsgHilSensor && UnpackHilSensor(f).id == 0 && t == 0) t = UnpackHilSensor(f).time_usec;
+    });
+  }
+  return t;
+}
+
+TEST(ServePx4, BadInputIsIgnoredSecondClientRefusedDisconnectEndsTheFlightCleanly) {
+  std::atomic<int> port{0};
+  ServeOptions opt;
+  opt.port = 0;
+  opt.accept_timeout_s = 30;
+  opt.idle_timeout_s = 30;
+  opt.log = [&port](const std::string& line) {
+    const size_t at = line.find("listening on 127.0.0.1:");
+    if (at != std::string::npos) port = std::atoi(line.c_str() + at + 23);
+  };
+  Result<ServeResult> result = Status::BadInput("not run");
+  std::thread server([&] { result = ServePx4(QuadSetup(), opt); });
+  while (port == 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  const int fd = Connect(port);
+  ASSERT_GE(fd, 0);
+  FrameParser parser;
+  FrameEncoder enc(1, 1);
+  HilActuatorControls act;
+  act.mode = 129;
+  act.controls = {0.3f, 0.3f, 0.3f, 0.3f};
+  std::vector<uint8_t> good, bad_crc, unknown, signed_frame, garbage = {0xFD, 0x00, 0xFD, 0x51, 0x01, 0x42};
+  uint64_t t = NextSensorTime(fd, &parser);
+  ASSERT_GT(t, 0u);
+  act.time_usec = t;
+  EncodeMessage(&enc, kMsgHilActuatorControls, act, &bad_crc);
+  bad_crc[20] ^= 0x55;
+  EncodeMessage(&enc, kMsgHeartbeat, Heartbeat{}, &unknown);
+  unknown[7] = 0x21;  // id 33: not one the server knows
+  EncodeMessage(&enc, kMsgHilActuatorControls, act, &signed_frame);
+  signed_frame[2] = 1;
+  for (auto* b : {&garbage, &bad_crc, &unknown, &signed_frame}) SendBytes(fd, *b);
+  const int second = Connect(port);  // refused: accepted and closed at once
+  ASSERT_GE(second, 0);
+  for (int step = 0; step < 200; ++step) {
+    good.clear();
+    act.time_usec = t;
+    EncodeMessage(&enc, kMsgHilActuatorControls, act, &good);
+    SendBytes(fd, good);
+    t = NextSensorTime(fd, &parser);
+    ASSERT_GT(t, 0u);
+  }
+  uint8_t byte = 0;
+  EXPECT_EQ(::recv(second, &byte, 1, 0), 0) << "the second client must be closed";
+  ::close(second);
+  good.clear();
+  EncodeMessage(&enc, kMsgHilActuatorControls, act, &good);
+  good.resize(good.size() / 2);  // half a frame, then gone
+  SendBytes(fd, good);
+  ::close(fd);
+  server.join();
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  EXPECT_EQ(result->end_reason, "client disconnected");
+  const ServeStats& s = result->stats;
+  EXPECT_EQ(s.refused_clients, 1u);
+  EXPECT_GE(s.parser.bad_crc, 1u);
+  EXPECT_GE(s.parser.unknown_id, 1u);
+  EXPECT_GE(s.parser.incompatible, 1u);
+  EXPECT_GE(s.actuator_messages, 200u);
+  EXPECT_TRUE(result->run.status.ok());
+  EXPECT_GE(result->run.log.rows(), 40u);  // ~0.5 s at 100 Hz, closed at the disconnect
+  EXPECT_EQ(result->run.summary.status, sim::RunStatus::kCompleted);
+  EXPECT_NE(result->run.summary.reason.find("client disconnected"), std::string::npos);
+}
+
+TEST(ServePx4, NoClientWithinTheTimeoutIsAClearError) {
+  ServeOptions opt;
+  opt.port = 0;
+  opt.accept_timeout_s = 0.2;
+  auto r = ServePx4(QuadSetup(), opt);
+  ASSERT_FALSE(r.ok());
+  EXPECT_NE(r.status().message().find("no client connected"), std::string::npos);
+}
+
+TEST(SimMessages, IsaAndUnits) {
+  EXPECT_NEAR(IsaPressure_hPa(0.0), 1013.25, 1e-9);
+  EXPECT_NEAR(IsaPressure_hPa(1000.0), 898.75, 0.1);  // ISA table: 898.76 hPa at 1000 m
+  EXPECT_NEAR(IsaTemperature_C(1000.0), 8.5, 1e-9);
+  EXPECT_EQ(TimeUsec(0.0025), 1002500u);
+  EXPECT_DOUBLE_EQ(TimeSeconds(1002500u), 0.0025);
+}
+
+}  // namespace
+}  // namespace hexsim::bridge
