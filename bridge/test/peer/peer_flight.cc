@@ -41,15 +41,17 @@ namespace {
 bool NodeInstalled() { return std::system("node --version > /dev/null 2>&1") == 0; }
 
 int FreeUdpPort() {
+  // 0 when no port could be had: the flight's --battery-udp then fails loudly (a test failure).
   const int s = ::socket(AF_INET, SOCK_DGRAM, 0);
+  if (s < 0) return 0;
   sockaddr_in a{};
   a.sin_family = AF_INET;
   a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a);
   socklen_t len = sizeof a;
-  ::getsockname(s, reinterpret_cast<sockaddr*>(&a), &len);
+  const bool ok = ::bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0 &&
+                  ::getsockname(s, reinterpret_cast<sockaddr*>(&a), &len) == 0;
   ::close(s);
-  return ntohs(a.sin_port);
+  return ok ? ntohs(a.sin_port) : 0;
 }
 
 std::string ReadAll(const fs::path& p) {
