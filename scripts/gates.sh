@@ -14,7 +14,7 @@
 #   5    determinism  the same runs (truth loop; paper_hex with turntable, fits, adaptive compensator
 #                   and ESKF) with the release binary (build/, -O3, made by scripts/test.sh) and the
 #                   sanitizer binary (-O1 + ASan/UBSan): log.csv byte for byte
-#   6    readme     README.md's deterministic tables (Table 1, compare) agree with a fresh run of the
+#   6    readme     README.md's deterministic tables (Table 1, compare, log171) agree with a fresh run of the
 #                   release binary: scripts/readme_figures.sh --check (made by scripts/test.sh)
 #
 # Usage: scripts/gates.sh [STAGE...]     (default: all stages; e.g. `scripts/gates.sh tidy fuzz`)
@@ -186,7 +186,7 @@ stage_determinism() {
 }
 
 stage_readme() {
-  begin "readme: README tables (Table 1, compare) agree with a fresh run"
+  begin "readme: README tables (Table 1, compare, log171) agree with a fresh run"
   [ -x "$root/build/apps/hexsim" ] || { echo "no $root/build/apps/hexsim: run scripts/test.sh first" >&2; fail readme; }
   bash scripts/readme_figures.sh --check || fail readme
   end readme
