@@ -143,7 +143,6 @@ class Env {
   std::vector<double> clipped_;
   int steps_per_action_ = 10;
   RngStream stream_;
-  bool seeded_ = false;
   std::unique_ptr<Action> action_;  // heap: the plug-ins hold its address
   std::unique_ptr<sim::Simulation> sim_;
   uint64_t sim_seed_ = 0;
