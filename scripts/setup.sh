@@ -13,9 +13,21 @@ PACKAGES=(
   ${HEXSIM_EXTRA_PACKAGES:-}
 )
 
+# A package whose command is already on PATH from elsewhere is not installed again: a machine with
+# NodeSource's nodejs (which carries its own npm) cannot take Debian's npm ("held broken packages").
+provided_by_command() {
+  case "$1" in
+    nodejs) command -v node >/dev/null 2>&1 ;;
+    npm) command -v npm >/dev/null 2>&1 ;;
+    chromium) command -v chromium >/dev/null 2>&1 ;;
+    *) return 1 ;;
+  esac
+}
 missing=()
 for p in "${PACKAGES[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" && continue
+  provided_by_command "$p" && continue
+  missing+=("$p")
 done
 if ((${#missing[@]})); then
   echo "hexsim setup: installing ${missing[*]}" >&2
