@@ -127,7 +127,11 @@ nlohmann::json Px4MagCalibration(const ULog& u, double device_id, int instance, 
   const double rot = Param(u, p + "ROT", -1);
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   bool known = true;
-  if (frame == MagFrame::kCalibrated) {
+  // PX4 rotates a compass into the body frame in its calibration (calibration::Magnetometer::Correct:
+  // R·S·(data + P·comp − off), R the CAL_MAGn_ROT rotation, or the board rotation for an internal one):
+  // raw sensor_mag (PX4 1.11 on) and vehicle_magnetometer both need it; only the driver-calibrated
+  // sensor_mag of older releases comes rotated by its driver.
+  if (frame != MagFrame::kDriverCalibrated) {
     if (rot < 0) {  // internal: the board rotation, trimmed
       known = Rotation(u, Param(u, "SENS_BOARD_ROT", 0), "", &R);
       R = Dcm(Param(u, "SENS_BOARD_X_OFF", 0), Param(u, "SENS_BOARD_Y_OFF", 0), Param(u, "SENS_BOARD_Z_OFF", 0)) * R;
