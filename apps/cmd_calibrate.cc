@@ -80,10 +80,12 @@ Status PrepareFlightFit(const logs::MagInput& input, const std::string& compass,
 // The flight path's lines: windows, samples, residual, timing, the disturbance term.
 void PrintFlight(const magnetics::FlightOutcome& fo) {
   const magnetics::FlightFit& fit = fo.in.fit;
-  std::printf("flight fit: %s; %d samples in %d blocks of %.1f s; residual %.2f -> %.2f uT RMS per axis; Earth field %+.1f %% "
-              "vs WMM\n",
+  const std::string field = fo.in.options.field_free
+                                ? Format("Earth field fitted freely (no place and date): %.1f uT", fit.field_N_uT.norm())
+                                : Format("Earth field %+.1f %% vs WMM", 100 * fo.field_norm_vs_wmm);
+  std::printf("flight fit: %s; %d samples in %d blocks of %.1f s; residual %.2f -> %.2f uT RMS per axis; %s\n",
               fo.in.windows_note.c_str(), fit.samples_used, fit.blocks, fo.in.options.block_s, fit.rms_prior_uT,
-              fit.rms_after_uT, 100 * fo.field_norm_vs_wmm);
+              fit.rms_after_uT, field.c_str());
   std::printf("timing: %s\n", fo.in.timing_note.c_str());
   if (!fit.term_fitted) return;
   const bool throttle = fit.form == magnetics::FlightTermForm::kThrottle;
@@ -127,7 +129,9 @@ Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
   fc.has_place = input->has_place;
   fc.px4_comp_type = input->px4_comp_type;
   fc.px4_comp_G = input->px4_comp_G;
-  if (fc.has_attitude && fc.has_place && (a.method == "flight" || a.method == "auto")) {
+  // Without a place (no GPS fix) the flight fit takes the Earth field as free terms; auto still
+  // prefers it only where the WMM gives the field.
+  if (fc.has_attitude && (a.method == "flight" || (a.method == "auto" && fc.has_place))) {
     const Status prepared = PrepareFlightFit(*input, a.compass, &fc);
     // auto falls back to the free-hand fits when the flight model cannot fit; flight says why.
     if (!prepared.ok() && a.method == "flight") return prepared.WithContext(a.samples);

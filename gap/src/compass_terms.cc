@@ -10,6 +10,7 @@
 #include "hexsim/common/statistics.h"
 #include "hexsim/logs/mag_input.h"
 #include "hexsim/magnetics/current_field.h"
+#include "hexsim/magnetics/flight_fit.h"
 #include "hexsim/realdata/compass_flight.h"
 
 namespace hexsim::gap {
@@ -46,6 +47,7 @@ void GapInterval(const Eigen::Matrix3d& cov, int blocks, CompassTerms* t) {
 
 // The parameters to paste: offsets where plausible, the compensation (autopilot_params.h).
 void Parameters(const logs::MagInput& in, int index, const logs::FlightLog& log, CompassTerms* t) {
+  if (!t->gate_accepted) return;  // as calibrate: no parameter file for a fit its gate rejects
   const bool throttle = t->form == "throttle";
   t->motor = magnetics::CompensationParams(index, in.px4_index, t->term_fitted,
                                            t->term_fitted && t->term_resolved && t->term_plausible, throttle, t->term_uT,
@@ -112,6 +114,9 @@ Result<CompassTerms> FitCompassTerms(const logs::FlightLog& log, const vehicle::
   t.block_s = cf->options.block_s;
   t.rms_before_uT = f.rms_prior_uT;
   t.rms_after_uT = f.rms_after_uT;
+  const bool applied = t.term_fitted && t.term_resolved && t.term_plausible;
+  t.fitness_uT = magnetics::FlightFitness_uT(f, cf->samples, applied);
+  t.gate_accepted = t.fitness_uT <= magnetics::kMaxFlightFitness_uT && t.offset_plausible;
   Parameters(*in, logs::CompassIndex(name), log, &t);
   return t;
 }
@@ -125,6 +130,12 @@ nlohmann::json CompassTermsJson(const CompassTerms& t) {
                       {"offset_ci95_half_uT", Vec(t.offset_ci_half_uT)},
                       {"offset_plausible", t.offset_plausible},
                       {"offset_physical_range", plausibility::RangeText("compass_offset")},
+                      {"fitness_uT", t.fitness_uT},
+                      {"gate", {{"accepted", t.gate_accepted},
+                                {"max_fitness_uT", magnetics::kMaxFlightFitness_uT},
+                                {"rule", "as hexsim calibrate --method flight: fitness (RMS of |calibrated| - |field|) "
+                                         "within ArduPilot's relaxed COMPASS_CAL_FIT and the offset plausible; a rejected "
+                                         "compass gets no parameters"}}},
                       {"field_N_uT", Vec(t.field_N_uT)},
                       {"field_ci95_half_uT", Vec(t.field_ci_half_uT)},
                       {"wmm_field_N_uT", Vec(t.wmm_field_N_uT)},
@@ -211,6 +222,12 @@ ParamFiles CompassParamFiles(const std::vector<CompassTerms>& terms) {
   std::vector<std::string> comments;
   bool motct_written = false;
   for (const CompassTerms& t : terms) {
+    if (!t.gate_accepted) {
+      comments.push_back(fmt::format("{}: no parameters: fitness {:.2f} uT above {:.1f} uT or offset out of range "
+                                     "(hexsim calibrate's gate rejects this fit)",
+                                     t.channel, t.fitness_uT, magnetics::kMaxFlightFitness_uT));
+      continue;
+    }
     if (t.ardupilot.empty() && t.motor.ardupilot.empty()) continue;
     ap.insert(ap.end(), t.ardupilot.begin(), t.ardupilot.end());
     px.insert(px.end(), t.px4.begin(), t.px4.end());

@@ -9,6 +9,7 @@
 #include "hexsim/common/paths.h"
 #include "hexsim/gap/diagnose.h"
 #include "hexsim/logs/dataflash_import.h"
+#include "hexsim/magnetics/flight_fit.h"
 #include "hexsim/realdata/windows.h"
 #include "hexsim/vehicle/vehicle_io.h"
 
@@ -86,6 +87,28 @@ TEST(CompassTerms, GivenTheExternalCompass_WhenItsFieldIsNotResolved_ThenNoCompe
   EXPECT_EQ(files.parm.find("\nCOMPASS_MOT"), std::string::npos) << files.parm;
   EXPECT_NE(files.parm.find("\nCOMPASS_OFS_X "), std::string::npos) << files.parm;
   EXPECT_NE(files.parm.find("not written"), std::string::npos) << files.parm;
+}
+
+// One acceptance gate for calibrate and gap (flight_fit.h FlightFitness_uT): a compass whose fit the
+// gate rejects (here MAG2 with its x axis reading twice its value, a soft iron the model has no term for)
+// gets no parameters in gap's calib.parm, and the file says why.
+TEST(CompassTerms, GivenAFitCalibratesGateRejects_WhenParametersAreWritten_ThenThatCompassGetsNone) {
+  logs::FlightLog log = Log171().log;
+  std::vector<double>& x = log.MutableColumn(log.AddColumn("mag2_x_uT"));
+  for (double& v : x) v *= 2.0;
+  const realdata::FlightWindows w = realdata::FindFlightWindows(log);
+  auto t = internal::FitCompassTerms(log, Log171().vehicle, 1, "mag2", w, 1);
+  ASSERT_TRUE(t.ok()) << t.status().message();
+  EXPECT_GT(t->fitness_uT, magnetics::kMaxFlightFitness_uT);
+  EXPECT_FALSE(t->gate_accepted);
+  const ParamFiles files = CompassParamFiles({*t});
+  EXPECT_EQ(files.parm.find("\nCOMPASS_OFS2_X "), std::string::npos) << files.parm;
+  // The undistorted compass passes the same gate and gets its offsets.
+  auto good = internal::FitCompassTerms(Log171().log, Log171().vehicle, 1, "mag2", realdata::FindFlightWindows(Log171().log), 1);
+  ASSERT_TRUE(good.ok()) << good.status().message();
+  EXPECT_TRUE(good->gate_accepted) << good->fitness_uT;
+  const ParamFiles both = CompassParamFiles({*t, *good});
+  EXPECT_NE(both.parm.find("mag2: no parameters: fitness"), std::string::npos) << both.parm;
 }
 
 }  // namespace

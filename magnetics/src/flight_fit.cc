@@ -56,8 +56,10 @@ Result<Solve> SolveWeighted(const Problem& pr, const std::vector<char>& use, dou
     N.noalias() += wm * X.transpose() * X;
     rhs.noalias() += wm * X.transpose() * pr.s[i].y_uT;
   }
-  N.block<3, 3>(0, 0) += wp * Matrix3d::Identity();
-  rhs.head<3>() += wp * pr.o.prior_field_N_uT;
+  if (!pr.o.field_free) {
+    N.block<3, 3>(0, 0) += wp * Matrix3d::Identity();
+    rhs.head<3>() += wp * pr.o.prior_field_N_uT;
+  }
   // Scale-invariant check of the conditioning (unit diagonal).
   const VectorXd d = N.diagonal().cwiseSqrt().cwiseInverse();
   const MatrixXd Nn = d.asDiagonal() * N * d.asDiagonal();
@@ -179,8 +181,10 @@ Result<MatrixXd> JackknifeCov(const Problem& pr, const std::vector<char>& use, d
     rhs += b.r;
   }
   const double wp = 1.0 / (pr.o.prior_sigma_uT * pr.o.prior_sigma_uT);
-  N.block<3, 3>(0, 0) += wp * Matrix3d::Identity();
-  rhs.head<3>() += wp * pr.o.prior_field_N_uT;
+  if (!pr.o.field_free) {
+    N.block<3, 3>(0, 0) += wp * Matrix3d::Identity();
+    rhs.head<3>() += wp * pr.o.prior_field_N_uT;
+  }
   std::vector<VectorXd> leave_out;
   VectorXd mean = VectorXd::Zero(p);
   for (const auto& [g, b] : blocks) {
@@ -232,6 +236,21 @@ Eigen::Vector3d FlightFit::Predict(const FlightFitSample& s) const {
   return s.R_NB.transpose() * field_N_uT + offset_y_uT + (term_fitted && std::isfinite(r) ? Vector3d(term_uT * r) : Vector3d::Zero());
 }
 
+double FlightFitness_uT(const FlightFit& fit, const std::vector<FlightFitSample>& samples, bool apply_term) {
+  const double radius = fit.field_N_uT.norm();
+  double ss = 0.0;
+  int n = 0;
+  for (const FlightFitSample& s : samples) {
+    const double r = Regressor(s, fit.form);
+    Vector3d c = s.y_uT - fit.offset_y_uT;
+    if (apply_term && fit.term_fitted && std::isfinite(r)) c -= fit.term_uT * r;
+    const double e = c.norm() - radius;
+    ss += e * e;
+    ++n;
+  }
+  return n > 0 ? std::sqrt(ss / n) : 0.0;
+}
+
 Result<FlightFit> FitFlightCompass(const std::vector<FlightFitSample>& samples, const FlightFitOptions& o) {
   for (const auto& s : samples) {
     if (!s.y_uT.allFinite() || !s.R_NB.allFinite() || !std::isfinite(s.t_s)) {
@@ -251,7 +270,7 @@ Result<FlightFit> FitFlightCompass(const std::vector<FlightFitSample>& samples, 
   pr.p = ChooseTerm(samples, o, &pr.r, &use, &fit);
   const int p = pr.p;
   VectorXd theta0 = VectorXd::Zero(p);
-  theta0.head<3>() = o.prior_field_N_uT;
+  if (!o.field_free) theta0.head<3>() = o.prior_field_N_uT;
   fit.rms_prior_uT = RmsPerAxis(pr, use, theta0);
 
   // Pass 1 at a nominal noise, pass 2 at the measured one with outliers dropped, pass 3 final.

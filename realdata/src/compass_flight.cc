@@ -65,6 +65,35 @@ struct Inputs {
   bool use_current = false;
 };
 
+// The log's motor count (meta motor_count, else its motor_i_u columns), at least 1.
+int MotorCount(const logs::FlightLog& log) {
+  int motors = 0;
+  while (log.Has(fmt::format("motor_{}_u", motors + 1))) ++motors;
+  if (log.meta.is_object() && log.meta.contains("motor_count") && log.meta["motor_count"].is_number()) {
+    motors = log.meta["motor_count"].get<int>();
+  }
+  return std::max(motors, 1);
+}
+
+// Samples inside a flight window whose current says the motors were not carrying the vehicle (under
+// min_current_per_motor_A per motor, the import's own bound: no multirotor hovers on less) are
+// ground samples: a window's hysteresis can hold a log's first seconds with the motors stopped
+// (ArduCopter log_0041: 2.1 s at 0 A before the motors spin). Such samples sit at zero current on
+// the ground, where the local field is not the airborne one, and lever the current term.
+std::vector<size_t> Airborne(const std::vector<size_t>& pick, const std::vector<magnetics::FlightFitSample>& s,
+                             double min_current_A, int* dropped) {
+  std::vector<size_t> out;
+  out.reserve(pick.size());
+  for (size_t k = 0; k < pick.size(); ++k) {
+    if (std::isfinite(s[k].current_A) && s[k].current_A < min_current_A) {
+      ++*dropped;
+      continue;
+    }
+    out.push_back(pick[k]);
+  }
+  return out;
+}
+
 // Whether the log's current can drive the fit; the reason where not.
 std::string CurrentUnusable(const logs::FlightLog& log, const FlightWindows& w, const CompassFlightOptions& o) {
   if (log.meta.is_object() && log.meta.contains("current_usable") && log.meta["current_usable"].is_boolean() &&
@@ -79,12 +108,7 @@ std::string CurrentUnusable(const logs::FlightLog& log, const FlightWindows& w, 
     if (w.row_kind[i] == RowKind::kFlight && std::isfinite(c[i])) flight.push_back(c[i]);
   }
   if (flight.empty()) return "no current logged in flight";
-  int motors = 0;
-  while (log.Has(fmt::format("motor_{}_u", motors + 1))) ++motors;
-  if (log.meta.is_object() && log.meta.contains("motor_count") && log.meta["motor_count"].is_number()) {
-    motors = log.meta["motor_count"].get<int>();
-  }
-  motors = std::max(motors, 1);
+  const int motors = MotorCount(log);
   const double med = Median(flight);
   if (!(med >= o.min_current_per_motor_A * motors)) {
     return fmt::format("current sensor unusable: flight median {:.2f} A under {:.1f} A per motor over {} motors", med,
@@ -215,7 +239,8 @@ magnetics::MotorCompensationInLog MotorCompensationOf(const logs::FlightLog& log
 }
 
 std::string TimingNote(const CompassFlight& f) {
-  std::string s = f.latency.ok() ? fmt::format("compass latency {:.0f} ms [{:.0f}, {:.0f}] {}", 1000 * f.latency.value_s,
+  std::string s = f.options.field_free ? "no place and date (no GPS fix): Earth field fitted freely, without the WMM prior; " : "";
+  s += f.latency.ok() ? fmt::format("compass latency {:.0f} ms [{:.0f}, {:.0f}] {}", 1000 * f.latency.value_s,
                                                1000 * f.latency.ci95_s[0], 1000 * f.latency.ci95_s[1],
                                                f.latency_applied ? "applied" : "not applied (not resolved from 0 or implausible)")
                                  : std::string("compass latency not scanned");
@@ -268,18 +293,21 @@ Result<CompassFlight> FitCompassInFlight(const logs::FlightLog& log, const logs:
   if (in.q_wxyz.size() != in.field.size() || in.t_s.size() != in.field.size() || !log.Has("t_s")) {
     return Status::BadInput("--method flight: the input has no attitude (it needs a flight log: FlightLog CSV, .bin or .ulg)");
   }
-  if (!in.has_place) {
-    return Status::BadInput("--method flight: the log has no place and date for the Earth field (no GPS fix in its meta)");
-  }
   if (!(std::fabs(in.body_from_raw.determinant()) > 1e-6)) {
     return Status::BadInput("--method flight: the log's compass matrix is singular");
   }
-  auto wmm = magnetics::EvaluateWmm({in.lat_deg, in.lon_deg, in.alt_m}, in.decimal_year, /*allow_extrapolation=*/true);
-  if (!wmm.ok()) return wmm.status();
   CompassFlight out;
   out.options = o.fit;
-  out.options.prior_field_N_uT = wmm->B_N_uT;
-  const std::vector<size_t> pick = Pick(in, w, o.fit.min_samples, o.max_tilt_deg, &out);
+  if (in.has_place) {
+    auto wmm = magnetics::EvaluateWmm({in.lat_deg, in.lon_deg, in.alt_m}, in.decimal_year, /*allow_extrapolation=*/true);
+    if (!wmm.ok()) return wmm.status();
+    out.options.prior_field_N_uT = wmm->B_N_uT;
+  } else {
+    // No GPS fix: the model's Earth-field terms are fitted freely (flight_fit.h field_free).
+    out.options.field_free = true;
+    out.options.prior_field_N_uT.setZero();
+  }
+  std::vector<size_t> pick = Pick(in, w, o.fit.min_samples, o.max_tilt_deg, &out);
   if (pick.size() < 2) return Status::BadInput(fmt::format("flight fit: {} usable samples, needs {}", pick.size(), o.fit.min_samples));
   const double span_s = in.t_s[pick.back()] - in.t_s[pick.front()];
   out.options.block_s = std::min(o.fit.block_s, std::max(o.min_block_s, span_s / (2.0 * o.fit.min_blocks)));
@@ -305,6 +333,16 @@ Result<CompassFlight> FitCompassInFlight(const logs::FlightLog& log, const logs:
     out.current_shift_s = AppliedCurrentShift_s(out.staleness);
   }
   std::vector<magnetics::FlightFitSample> s = Build(in, pick, x, 0.0, out.current_shift_s);
+  if (x.use_current && out.flight_only) {
+    pick = Airborne(pick, s, o.min_current_per_motor_A * MotorCount(log), &out.not_airborne);
+    if (out.not_airborne > 0) {
+      s = Build(in, pick, x, 0.0, out.current_shift_s);
+      out.windows_note += fmt::format("; {} sample(s) under {:.1f} A ({:.1f} A per motor: motors not carrying the vehicle) "
+                                      "left out", out.not_airborne, o.min_current_per_motor_A * MotorCount(log),
+                                      o.min_current_per_motor_A);
+    }
+    if (pick.size() < 2) return Status::BadInput(fmt::format("flight fit: {} airborne samples, needs {}", pick.size(), o.fit.min_samples));
+  }
   if (o.scan_latency && static_cast<int>(pick.size()) >= o.fit.min_samples) {
     magnetics::FlightFitOptions trial = out.options;
     trial.intervals = false;

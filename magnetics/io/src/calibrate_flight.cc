@@ -20,14 +20,15 @@ using Eigen::Vector3d;
 
 using internal::Vec;
 
-// ArduPilot's most relaxed onboard-calibration fitness (COMPASS_CAL_FIT 32 mG, "relaxed"): the RMS
-// of |calibrated| − |field|. Beyond it the fit is reported but rejected (exit 1).
-constexpr double kMaxFitness_uT = 3.2;
+// The acceptance gate (flight_fit.h, shared with gap's parameter files): beyond kMaxFlightFitness_uT
+// the fit is reported but rejected (exit 1).
+constexpr double kMaxFitness_uT = kMaxFlightFitness_uT;
 
 }  // namespace
 
 bool UsesFlightPath(const std::vector<MagSample>& samples, const CalibrateRequest& rq) {
-  return rq.flight.has_attitude && rq.flight.has_place && rq.flight.prepared.has_value() && !HasTurntableColumns(samples);
+  // Without a place the prepared fit has fitted the Earth field freely (flight_fit.h field_free).
+  return rq.flight.has_attitude && rq.flight.prepared.has_value() && !HasTurntableColumns(samples);
 }
 
 namespace {
@@ -88,9 +89,6 @@ Result<CalibrateOutcome> FlightPath(CalibrateOutcome out, const std::vector<MagS
   if (!fc.has_attitude) {
     return Status::BadInput("--method flight: the input has no attitude (it needs a flight log: FlightLog CSV, .bin or .ulg)");
   }
-  if (!fc.has_place) {
-    return Status::BadInput("--method flight: the log has no place and date for the Earth field (no GPS fix in its meta)");
-  }
   if (!fc.prepared) return Status::BadInput("--method flight: the log's rows are needed (windows and timing)");
   const PreparedFlightFit& pf = *fc.prepared;
   const FlightFit* fit = &pf.fit;
@@ -117,25 +115,26 @@ Result<CalibrateOutcome> FlightPath(CalibrateOutcome out, const std::vector<MagS
   const Vector3d d = fo.term_applied ? fit->term_uT : Vector3d::Zero();
   const bool throttle = fit->form == FlightTermForm::kThrottle;
   std::vector<Vector3d> after;
-  double ss = 0.0;
-  int n = 0;
   for (size_t k = 0; k < pf.index.size(); ++k) {
     const double r = throttle ? pf.samples[k].throttle : pf.samples[k].current_A;
-    const Vector3d c = f.Correct(out.raw_uT[pf.index[k]]) - d * (std::isfinite(r) ? r : 0.0);
-    after.push_back(c);
-    const double e = c.norm() - f.radius_uT;
-    ss += e * e;
-    ++n;
+    after.push_back(f.Correct(out.raw_uT[pf.index[k]]) - d * (std::isfinite(r) ? r : 0.0));
   }
   f.norm_spread_after = NormSpread(after);
-  f.fitness_uT = n > 0 ? std::sqrt(ss / n) : 0.0;
+  f.fitness_uT = FlightFitness_uT(*fit, pf.samples, fo.term_applied);
+  const bool free_field = pf.options.field_free;
   const double wmm_norm = prior->norm();
-  const double norm_diff = f.radius_uT / wmm_norm - 1.0;
+  const double norm_diff = free_field ? std::nan("") : f.radius_uT / wmm_norm - 1.0;
+  if (free_field) {
+    f.warnings.push_back(fmt::format("no place and date (no GPS fix): Earth field fitted freely, {:.1f} uT{}", f.radius_uT,
+                                     plausibility::IsPlausible("earth_field_norm", f.radius_uT)
+                                         ? ""
+                                         : fmt::format(", outside {}: model mismatch", plausibility::RangeText("earth_field_norm"))));
+  }
   if (!plausibility::IsPlausible("compass_offset", f.offset_uT.norm())) {
     f.warnings.push_back(fmt::format("offset {:.1f} uT outside {}: model mismatch", f.offset_uT.norm(),
                                      plausibility::RangeText("compass_offset")));
   }
-  if (std::fabs(norm_diff) > 0.1) {
+  if (!free_field && std::fabs(norm_diff) > 0.1) {
     f.warnings.push_back(fmt::format("fitted Earth field {:.1f} uT is {:+.1f} % from WMM's {:.1f} uT: a gain error, a local "
                                      "anomaly or a wrong place/date",
                                      f.radius_uT, 100 * norm_diff, wmm_norm));

@@ -26,6 +26,10 @@ struct CompassTerms {
   // Offset b in the raw reading (calibrated = M·(raw − b)), uT, and its 95 % half-widths.
   Eigen::Vector3d offset_uT = Eigen::Vector3d::Zero(), offset_ci_half_uT = Eigen::Vector3d::Zero();
   bool offset_plausible = true;  // plausibility row compass_offset
+  // calibrate's acceptance gate (flight_fit.h kMaxFlightFitness_uT, the offset plausible): a compass it
+  // rejects gets no parameters in gap's calib.parm/.params either.
+  double fitness_uT = 0.0;
+  bool gate_accepted = true;
   Eigen::Vector3d field_N_uT = Eigen::Vector3d::Zero(), field_ci_half_uT = Eigen::Vector3d::Zero();
   Eigen::Vector3d wmm_field_N_uT = Eigen::Vector3d::Zero();
   // The disturbance term d (body frame, per unit of the form's regressor) and |d| with its interval.

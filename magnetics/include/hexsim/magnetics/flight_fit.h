@@ -50,6 +50,13 @@ struct FlightFitSample {
 };
 
 enum class FlightTermForm { kCurrent, kThrottle };
+
+constexpr int kFlightFitUnknowns = 9;     // B_N (3), c (3), d (3)
+constexpr int kEquationsPerUnknown = 10;  // see FlightFitOptions::min_samples
+constexpr int kEquationsPerSample = 3;
+constexpr int MinFlightFitSamples() {
+  return (kEquationsPerUnknown * kFlightFitUnknowns + kEquationsPerSample - 1) / kEquationsPerSample;
+}
 const char* FlightTermFormName(FlightTermForm form);  // "current", "throttle"
 const char* FlightTermUnit(FlightTermForm form);      // "uT/A", "uT/throttle"
 
@@ -57,6 +64,11 @@ struct FlightFitOptions {
   Eigen::Vector3d prior_field_N_uT = Eigen::Vector3d::Zero();  // WMM at the log's place and date
   double prior_sigma_uT = 2.0;        // per axis: WMM's own error is ~0.2 µT; local anomalies and a
                                       // reference yaw error of a few degrees move the field by ~1-2 µT
+  // No place and date (a log without a GPS fix): B_N is fitted freely, without the WMM prior (the
+  // attitude's yaw turns separate it from c); prior_field_N_uT is then unused and rms_prior_uT is
+  // the residual with no field model at all. Physical range of |B_N|: the Earth's 22-67 µT
+  // (plausibility row earth_field_norm); outside it the fit is a model mismatch.
+  bool field_free = false;
   double block_s = 10.0;              // cluster length for the intervals
   FlightTermForm form = FlightTermForm::kCurrent;
   double min_current_span_A = 3.0;    // the 5-95 % current span needed to fit d
@@ -65,7 +77,14 @@ struct FlightFitOptions {
   double min_throttle_span = 0.05;
   bool intervals = true;              // false: point estimates only (the latency scan's trial fits)
   double outlier_sigma = 6.0;         // residual norm beyond this many robust σ: dropped
-  int min_samples = 60;
+  // The minimums follow from the model and the interval method, not from a logging rate. The model
+  // has kFlightFitUnknowns = 9 unknowns (B_N, c, d) and each sample gives 3 equations; it asks for
+  // kEquationsPerUnknown = 10 equations per unknown (the usual rule for a least-squares fit whose
+  // parameters are read one by one and whose residual also sets the outlier test): 30 samples, the
+  // same 30 s of a PX4 log's 1 Hz sensor_mag as 3 s at 10 Hz. The jackknife needs min_blocks blocks:
+  // its Student-t at 6 − 1 = 5 degrees of freedom (2.57) widens the interval by a third over the
+  // normal 1.96; fewer blocks widen it faster (t(3) = 3.18) than a short log can afford.
+  int min_samples = MinFlightFitSamples();
   int min_blocks = 6;
 };
 
@@ -98,6 +117,13 @@ struct FlightFit {
   // The model's prediction at a sample (d·r only where the sample has a regressor value).
   Eigen::Vector3d Predict(const FlightFitSample& s) const;
 };
+
+// The acceptance gate of an in-flight fit, one for `calibrate --method flight` and `gap diagnose`'s
+// parameter files: ArduPilot's most relaxed onboard-calibration fitness (COMPASS_CAL_FIT 32 mG,
+// "relaxed"), the RMS over the fitted samples of |calibrated| − |B_N|, calibrated = y − c − d·r (d
+// only when `apply_term`).
+constexpr double kMaxFlightFitness_uT = 3.2;
+double FlightFitness_uT(const FlightFit& fit, const std::vector<FlightFitSample>& samples, bool apply_term);
 
 // BadInput: too few samples or blocks (the message names the minimum), non-finite input.
 // Numerical: a singular normal matrix (the attitude never changed).

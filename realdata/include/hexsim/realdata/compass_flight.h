@@ -4,7 +4,9 @@
 // the same numbers.
 //
 //   windows    the log's flight windows (windows.h) when they hold enough samples, else every sample;
-//              samples tilted beyond max_tilt_deg are left out (a flip or a crashed vehicle).
+//              samples tilted beyond max_tilt_deg are left out (a flip or a crashed vehicle), and,
+//              where the current is used, samples whose current is under min_current_per_motor_A per
+//              motor (motors stopped: on the ground, whatever a window's hysteresis says).
 //   staleness  the logged current trails the throttle by its logging staleness S (CurrentStaleness:
 //              StalenessScan of the current's own samples against control_u over the flight rows);
 //              applied as the scan's point estimate, at least 0, when it is resolved inside its
@@ -71,11 +73,13 @@ struct CompassFlight {
   bool flight_only = false;
   std::string windows_note;
   int tilted = 0, outside = 0;
+  int not_airborne = 0;  // flight-window samples at a current under min_current_per_motor_A per motor
 };
 
 // `in` is the compass's input (logs::MagInputFromFlightLog / ReadMagInput: raw readings, the
 // autopilot's matrix, place and date); `log` the same flight as a FlightLog. BadInput: no attitude,
-// no place, too few samples (the model's own minimum, named); Numerical: a singular fit.
+// too few samples (the model's own minimum, named); Numerical: a singular fit. Without a place and
+// date the Earth field is fitted freely (FlightFitOptions::field_free) and TimingNote says so.
 Result<CompassFlight> FitCompassInFlight(const logs::FlightLog& log, const logs::MagInput& in, const FlightWindows& windows,
                                          const CompassFlightOptions& options = {});
 
