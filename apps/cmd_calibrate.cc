@@ -97,6 +97,19 @@ void PrintFlight(const magnetics::FlightOutcome& fo) {
                 10 * fit.term_norm_uT, throttle ? "mG per unit throttle" : "mG/A", 10 * fit.term_norm_ci95[0],
                 10 * fit.term_norm_ci95[1], state);
   }
+  if (throttle) {
+    const double slope = std::fabs(fo.in.current_per_throttle_A);
+    if (std::isfinite(slope) && slope > 0) {
+      std::printf("current equivalent: %.1f mG/A [%.1f, %.1f] through the log's current-vs-throttle slope %.1f A per unit "
+                  "throttle\n",
+                  10 * fit.term_norm_uT / slope, 10 * fit.term_norm_ci95[0] / slope, 10 * fit.term_norm_ci95[1] / slope,
+                  fo.in.current_per_throttle_A);
+    } else {
+      std::printf("current equivalent: none (%s)\n",
+                  fo.in.current_note.empty() ? "no current-vs-throttle slope in the log"
+                                             : ("the current is unusable: " + fo.in.current_note).c_str());
+    }
+  }
   std::printf("parameters: %s\n", fo.motor_params_note.c_str());
 }
 

@@ -18,34 +18,47 @@ namespace {
 // moves the split faster than the rows resolve it).
 constexpr double kMaxCurrentStep_A = 2.0;
 
-// A PX4 log's raw sensor_mag is in the sensor's own frame; PX4 takes it to the body frame with its
-// calibration's R·S (meta compasses[].px4_calibration, ulog_import.h). Identity for every other log
-// (ArduPilot and calibrated PX4 topics log the body-frame field).
-Eigen::Matrix3d BodyFromLogged(const nlohmann::json& meta, const std::string& pre) {
+// A PX4 log's raw sensor_mag is in the sensor's own frame and holds its hard iron; PX4 calibrates it
+// as R·S·(raw − off) (meta compasses[].px4_calibration, ulog_import.h; the power compensation, when
+// CAL_MAG_COMP_TYP is set, is left in). gap reads every real log as the autopilot's calibrated field,
+// so the raw column is calibrated the same way. Identity and zero for every other log (ArduPilot and
+// calibrated PX4 topics log the calibrated body-frame field).
+struct LoggedToCalibrated {
   Eigen::Matrix3d M = Eigen::Matrix3d::Identity();
-  if (!meta.is_object() || !meta.contains("compasses") || !meta["compasses"].is_array()) return M;
+  Vec3 off_uT = Vec3::Zero();
+};
+
+LoggedToCalibrated Px4Calibration(const nlohmann::json& meta, const std::string& pre) {
+  constexpr double kMicroteslaPerGauss = 100.0;
+  LoggedToCalibrated out;
+  if (!meta.is_object() || !meta.contains("compasses") || !meta["compasses"].is_array()) return out;
   for (const auto& c : meta["compasses"]) {
     if (!c.is_object() || c.value("column", "") != pre || c.value("frame", "") != "raw" || !c.contains("px4_calibration")) continue;
     const auto& p = c["px4_calibration"];
-    if (!p.is_object() || !p.value("rotation_known", false) || !p.contains("rotation_matrix")) continue;
-    const auto& r = p["rotation_matrix"];
-    const auto& d = p["scales"];
-    const auto& o = p["offdiagonals"];
-    if (!r.is_array() || r.size() != 9 || !d.is_array() || d.size() != 3 || !o.is_array() || o.size() != 3) continue;
+    if (!p.is_object() || !p.value("rotation_known", false)) continue;
+    const auto& r = p.value("rotation_matrix", nlohmann::json());
+    const auto& d = p.value("scales", nlohmann::json());
+    const auto& o = p.value("offdiagonals", nlohmann::json());
+    const auto& f = p.value("offsets_G", nlohmann::json());
+    if (!r.is_array() || r.size() != 9 || !d.is_array() || d.size() != 3 || !o.is_array() || o.size() != 3 ||
+        !f.is_array() || f.size() != 3) {
+      continue;
+    }
     Eigen::Matrix3d R, S;
     for (size_t k = 0; k < 9; ++k) R(static_cast<int>(k / 3), static_cast<int>(k % 3)) = r[k].get<double>();
     S << d[0].get<double>(), o[0].get<double>(), o[1].get<double>(), o[0].get<double>(), d[1].get<double>(),
         o[2].get<double>(), o[1].get<double>(), o[2].get<double>(), d[2].get<double>();
-    if (R.allFinite() && S.allFinite()) M = R * S;
+    const Vec3 off = kMicroteslaPerGauss * Vec3(f[0].get<double>(), f[1].get<double>(), f[2].get<double>());
+    if (R.allFinite() && S.allFinite() && off.allFinite()) out = {R * S, off};
   }
-  return M;
+  return out;
 }
 
 // New compass samples: where the time stamp (or, without one, the value) changes; the autopilot's
 // logged per-sample motor compensation is subtracted where the log has it; a PX4 raw reading is
-// taken to the body frame (BodyFromLogged).
+// calibrated as PX4 does (Px4Calibration).
 std::vector<CompassSample> NewSamples(const logs::FlightLog& log, const std::string& pre, bool* undone) {
-  const Eigen::Matrix3d to_body = BodyFromLogged(log.meta, pre);
+  const LoggedToCalibrated cal = Px4Calibration(log.meta, pre);
   const auto& t_row = log.Column("t_s");
   const auto& mx = log.Column(pre + "_x_uT");
   const auto& my = log.Column(pre + "_y_uT");
@@ -74,7 +87,7 @@ std::vector<CompassSample> NewSamples(const logs::FlightLog& log, const std::str
       const Vec3 o((*ox)[i], (*oy)[i], (*oz)[i]);
       if (o.allFinite()) m -= o;  // logged = M·(raw + offsets) + motor offsets
     }
-    out.push_back({tm, Vec3(to_body * m), static_cast<int>(i)});
+    out.push_back({tm, Vec3(cal.M * (m - cal.off_uT)), static_cast<int>(i)});
   }
   return out;
 }

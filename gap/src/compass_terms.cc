@@ -121,6 +121,19 @@ Result<CompassTerms> FitCompassTerms(const logs::FlightLog& log, const vehicle::
   return t;
 }
 
+std::string CurrentEquivalentRefusal(const Result<CompassTerms>& terms, double v) {
+  if (!terms.ok()) return "the in-flight model did not fit (" + terms.status().message() + ")";
+  if (terms->form != "current") return "the current is unusable (" + terms->current_note + ")";
+  if (!terms->term_fitted) return "the in-flight model fitted no current term (" + terms->term_note + ")";
+  if (v < terms->term_norm_ci95_uT[0] || v > terms->term_norm_ci95_uT[1]) {
+    const double k = kMilligaussPerMicrotesla;
+    return fmt::format("its current equivalent {:.1f} mG/A lies outside the in-flight model's current term {:.1f} [{:.1f}, "
+                       "{:.1f}] mG/A on the same log: the field follows the throttle, not the current",
+                       k * v, k * terms->term_norm_uT, k * terms->term_norm_ci95_uT[0], k * terms->term_norm_ci95_uT[1]);
+  }
+  return "";
+}
+
 nlohmann::json CompassTermsJson(const CompassTerms& t) {
   const double k = kMilligaussPerMicrotesla;
   nlohmann::json j = {{"model", "in-flight compass model (magnetics/flight_fit.h), as hexsim calibrate --method flight"},

@@ -20,6 +20,14 @@ namespace hexsim::gap::internal {
 Result<CompassTerms> FitCompassTerms(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c,
                                      const std::string& name, const realdata::FlightWindows& windows, uint64_t seed);
 
+// Why a throttle-driven field's current equivalent (|d|/(dI/du), µT/A) must not be printed, empty
+// when it may: a throttle field is a current field only where the current carries it, so the
+// equivalent is kept where the log's current is usable (the model fitted the current form) and it
+// lies inside the model's own current term's 95 % interval, the same log fitted directly on the
+// current. ArduCopter log_0036's external compass: 3.7 mG/A through the slope against 0.8 [0.5,
+// 1.0] mG/A on the current: a field that follows the throttle, not the current.
+std::string CurrentEquivalentRefusal(const Result<CompassTerms>& terms, double equivalent_uT_per_A);
+
 nlohmann::json CompassTermsJson(const CompassTerms& terms);
 // "absolute (as hexsim calibrate): current field 6.5 mG/A [5.3, 7.7] ...; vehicle file 0.3 mG/A: gap ...".
 std::string CompassTermsText(const CompassTerms& terms);

@@ -60,29 +60,13 @@ void AddCurrentEquivalent(const ChannelData& ch, CandidateResult* r) {
   r->ci95["current_equivalent_uT_per_A"] = {r->magnitude_ci95[0] / std::fabs(slope_A), r->magnitude_ci95[1] / std::fabs(slope_A)};
 }
 
-// A throttle-driven field is a current field only where the current carries it: its current equivalent
-// is kept where the log's current is usable (the in-flight model fitted it in current form) and the
-// equivalent lies inside the model's own current term's 95 % interval, the same log fitted directly
-// on the current. Otherwise the equivalent is removed (the effect stays in its throttle unit) and a
-// finding says why: a field that follows the throttle but not the current (ArduCopter log_0036's
-// external compass: 3.7 mG/A through the slope, 0.8 [0.5, 1.0] mG/A on the current) is not a motor-
-// current effect, and converting it would print a current effect nobody measured.
+// A throttle effect's current equivalent is kept only where the in-flight model says the current
+// carries it (internal::CurrentEquivalentRefusal); otherwise it is removed (the effect stays in its
+// throttle unit) and, for a selected effect, a finding says why.
 void GateCurrentEquivalent(const Result<CompassTerms>& terms, CandidateResult* k, std::vector<std::string>* findings) {
   const auto eq = k->params.find("current_equivalent_uT_per_A");
   if (eq == k->params.end()) return;
-  const double v = eq->second;
-  std::string why;
-  if (!terms.ok()) {
-    why = "the in-flight model did not fit (" + terms.status().message() + ")";
-  } else if (terms->form != "current") {
-    why = "the current is unusable (" + terms->current_note + ")";
-  } else if (!terms->term_fitted) {
-    why = "the in-flight model fitted no current term (" + terms->term_note + ")";
-  } else if (v < terms->term_norm_ci95_uT[0] || v > terms->term_norm_ci95_uT[1]) {
-    why = fmt::format("its current equivalent {:.1f} mG/A lies outside the in-flight model's current term {:.1f} [{:.1f}, "
-                      "{:.1f}] mG/A on the same log: the field follows the throttle, not the current",
-                      10 * v, 10 * terms->term_norm_uT, 10 * terms->term_norm_ci95_uT[0], 10 * terms->term_norm_ci95_uT[1]);
-  }
+  const std::string why = internal::CurrentEquivalentRefusal(terms, eq->second);
   if (why.empty()) return;
   k->params.erase("current_equivalent_uT_per_A");
   k->ci95.erase("current_equivalent_uT_per_A");

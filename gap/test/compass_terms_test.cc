@@ -111,5 +111,24 @@ TEST(CompassTerms, GivenAFitCalibratesGateRejects_WhenParametersAreWritten_ThenT
   EXPECT_NE(both.parm.find("mag2: no parameters: fitness"), std::string::npos) << both.parm;
 }
 
+// A throttle effect's current equivalent only where the current carries it: inside the model's own
+// current term (log171 MAG2: 6.5 [5.3, 7.7] mG/A), never outside it, never on an unusable current.
+TEST(CompassTerms, GivenAThrottleEffectsCurrentEquivalent_WhenChecked_ThenItIsKeptOnlyInsideTheModelsCurrentTerm) {
+  const realdata::FlightWindows w = realdata::FindFlightWindows(Log171().log);
+  auto t = internal::FitCompassTerms(Log171().log, Log171().vehicle, 1, "mag2", w, 1);
+  ASSERT_TRUE(t.ok()) << t.status().message();
+  ASSERT_EQ(t->form, "current");
+  EXPECT_EQ(internal::CurrentEquivalentRefusal(t, t->term_norm_uT), "");
+  const std::string outside = internal::CurrentEquivalentRefusal(t, 0.5 * t->term_norm_ci95_uT[0]);
+  EXPECT_NE(outside.find("follows the throttle, not the current"), std::string::npos) << outside;
+  logs::FlightLog unusable = Log171().log;
+  unusable.meta["current_usable"] = false;
+  unusable.meta["current_unusable_why"] = "test: no power monitor";
+  auto u = internal::FitCompassTerms(unusable, Log171().vehicle, 1, "mag2", w, 1);
+  ASSERT_TRUE(u.ok()) << u.status().message();
+  const std::string why = internal::CurrentEquivalentRefusal(u, t->term_norm_uT);
+  EXPECT_NE(why.find("current is unusable"), std::string::npos) << why;
+}
+
 }  // namespace
 }  // namespace hexsim::gap

@@ -55,6 +55,17 @@ nlohmann::json TermReport(const FlightFit& fit, const PreparedFlightFit& pf, Fli
     cur["uT_per_throttle"] = Vec(fit.term_uT);
     cur["norm_mG_per_throttle"] = 10 * fit.term_norm_uT;
     cur["norm_ci95_mG_per_throttle"] = {10 * fit.term_norm_ci95[0], 10 * fit.term_norm_ci95[1]};
+    // A throttle term's current equivalent only through the log's own current-vs-throttle slope, and
+    // only where the current is usable (realdata::CompassFlight::current_per_throttle_A, NaN otherwise).
+    const double slope = std::fabs(pf.current_per_throttle_A);
+    if (fit.term_fitted && std::isfinite(slope) && slope > 0) {
+      cur["current_equivalent_mG_per_A"] = 10 * fit.term_norm_uT / slope;
+      cur["current_equivalent_ci95_mG_per_A"] = {10 * fit.term_norm_ci95[0] / slope, 10 * fit.term_norm_ci95[1] / slope};
+      cur["current_per_throttle_A"] = pf.current_per_throttle_A;
+    } else {
+      cur["current_equivalent_note"] = pf.current_note.empty() ? "no current-vs-throttle slope in the log"
+                                                               : "none: the current is unusable (" + pf.current_note + ")";
+    }
   } else {
     cur["current_span_A"] = fit.regressor_span;
     cur["uT_per_A"] = Vec(fit.term_uT);
