@@ -278,6 +278,8 @@ TEST(CalibrateCli, GivenTheRealArduPilotLog_WhenAuto_ThenTheFlightFitFindsMag2sC
   EXPECT_NE(r.out.find("not resolved from zero"), std::string::npos) << r.out;
 }
 
+// Without a place the Earth field is fitted freely (flight_fit.h field_free), which needs the attitude
+// to change; this log never turns, so nothing tells the field from the offset.
 TEST(CalibrateCli, GivenAFlightLogWithoutAPlace_WhenMethodFlight_ThenExit2SaysWhatIsMissing) {
   const fs::path d = Dir("noplace");
   {

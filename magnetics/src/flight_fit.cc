@@ -5,6 +5,7 @@
 #include <map>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 
 #include "hexsim/common/format.h"
@@ -226,6 +227,21 @@ void FillIntervals(const MatrixXd& cov, int p, FlightFit* fit) {
   fit->term_norm_ci95[1] = fit->term_norm_uT + h;
 }
 
+// Whether the attitudes differ at all: the free Earth field (field_free) is told from the offset only
+// through R_NBᵀ·B_N changing with the attitude. The smallest eigenvalue of the attitudes' spread,
+// mean (R − R̄)ᵀ(R − R̄), is zero when every attitude is the same; anything above rounding (1e-9)
+// lets the fit try, and the jackknife interval says how well the field was separated.
+bool AttitudeVaries(const std::vector<FlightFitSample>& samples) {
+  Matrix3d mean = Matrix3d::Zero();
+  for (const auto& s : samples) mean += s.R_NB;
+  mean /= static_cast<double>(samples.size());
+  Matrix3d spread = Matrix3d::Zero();
+  for (const auto& s : samples) spread += (s.R_NB - mean).transpose() * (s.R_NB - mean);
+  spread /= static_cast<double>(samples.size());
+  const Eigen::SelfAdjointEigenSolver<Matrix3d> eig(spread);
+  return eig.eigenvalues()(0) > 1e-9;
+}
+
 }  // namespace
 
 const char* FlightTermFormName(FlightTermForm form) { return form == FlightTermForm::kCurrent ? "current" : "throttle"; }
@@ -262,6 +278,10 @@ Result<FlightFit> FitFlightCompass(const std::vector<FlightFitSample>& samples, 
   }
   if (!o.prior_field_N_uT.allFinite() || !(o.prior_sigma_uT > 0.0) || !(o.block_s > 0.0)) {
     return Status::BadInput("flight fit: prior field, prior sigma and block length must be finite and positive");
+  }
+  if (o.field_free && !AttitudeVaries(samples)) {
+    return Status::BadInput("flight fit: no place and date for the Earth field (no GPS fix) and an attitude that never "
+                            "changes: the field cannot be told from the offset");
   }
   FlightFit fit;
   fit.form = o.form;
