@@ -29,6 +29,17 @@ void Attitude(ULogWriter* w) {
   }
 }
 
+// The attitude and 20 raw sensor_mag samples of device 9 (0.2, 0, 0.4 G) from t = 1.05 s.
+void AttitudeAndRawMag(ULogWriter* w) {
+  Attitude(w);
+  w->Format("sensor_mag:uint64_t timestamp;uint32_t device_id;float x;float y;float z;");
+  const uint16_t mag = w->Subscribe("sensor_mag", 0);
+  for (int k = 0; k < 20; ++k) {
+    w->Data(mag, Pack<uint64_t>(1050000 + 100000ull * static_cast<uint64_t>(k)) + Pack<uint32_t>(9) + Pack(0.2f) +
+                     Pack(0.0f) + Pack(0.4f));
+  }
+}
+
 double ArmedAt(const FlightLog& log, double t) {
   const auto& ts = log.Column("t_s");
   for (size_t r = 0; r < ts.size(); ++r) {
@@ -147,13 +158,7 @@ TEST(ULogPx4State, GivenRawSensorMagOfARotatedExternalCompass_WhenRead_ThenItsRo
   w.ParamInt("CAL_MAG0_ID", 9);
   w.ParamInt("CAL_MAG0_ROT", 10);  // roll 180, yaw 90
   w.Param("CAL_MAG0_XSCALE", 1.1f);
-  Attitude(&w);
-  w.Format("sensor_mag:uint64_t timestamp;uint32_t device_id;float x;float y;float z;");
-  const uint16_t mag = w.Subscribe("sensor_mag", 0);
-  for (int k = 0; k < 20; ++k) {
-    w.Data(mag, Pack<uint64_t>(1050000 + 100000ull * static_cast<uint64_t>(k)) + Pack<uint32_t>(9) + Pack(0.2f) +
-                    Pack(0.0f) + Pack(0.4f));
-  }
+  AttitudeAndRawMag(&w);
   auto r = ImportULog(w.bytes(), "rot.ulg");
   ASSERT_TRUE(r.ok()) << r.status().message();
   const auto& c = r->log.meta["compasses"][0]["px4_calibration"];
@@ -305,13 +310,7 @@ TEST(ULogPx4State, GivenTheDeviceIdInTwoSlots_WhenImported_ThenTheFirstSlotCalib
     w.Param(std::string("CAL_MAG0_") + axes[k] + "OFF", 0.1f * static_cast<float>(k + 1));
     w.Param(std::string("CAL_MAG1_") + axes[k] + "OFF", 0.0f);
   }
-  Attitude(&w);
-  w.Format("sensor_mag:uint64_t timestamp;uint32_t device_id;float x;float y;float z;");
-  const uint16_t mag = w.Subscribe("sensor_mag", 0);
-  for (int k = 0; k < 20; ++k) {
-    w.Data(mag, Pack<uint64_t>(1050000 + 100000ull * static_cast<uint64_t>(k)) + Pack<uint32_t>(9) + Pack(0.2f) +
-                    Pack(0.0f) + Pack(0.4f));
-  }
+  AttitudeAndRawMag(&w);
   auto r = ImportULog(w.bytes(), "twice.ulg");
   ASSERT_TRUE(r.ok()) << r.status().message();
   const auto& c = r->log.meta["compasses"][0]["px4_calibration"];
