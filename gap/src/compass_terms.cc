@@ -121,7 +121,8 @@ Result<CompassTerms> FitCompassTerms(const logs::FlightLog& log, const vehicle::
   return t;
 }
 
-std::string CurrentEquivalentRefusal(const Result<CompassTerms>& terms, double v) {
+std::string CurrentEquivalentRefusal(const Result<CompassTerms>& terms, double equivalent_uT_per_A) {
+  const double v = equivalent_uT_per_A;
   if (!terms.ok()) return "the in-flight model did not fit (" + terms.status().message() + ")";
   if (terms->form != "current") return "the current is unusable (" + terms->current_note + ")";
   if (!terms->term_fitted) return "the in-flight model fitted no current term (" + terms->term_note + ")";

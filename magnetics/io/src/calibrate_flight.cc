@@ -128,7 +128,7 @@ Result<CalibrateOutcome> FlightPath(CalibrateOutcome out, const std::vector<MagS
   std::vector<Vector3d> after;
   for (size_t k = 0; k < pf.index.size(); ++k) {
     const double r = throttle ? pf.samples[k].throttle : pf.samples[k].current_A;
-    after.push_back(f.Correct(out.raw_uT[pf.index[k]]) - d * (std::isfinite(r) ? r : 0.0));
+    after.emplace_back(f.Correct(out.raw_uT[pf.index[k]]) - d * (std::isfinite(r) ? r : 0.0));
   }
   f.norm_spread_after = NormSpread(after);
   f.fitness_uT = FlightFitness_uT(*fit, pf.samples, fo.term_applied);
