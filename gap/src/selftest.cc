@@ -19,10 +19,7 @@
 namespace hexsim::gap {
 namespace {
 
-Eigen::Vector3d RandomUnit(RngStream* rng) {
-  Eigen::Vector3d v = rng->Normal3(1.0);
-  return v / std::max(1e-12, v.norm());
-}
+using internal::RandomUnit;
 
 // A short battery-current segment next to point p whose field there is d_B (µT per ampere).
 magnetics::WireSegment SegmentWithField(const Eigen::Vector3d& p, const Eigen::Vector3d& d_B, const std::string& name) {

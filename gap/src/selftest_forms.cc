@@ -10,11 +10,6 @@
 namespace hexsim::gap::internal {
 namespace {
 
-Vec3 RandomUnit(RngStream* rng) {
-  Vec3 v = rng->Normal3(1.0);
-  return v / std::max(1e-12, v.norm());
-}
-
 // The value below which a share q of the finite entries of v lie (0 when none is finite).
 double Quantile(const std::vector<double>& v, double q) {
   std::vector<double> s;

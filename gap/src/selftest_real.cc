@@ -20,12 +20,12 @@
 #include "hexsim/common/rotation.h"
 
 namespace hexsim::gap::internal {
-namespace {
-
 Vec3 RandomUnit(RngStream* rng) {
   Vec3 v = rng->Normal3(1.0);
   return v / std::max(1e-12, v.norm());
 }
+
+namespace {
 
 // Index of the last row at or before tq (rows ascending).
 size_t RowAt(const std::vector<double>& t, double tq) {

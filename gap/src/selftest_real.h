@@ -19,6 +19,9 @@ struct RealLogTruth {
   double scale = 0.0;             // its field-norm error
 };
 
+// A direction drawn uniformly on the unit sphere.
+Vec3 RandomUnit(RngStream* rng);
+
 // A form injected into a trial log that no library candidate has by its name. `named_right`: the
 // verdicts that name it right (the library effect it is a form of); an honest "not confident"
 // (unexplained, ambiguous, partial, or its leftover reported) is right for every form, and the only

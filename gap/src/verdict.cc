@@ -16,6 +16,32 @@ namespace {
 
 std::string Percent(double x) { return fmt::format("{:.0f} %", 100 * x); }
 
+// The reported model's fitted field per sample, X_k·β (its candidate part, the baseline excluded);
+// empty where the model has none.
+std::vector<Vec3> ModelField(const Evaluated& model) {
+  if (!model.cand || !model.full.ok || model.cand->p() == 0) return {};
+  const Candidate& c = *model.cand;
+  const Eigen::VectorXd beta = model.full.beta.segment(model.off, c.p());
+  std::vector<Vec3> f(c.X.size());
+  for (size_t k = 0; k < f.size(); ++k) f[k] = c.X[k] * beta;
+  return f;
+}
+
+// Does `extra` hold a part the reported model leaves? Significant over the model by its
+// cluster-robust Wald test at alpha, and material: it removes at least the materiality share of the
+// noise floor's power (in sample). gain: that share of the noise floor's power.
+bool LeavesPart(const Analyzer& an, const Evaluated& model, const Candidate& extra, double noise_var, const DiagnoseOptions& o,
+                double* gain) {
+  *gain = 0.0;
+  if (!model.cand || !model.full.ok || extra.p() == 0 || !(noise_var > 0)) return false;
+  const Candidate& c = *model.cand;
+  const Evaluated ej = an.Evaluate(Join(c, extra));
+  if (!ej.full.ok || ej.cov.size() == 0) return false;
+  const double p = WaldP(ej.full.beta, ej.cov, Range(ej.off + c.p(), ej.off + c.p() + extra.p()), an.G());
+  *gain = std::max(0.0, model.full.sse - ej.full.sse) / an.total_n() / noise_var;
+  return p < o.alpha && *gain >= o.materiality;
+}
+
 // Ramsey's RESET for the reported model: the model's own fitted field f_k = X_k·β (its candidate
 // part, the baseline excluded) enters once more as f_k·|f_k| / rms|f|, one coefficient. A right
 // form leaves nothing that grows with the square of what it predicts; a linear form fitted to a
@@ -24,27 +50,15 @@ std::string Percent(double x) { return fmt::format("{:.0f} %", 100 * x); }
 // of the noise floor's power. One coefficient along the model's own prediction, so manoeuvre
 // transients of a 10 Hz replay (spread over every direction) hardly load on it.
 std::string ResetFinding(const Analyzer& an, const Evaluated& model, double noise_var, const DiagnoseOptions& o) {
-  if (!model.cand || !model.full.ok) return "";
-  const Candidate& c = *model.cand;
-  const size_t n = c.X.size();
-  if (n == 0 || c.p() == 0) return "";
-  const Eigen::VectorXd beta = model.full.beta.segment(model.off, c.p());
-  std::vector<Vec3> f(n);
+  const std::vector<Vec3> f = ModelField(model);
   double ms = 0;
-  for (size_t k = 0; k < n; ++k) {
-    f[k] = c.X[k] * beta;
-    ms += f[k].squaredNorm() / static_cast<double>(n);
-  }
+  for (const Vec3& v : f) ms += v.squaredNorm() / static_cast<double>(f.size());
   if (!(ms > 0)) return "";
   const double rms = std::sqrt(ms);
   Candidate reset = MakeCandidate("reset", {"f_abs_f"}, {1.0}, "");
-  for (size_t k = 0; k < n; ++k) reset.X.emplace_back(Mat3X(f[k] * (f[k].norm() / rms)));
-  const Evaluated ej = an.Evaluate(Join(c, reset));
-  if (!ej.full.ok || ej.cov.size() == 0) return "";
-  const int idx = ej.off + c.p();
-  const double p = WaldP(ej.full.beta, ej.cov, {idx}, an.G());
-  const double gain_ms = std::max(0.0, model.full.sse - ej.full.sse) / an.total_n();
-  if (p < o.alpha && gain_ms >= o.materiality * noise_var) {
+  for (const Vec3& v : f) reset.X.emplace_back(Mat3X(v * (v.norm() / rms)));
+  double gain = 0;
+  if (LeavesPart(an, model, reset, noise_var, o, &gain)) {
     return "a part that grows with the square of what the model predicts (a power law or a saturation, not its linear form)";
   }
   return "";
@@ -54,9 +68,9 @@ std::string ResetFinding(const Analyzer& an, const Evaluated& model, double nois
 // proportion to it (a saturation, a power law, a regime) leaves a part along the model's own field
 // direction that bends with what drives it; a linear model cannot show that, so its fit looks
 // confident. Regressors: along the direction d holding most of the model's fitted field, hinges
-// max(0, x − q)/sd(x) at the terciles q of x, for x = the current and the throttle (two knots each:
-// kShapeKnots; the model's own regressor is one of them or a power of one). Significant by the cluster-robust Wald test at alpha
-// over the model, and material as RESET. Only where the model's field keeps one direction (at least
+// max(0, x − q)/sd(x) at the quantiles q of x in kShapeKnots, for x = the current and the throttle
+// (the model's own regressor is one of them or a power of one; the low knots hold a saturation's
+// bend). Significant by the cluster-robust Wald test at alpha over the model, and material as RESET. Only where the model's field keeps one direction (at least
 // kShapeDirectionShare of its power): a field matrix or a misalignment turns with the attitude.
 constexpr double kShapeKnots[3] = {0.1, 0.3, 0.6};
 // One direction of a current- or throttle-driven field holds all of its power; 0.9 leaves room for
@@ -88,37 +102,23 @@ void AddHinges(const std::vector<double>& x, const Vec3& d, Candidate* c) {
 
 std::string ShapeFinding(const ChannelData& ch, const Analyzer& an, const Evaluated& model, double noise_var,
                          const DiagnoseOptions& o) {
-  if (!model.cand || !model.full.ok) return "";
-  const Candidate& c = *model.cand;
-  const size_t n = c.X.size();
-  if (n == 0 || c.p() == 0) return "";
-  const Eigen::VectorXd beta = model.full.beta.segment(model.off, c.p());
-  std::vector<Vec3> f(n);
+  const std::vector<Vec3> f = ModelField(model);
   Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
-  for (size_t k = 0; k < n; ++k) {
-    f[k] = c.X[k] * beta;
-    S += f[k] * f[k].transpose();
-  }
+  for (const Vec3& v : f) S += v * v.transpose();
+  if (f.empty() || !(S.trace() > 0)) return "";
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(S);
-  if (eig.info() != Eigen::Success || !(S.trace() > 0)) return "";
-  if (eig.eigenvalues()(2) < kShapeDirectionShare * S.trace()) return "";
+  if (eig.info() != Eigen::Success || eig.eigenvalues()(2) < kShapeDirectionShare * S.trace()) return "";
   const Vec3 d = eig.eigenvectors().col(2);
   Candidate shape = MakeCandidate("shape", {}, {}, "");
-  shape.X.assign(n, Mat3X(3, 0));
-  if (ch.current_A.size() == n) AddHinges(ch.current_A, d, &shape);
-  if (ch.throttle.size() == n) AddHinges(ch.throttle, d, &shape);
-  if (shape.p() == 0) return "";
-  const Evaluated ej = an.Evaluate(Join(c, shape));
-  if (!ej.full.ok || ej.cov.size() == 0) return "";
-  const double p = WaldP(ej.full.beta, ej.cov, Range(ej.off + c.p(), ej.off + c.p() + shape.p()), an.G());
-  const double gain_ms = std::max(0.0, model.full.sse - ej.full.sse) / an.total_n();
-  if (p < o.alpha && gain_ms >= o.materiality * noise_var) {
-    return fmt::format("a part along the model's field that bends with the current or the throttle ({:.0f} % of the noise "
-                       "floor's power): the field is not in proportion to what drives it (a saturation, a power law or a "
-                       "regime)",
-                       100 * gain_ms / noise_var);
-  }
-  return "";
+  shape.X.assign(f.size(), Mat3X(3, 0));
+  if (ch.current_A.size() == f.size()) AddHinges(ch.current_A, d, &shape);
+  if (ch.throttle.size() == f.size()) AddHinges(ch.throttle, d, &shape);
+  double gain = 0;
+  if (!LeavesPart(an, model, shape, noise_var, o, &gain)) return "";
+  return fmt::format("a part along the model's field that bends with the current or the throttle ({:.0f} % of the noise "
+                     "floor's power): the field is not in proportion to what drives it (a saturation, a power law or a "
+                     "regime)",
+                     100 * gain);
 }
 
 // A static per-axis scale, r_i = s_i·h_i (h the predicted field in the sensor frame), built from the
