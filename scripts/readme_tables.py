@@ -142,13 +142,23 @@ def selftest(path, machine, date):
                        f"{pct(one.get('coverage_95'))}, {one_last}",
          ", ".join([target(t, "single_top1"), target(t, "coverage"),
                     target(t, "median_explained_share" if share else "median_shrink")])),
-        ("two effects", f"top-1 {pct(two.get('top1_rate'))}; overall top-1 {pct(j.get('overall_top1_rate'))}",
+        ("two effects", f"top-1 {pct(two.get('top1_rate'))}; overall top-1 {pct(j.get('overall_top1_rate'))}"
+                        + (f"; both in effects {pct(two['both_in_effects_rate'])}" if "both_in_effects_rate" in two else ""),
          "overall " + target(t, "overall_top1")),
         # Out of library: not read confidently (unexplained, ambiguous, partial, or leftover reported).
         (ool_label, f"not confident {pct(ool.get('not_confident_rate', ool.get('unexplained_rate')))}{ool_detail}",
          target(t, "not_confident", "unexplained")),
         ("detection threshold, current hard iron", thr_text, target(t, "current_hard_iron_threshold")),
     ]
+    # Forms beyond the library's names (real profile): right when named as the effect each is a form
+    # of, or not confident.
+    bl = c.get("beyond_library")
+    if bl:
+        forms = ", ".join(f"{e.replace('_', ' ')} {v.get('judged_right')}/{v['trials']} (named {v.get('named_right')})"
+                          for e, v in sorted(bl.get("per_family", {}).items()))
+        rows.insert(4, ("beyond library (forms of library effects)",
+                        f"right {pct(bl.get('judged_right_rate'))}, named right {pct(bl.get('named_right_rate'))} ({forms})",
+                        target(t, "beyond_library_judged_right")))
     # The dynamics channel's rows, where the profile runs that channel (it then has its targets).
     if dt:
         rows.append(("dynamics channel, clean logs", f"false alarms {pct(clean.get('dynamics_false_alarm_rate'))}",

@@ -65,6 +65,43 @@ std::string Quartile(int q) {
   return names[std::clamp(q, 0, 3)];
 }
 
+// The residual's RMS per quartile bin of a regime variable v (per sample); false when fewer than 40
+// samples carry v. ratio: the highest bin's RMS over the lowest's; hi_q: the highest bin.
+bool SplitByQuartile(const std::vector<double>& v, const std::vector<Vec3>& y, RegimeSplit* split, double* ratio, int* hi_q) {
+  std::vector<double> sorted;
+  for (double x : v) {
+    if (std::isfinite(x)) sorted.push_back(x);
+  }
+  if (sorted.size() < 40) return false;
+  std::sort(sorted.begin(), sorted.end());
+  double edges[3];
+  for (int q = 0; q < 3; ++q) edges[q] = sorted[(q + 1) * sorted.size() / 4];
+  double s[4] = {0, 0, 0, 0}, m[4] = {0, 0, 0, 0};
+  for (size_t k = 0; k < y.size(); ++k) {
+    if (!std::isfinite(v[k])) continue;
+    int q = 0;
+    while (q < 3 && v[k] > edges[q]) ++q;
+    s[q] += y[k].squaredNorm() / 3;
+    m[q] += 1;
+  }
+  double lo = 1e300, hi = 0;
+  *hi_q = 0;
+  for (int q = 0; q < 4; ++q) {
+    const double rms = m[q] > 0 ? std::sqrt(s[q] / m[q]) : 0.0;
+    split->bins.push_back({Quartile(q), rms, m[q]});
+    if (m[q] > 0) {
+      lo = std::min(lo, rms);
+      if (rms > hi) {
+        hi = rms;
+        *hi_q = q;
+      }
+    }
+  }
+  split->edges = {edges[0], edges[1], edges[2]};
+  *ratio = lo > 0 ? hi / lo : 0;
+  return true;
+}
+
 }  // namespace
 
 // Where: phase, regime bins and frequency band of the residual.
@@ -127,39 +164,11 @@ Where Locate(const ChannelData& ch, const std::vector<Vec3>& y, const logs::Flig
   std::string conc;
   double best_ratio = 0;
   for (const auto& [name, v] : regs) {
-    std::vector<double> sorted;
-    for (double x : v) {
-      if (std::isfinite(x)) sorted.push_back(x);
-    }
-    if (sorted.size() < 40) continue;
-    std::sort(sorted.begin(), sorted.end());
-    double edges[3];
-    for (int q = 0; q < 3; ++q) edges[q] = sorted[(q + 1) * sorted.size() / 4];
-    double s[4] = {0, 0, 0, 0}, m[4] = {0, 0, 0, 0};
-    for (size_t k = 0; k < n; ++k) {
-      if (!std::isfinite(v[k])) continue;
-      int q = 0;
-      while (q < 3 && v[k] > edges[q]) ++q;
-      s[q] += y[k].squaredNorm() / 3;
-      m[q] += 1;
-    }
-    RegimeSplit split;
-    double lo = 1e300, hi = 0;
+    double ratio = 0;
     int hi_q = 0;
-    for (int q = 0; q < 4; ++q) {
-      const double rms = m[q] > 0 ? std::sqrt(s[q] / m[q]) : 0.0;
-      split.bins.push_back({Quartile(q), rms, m[q]});
-      if (m[q] > 0) {
-        lo = std::min(lo, rms);
-        if (rms > hi) {
-          hi = rms;
-          hi_q = q;
-        }
-      }
-    }
-    split.edges = {edges[0], edges[1], edges[2]};
+    RegimeSplit split;
+    if (!SplitByQuartile(v, y, &split, &ratio, &hi_q)) continue;
     w.regime[name] = split;
-    const double ratio = lo > 0 ? hi / lo : 0;
     if (ratio > best_ratio) {
       best_ratio = ratio;
       conc = Quartile(hi_q) + " " + name;

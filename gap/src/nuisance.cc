@@ -52,6 +52,34 @@ CandidateResult Term(const std::string& effect, double value, double sd, double 
   return r;
 }
 
+// Exact ranges (the configured vehicle is the calibrated truth): a term is beyond its range when
+// significant, each at alpha/3 (Bonferroni over the three); the most significant is the one named.
+void JudgeExact(const Vec3& b, const Eigen::Matrix3d& Vb, const Vec3& d, const Eigen::Matrix3d& Vd, const Vec3& Bhat,
+                double s_along, double s_sd, int G, double alpha, NuisanceReport* out) {
+  NuisanceReport& nr = *out;
+  const double p_off = WaldSub(b, Vb, G);
+  Eigen::Matrix<double, 3, 2> E;
+  E.col(0) = Bhat.unitOrthogonal();
+  E.col(1) = Bhat.cross(E.col(0));
+  const Eigen::Vector2d dp = E.transpose() * d;
+  const double p_perp = WaldSub(dp, E.transpose() * Vd * E, G);
+  const double p_scale = s_sd > 0 ? 2 * NormalSf(std::fabs(s_along) / s_sd) : 1.0;
+  const double a = alpha / 3.0;  // Bonferroni over the three terms
+  double p_best = a;
+  if (p_off < a) nr.beyond_normal.emplace_back("hard_iron_offset");
+  if (p_perp < a) nr.beyond_normal.emplace_back("local_anomaly");
+  if (p_perp >= a && p_scale < a) nr.beyond_normal.emplace_back("scale_error");
+  if (p_off < p_best) {
+    p_best = p_off;
+    nr.out_of_range = "hard_iron_offset";
+  }
+  if (p_perp < p_best) {
+    p_best = p_perp;
+    nr.out_of_range = "local_anomaly";
+  }
+  if (p_perp >= a && p_scale < p_best) nr.out_of_range = "scale_error";
+}
+
 }  // namespace
 
 NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, const DiagnoseOptions& o) {
@@ -118,30 +146,14 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
   nr.terms.back().params["scale_minus_1"] = s_along;
   // Which term is out of its range.
   if (o.nuisance_ranges == "exact") {
-    const double p_off = WaldSub(b, Vb, G);
-    Eigen::Matrix<double, 3, 2> E;
-    E.col(0) = Bhat.unitOrthogonal();
-    E.col(1) = Bhat.cross(E.col(0));
-    const Eigen::Vector2d dp = E.transpose() * d;
-    const double p_perp = WaldSub(dp, E.transpose() * Vd * E, G);
-    const double p_scale = s_sd > 0 ? 2 * NormalSf(std::fabs(s_along) / s_sd) : 1.0;
-    const double a = o.alpha / 3.0;  // Bonferroni over the three terms
-    double p_best = a;
-    if (p_off < p_best) {
-      p_best = p_off;
-      nr.out_of_range = "hard_iron_offset";
-    }
-    if (p_perp < p_best) {
-      p_best = p_perp;
-      nr.out_of_range = "local_anomaly";
-    }
-    if (p_perp >= a && p_scale < p_best) nr.out_of_range = "scale_error";
+    JudgeExact(b, Vb, d, Vd, Bhat, s_along, s_sd, G, o.alpha, &nr);
   } else {
     const plausibility::PhysicalRange* off = plausibility::FindRange("hard_iron_offset");
     const plausibility::PhysicalRange* an = plausibility::FindRange("local_anomaly");
     const plausibility::PhysicalRange* sc = plausibility::FindRange("field_scale");
     if (b_norm - t975 * b_sd > off->normal_hi) {
       nr.out_of_range = "hard_iron_offset";
+      nr.beyond_normal.emplace_back("hard_iron_offset");
       nr.findings.push_back(fmt::format("{}: residual offset ({:.0f}, {:.0f}, {:.0f}) mG, beyond the normal {:.0f} mG: "
                                         "recalibrate the compass",
                                         ch.name, kMilliGaussPerMicroTesla * b.x(), kMilliGaussPerMicroTesla * b.y(),
@@ -161,6 +173,7 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
                                         100 * (scale - 1), plausibility::RangeText("field_scale")));
     } else if (scale_h < sc->normal_lo || scale_h > sc->normal_hi) {
       if (nr.out_of_range.empty() && !anomaly_out) nr.out_of_range = "scale_error";
+      if (!anomaly_out) nr.beyond_normal.emplace_back("scale_error");
       nr.findings.push_back(fmt::format("{}: fitted field {:.1f} % {} the WMM field (horizontal part; norm {:+.1f} %): "
                                         "recalibrate (scale) or check for a local anomaly",
                                         ch.name, 100 * std::fabs(s_along), s_along < 0 ? "below" : "above",
@@ -168,6 +181,7 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
     }
     if (anomaly_out) {
       if (nr.out_of_range.empty()) nr.out_of_range = "local_anomaly";
+      nr.beyond_normal.emplace_back("local_anomaly");
       nr.findings.push_back(fmt::format("{}: fitted field direction differs from WMM by {:.1f} uT ({:.1f} deg): a local "
                                         "anomaly, or a yaw misalignment of the compass",
                                         ch.name, perp_norm, std::atan2(perp_norm, Bn) * 57.29577951308232));

@@ -13,15 +13,13 @@
 #include "hexsim/magnetics/current_field.h"
 #include "hexsim/magnetics/wmm.h"
 #include "hexsim/sim/run_config.h"
+#include "selftest_plan.h"
 #include "selftest_real.h"
 
 namespace hexsim::gap {
 namespace {
 
-Eigen::Vector3d RandomUnit(RngStream* rng) {
-  Eigen::Vector3d v = rng->Normal3(1.0);
-  return v / std::max(1e-12, v.norm());
-}
+using internal::RandomUnit;
 
 // A short battery-current segment next to point p whose field there is d_B (µT per ampere).
 magnetics::WireSegment SegmentWithField(const Eigen::Vector3d& p, const Eigen::Vector3d& d_B, const std::string& name) {
@@ -236,25 +234,6 @@ Result<logs::FlightLog> FlyTrial(Trial* trial, RngStream* rng) {
 
 namespace {
 
-struct ClassStats {
-  int n = 0, top1 = 0, detected = 0, unexplained = 0, confident_wrong = 0, covered = 0, coverage_n = 0;
-  int any_compass_alarm = 0;
-  int all_in_effects = 0;  // two effects: both listed in `effects`
-  int dynamics_alarm = 0, dynamics_n = 0;  // clean logs: gap flagged on the dynamics channel
-  std::vector<double> shrink, share;
-  std::map<std::string, std::pair<int, int>> per_effect;  // effect → (top1, n)
-  std::map<std::string, std::pair<int, int>> per_effect_coverage;  // effect → (covered, n)
-  std::map<std::string, int> verdicts;                             // verdict → count
-  double Rate(int k) const { return n > 0 ? static_cast<double>(k) / n : 0.0; }
-  static double Median(std::vector<double> s) {
-    if (s.empty()) return 0.0;
-    std::nth_element(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(s.size() / 2), s.end());
-    return s[s.size() / 2];
-  }
-  double MedianShrink() const { return Median(shrink); }
-  double MedianShare() const { return Median(share); }
-};
-
 const ChannelResult* Find(const GapReport& r, const std::string& ch) {
   for (const auto& c : r.channels) {
     if (c.channel == ch) return &c;
@@ -262,204 +241,284 @@ const ChannelResult* Find(const GapReport& r, const std::string& ch) {
   return nullptr;
 }
 
+internal::SelftestPlan MakePlan(const SelftestOptions& options) {
+  internal::SelftestPlan p;
+  p.real = options.profile == "real";
+  p.o = options;
+  if (p.o.mission.empty()) p.o.mission = p.real ? "selftest_flight" : "square";
+  // The ideal profile's configured vehicle is the calibrated truth: any significant nuisance term
+  // is a finding; on real-profile logs the normal ranges apply.
+  p.o.diagnose.nuisance_ranges = p.real ? "normal" : "exact";
+  // The real profile reads the selftest compass only (the dynamics channel needs the simulator's row
+  // rate; gyro and accel have no targets), except on clean logs, where every compass is diagnosed
+  // for the any-compass false-alarm figure. The ideal profile diagnoses every channel.
+  p.channel = fmt::format("mag{}", kSelftestCompass + 1);
+  p.selftest_only = p.o.diagnose;
+  p.every_compass = p.o.diagnose;
+  if (p.real) {
+    p.selftest_only.channels = {p.channel};
+    p.every_compass.channels = {"mag"};
+    for (size_t c = 1; c < 8; ++c) p.every_compass.channels.push_back(fmt::format("mag{}", c + 1));
+  }
+  p.effects = p.real ? &RealInjectableEffects() : &InjectableEffects();
+  // The dynamics channel needs the simulator's row rate: the real profile does not run it. The forms
+  // beyond the library's names are real-profile logs (their sensors fail as a real log's do).
+  p.classes = {"clean", "one_effect", "two_effects", "out_of_library"};
+  if (!p.real) p.classes.emplace_back("dynamics_one_effect");
+  p.threshold_grid = {0.002, 0.005, 0.01, 0.02, 0.05, 0.1};
+  for (const std::string& c : p.classes) p.segments.push_back({c, p.o.trials});
+  p.segments.push_back({"threshold", static_cast<int>(p.threshold_grid.size()) * p.o.threshold_trials});
+  if (p.real) {
+    p.classes.emplace_back("beyond_library");
+    p.segments.push_back({"beyond_library", p.o.trials});
+  }
+  return p;
+}
+
+// The truth of the nuisance-like effects corrected by the log's own nuisance terms. The logged
+// compass is (1 + s)·(sensor reading) + b: every effect the sensor reads reaches the log through its
+// field-norm error s too (no diagnosis can tell a sensor's scale from the size of a field it
+// reads), so the truth of each effect is what the log holds.
+Status CorrectTruth(const internal::RealLogTruth& lt, Trial* trial) {
+  trial->compass_latency_s = lt.latency_s;
+  const auto& ct = trial->truth.vehicle.compasses[kSelftestCompass].error;
+  const auto& cc = trial->configured.compasses[kSelftestCompass].error;
+  const auto& w = trial->truth.world;
+  auto wmm = magnetics::EvaluateWmm({w.home_lat_deg, w.home_lon_deg, w.home_alt_m}, w.date_decimal_year, true);
+  if (!wmm.ok()) return wmm.status();
+  for (size_t i = 0; i < trial->injections.size(); ++i) {
+    const std::string& e = trial->injections[i].effect;
+    double& tm = trial->true_magnitude[i];
+    if (e == "hard_iron_offset") {
+      tm = ((1 + lt.scale) * (ct.hard_iron_uT - cc.hard_iron_uT) + lt.scale * cc.hard_iron_uT + lt.offset_uT).norm();
+    } else if (e == "scale_error") {
+      tm = (1 + trial->injections[i].magnitude) * (1 + lt.scale) - 1;
+    } else if (e == "local_anomaly") {
+      // The fitted field's difference from WMM: (1 + s)·(B + a) − B.
+      tm = ((1 + lt.scale) * (wmm->B_N_uT + w.anomaly_N_uT) - wmm->B_N_uT).norm();
+    } else if (e == "current_hard_iron" || e == "current_soft_iron" || e == "throttle_hard_iron" || e == "temperature_drift") {
+      tm *= 1 + lt.scale;
+    } else if (e == "unmodelled_latency") {
+      // The log's latency is the measured one; the vehicle models it less the withheld part.
+      trial->compass_latency_s = std::max(0.0, lt.latency_s - trial->injections[i].magnitude);
+      tm = lt.latency_s;
+    }
+  }
+  return Status::Ok();
+}
+
+// What a trial injects besides its effects: an out-of-library family or a form beyond the library.
+struct LogInjection {
+  std::string family, form;
+  internal::FormTruth form_truth;
+};
+
+// Flies a trial; on the real profile adds the log-level form, degrades the log as a real autopilot
+// logs it and corrects the truth of the nuisance-like effects.
+Result<logs::FlightLog> FlyAsLogged(const internal::SelftestPlan& p, Trial* trial, LogInjection* li, RngStream* rng) {
+  auto log = FlyTrial(trial, rng);
+  if (!log.ok() || !p.real) return log;
+  if (!li->family.empty()) HEXSIM_RETURN_IF_ERROR(internal::InjectOutOfLibrary(&*log, kSelftestCompass, li->family, rng));
+  if (!li->form.empty()) {
+    auto ft = internal::InjectBeyondLibrary(&*log, kSelftestCompass, li->form, rng);
+    if (!ft.ok()) return ft.status();
+    li->form_truth = *ft;
+  }
+  internal::RealLogTruth lt;
+  auto deg = internal::DegradeToRealLog(*log, trial->configured, rng, &lt);
+  if (!deg.ok()) return deg.status();
+  HEXSIM_RETURN_IF_ERROR(CorrectTruth(lt, trial));
+  return deg;
+}
+
+Result<nlohmann::json> ThresholdTrial(const internal::SelftestPlan& p, size_t index, int k, RngStream* rng) {
+  const double m = p.threshold_grid[static_cast<size_t>(k / p.o.threshold_trials)];
+  auto trial = MakeTrial(p.o, p.o.seed * 100003 + index + 1, {{"current_hard_iron", m}}, rng);
+  if (!trial.ok()) return trial.status();
+  LogInjection none;
+  auto log = FlyAsLogged(p, &*trial, &none, rng);
+  if (!log.ok()) return log.status();
+  DiagnoseOptions opt = p.selftest_only;
+  opt.compass_latency_s = trial->compass_latency_s;
+  auto rep = Diagnose(*log, trial->configured, opt);
+  if (!rep.ok()) return rep.status();
+  const ChannelResult* r = Find(*rep, p.channel);
+  return nlohmann::json{{"flagged", r && r->gap_detected}, {"magnitude", trial->true_magnitude[0]},
+                        {"verdict", r ? r->verdict : std::string("not diagnosed")}};
+}
+
+// The withheld effects of trial k of class c, and its log-level form.
+std::vector<Injection> DrawInjections(const internal::SelftestPlan& p, const std::string& c, int k, RngStream* rng,
+                                      LogInjection* li) {
+  const auto& effects = *p.effects;
+  std::vector<Injection> inj;
+  auto draw = [&](size_t e_index) {
+    const EffectRange& e = effects[e_index];
+    double m = e.lo + (e.hi - e.lo) * rng->Uniform();
+    if (e.signed_magnitude && rng->Uniform() < 0.5) m = -m;
+    return Injection{e.effect, m};
+  };
+  if (c == "one_effect") {
+    inj.push_back(draw(static_cast<size_t>(k) % effects.size()));
+  } else if (c == "dynamics_one_effect") {
+    const auto& dyn = InjectableDynamicsEffects();
+    const EffectRange& e = dyn[static_cast<size_t>(k) % dyn.size()];
+    inj.push_back({e.effect, e.lo + (e.hi - e.lo) * rng->Uniform()});
+  } else if (c == "two_effects") {
+    const size_t a = static_cast<size_t>(rng->Uniform() * static_cast<double>(effects.size()));
+    size_t b = static_cast<size_t>(rng->Uniform() * static_cast<double>(effects.size() - 1));
+    if (b >= a) ++b;
+    inj.push_back(draw(a));
+    inj.push_back(draw(b));
+  } else if (c == "out_of_library" && p.real) {
+    const auto& fams = internal::OutOfLibraryFamilies();
+    li->family = fams[static_cast<size_t>(rng->Uniform() * static_cast<double>(fams.size())) % fams.size()].name;
+  } else if (c == "out_of_library") {
+    if (k % 2 == 0) inj.push_back({"current_exponent", 0.3 + 0.5 * rng->Uniform()});
+    else inj.push_back({"thermal_ramp", 2.0 + 4.0 * rng->Uniform()});
+  } else if (c == "beyond_library") {
+    const auto& forms = internal::BeyondLibraryForms();
+    li->form = forms[static_cast<size_t>(k) % forms.size()].name;
+  }
+  return inj;
+}
+
+// The reported candidates of the injected effects, and whether the injected form's interval holds
+// its truth (one effect).
+void ReportTruth(const std::vector<Injection>& inj, const Trial& trial, const ChannelResult& r, bool one, nlohmann::json* out) {
+  nlohmann::json reported = nlohmann::json::object();
+  for (const auto& cand : r.candidates) {
+    const bool injected = std::any_of(inj.begin(), inj.end(), [&](const Injection& x) { return TruthLabel(x.effect) == cand.effect; });
+    if (!injected) continue;
+    reported[cand.effect] = {{"magnitude", cand.magnitude}, {"ci95", {cand.magnitude_ci95[0], cand.magnitude_ci95[1]}},
+                             {"explained_share", cand.explained_share}, {"selected", cand.selected}};
+  }
+  (*out)["reported"] = reported;
+  if (!one) return;
+  // The true effect's held-out explained share (of the baseline residual), 0 when not reported.
+  const std::string label = TruthLabel(inj[0].effect);
+  double true_share = 0;
+  for (const auto& cand : r.candidates) {
+    if (cand.effect == label && (cand.selected || true_share == 0)) true_share = cand.explained_share;
+  }
+  (*out)["true_share"] = true_share;
+  for (const auto& cand : r.candidates) {
+    // The reported candidate of the injected form (the nuisance term for a uniform scale).
+    if (cand.effect != label || (inj[0].effect == "axis_scale_error" && cand.nuisance_term) ||
+        (inj[0].effect == "scale_error" && !cand.nuisance_term)) {
+      continue;
+    }
+    // The per-axis family reports the spread of the gains (≥ 0); every other form its signed size.
+    const double tm = inj[0].effect == "axis_scale_error" ? std::fabs(trial.true_magnitude[0]) : trial.true_magnitude[0];
+    (*out)["covered"].push_back(tm >= cand.magnitude_ci95[0] && tm <= cand.magnitude_ci95[1]);
+    break;
+  }
+}
+
+// A form's judgement: named right (the verdict is one of the names it is a form of), and right
+// (named right, or not confident); the lag candidate's fit beside a lagged form's truth.
+void JudgeForm(const std::string& name, const LogInjection& li, const ChannelResult& r, nlohmann::json* out) {
+  const internal::LogForm* form = internal::FindForm(name);
+  bool named = false;
+  if (form) named = std::find(form->named_right.begin(), form->named_right.end(), r.verdict) != form->named_right.end();
+  (*out)["named_right"] = named;
+  (*out)["judged_right"] = named || (*out)["not_confident"].get<bool>();
+  if (!std::isfinite(li.form_truth.lag_s)) return;
+  (*out)["true_lag_s"] = li.form_truth.lag_s;
+  for (const auto& cand : r.candidates) {
+    if (cand.effect != "current_lag" || name != "current_power_lag") continue;
+    (*out)["lag_fit"] = {{"tau_s", cand.magnitude}, {"ci95", {cand.magnitude_ci95[0], cand.magnitude_ci95[1]}},
+                         {"selected", cand.selected}, {"plausible", cand.plausible}};
+  }
+}
+
+// What the metrics need of a class trial.
+nlohmann::json Outcome(const std::string& c, const std::vector<Injection>& inj, const LogInjection& li, const Trial& trial,
+                       const GapReport& rep, const ChannelResult& r) {
+  nlohmann::json out = {{"family", li.family.empty() ? li.form : li.family},
+                        {"verdict", r.verdict},
+                        {"gap_detected", r.gap_detected},
+                        {"heldout_shrink", r.heldout_shrink},
+                        {"any_compass_alarm", false},
+                        {"effects", nlohmann::json::array()},
+                        {"labels", nlohmann::json::array()},
+                        {"covered", nlohmann::json::array()}};
+  for (const Injection& x : inj) out["effects"].push_back(x.effect);
+  for (const Injection& x : inj) out["labels"].push_back(TruthLabel(x.effect));
+  // Honest about an out-of-library form: not explained, ambiguous, partial, or the structure it
+  // leaves reported beside the headline (CONTRACTS.md: the leftover is never a veto).
+  bool left_reported = false;
+  for (const std::string& f : r.findings) left_reported = left_reported || f.find("structure no candidate describes") != std::string::npos;
+  out["left_reported"] = left_reported;
+  out["not_confident"] = r.verdict == "unexplained" || r.verdict == "ambiguous" || r.partial || left_reported;
+  if (!li.family.empty() || !li.form.empty()) JudgeForm(li.family.empty() ? li.form : li.family, li, r, &out);
+  int in_effects = 0;
+  for (const Injection& x : inj) {
+    for (const EffectShare& e : r.effects) in_effects += e.effect == TruthLabel(x.effect) ? 1 : 0;
+  }
+  out["all_in_effects"] = in_effects >= static_cast<int>(inj.size()) && !inj.empty();
+  // The trial as it came out (reported under "trials"): the truth beside what was reported of it.
+  out["true_magnitude"] = trial.true_magnitude;
+  out["explained_share"] = r.explained_share;
+  std::string sel;
+  for (const auto& cand : r.candidates) {
+    if (cand.selected) sel += (sel.empty() ? "" : "+") + cand.effect;
+  }
+  out["selected"] = sel;
+  if (c == "clean") {
+    if (const ChannelResult* d = Find(rep, "dynamics")) out["dynamics_detected"] = d->gap_detected;
+  }
+  out["any_compass_alarm"] = std::any_of(rep.channels.begin(), rep.channels.end(),
+                                         [](const ChannelResult& cr) { return cr.unit == "uT" && cr.gap_detected; });
+  ReportTruth(inj, trial, r, c == "one_effect" || c == "dynamics_one_effect", &out);
+  return out;
+}
+
+Result<nlohmann::json> ClassTrial(const internal::SelftestPlan& p, size_t index, const std::string& c, int k, RngStream* rng) {
+  LogInjection li;
+  const std::vector<Injection> inj = DrawInjections(p, c, k, rng, &li);
+  auto trial = MakeTrial(p.o, p.o.seed * 100003 + index + 1, inj, rng);
+  if (!trial.ok()) return trial.status();
+  auto log = FlyAsLogged(p, &*trial, &li, rng);
+  if (!log.ok()) return log.status();
+  DiagnoseOptions opt = c == "clean" ? p.every_compass : p.selftest_only;
+  opt.compass_latency_s = trial->compass_latency_s;
+  auto rep = Diagnose(*log, trial->configured, opt);
+  if (!rep.ok()) return rep.status();
+  const std::string channel = c == "dynamics_one_effect" ? "dynamics" : p.channel;
+  const ChannelResult* r = Find(*rep, channel);
+  if (!r) return Status::Numerical("selftest: channel " + channel + " was not diagnosed");
+  return Outcome(c, inj, li, *trial, *rep, *r);
+}
+
 }  // namespace
+
+namespace internal {
+
+Slot Locate(const SelftestPlan& plan, size_t index) {
+  int i = static_cast<int>(index);
+  for (const Segment& s : plan.segments) {
+    if (i < s.trials) return {&s, i};
+    i -= s.trials;
+  }
+  return {};
+}
+
+}  // namespace internal
 
 Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progress)(int, int), const TrialRunner& runner) {
   if (options.trials < 1) return Status::BadInput("--trials: must be >= 1");
   if (options.profile != "real" && options.profile != "ideal") return Status::BadInput("--profile: expected real or ideal");
-  const bool real = options.profile == "real";
-  SelftestOptions o = options;
-  if (o.mission.empty()) o.mission = real ? "selftest_flight" : "square";
-  // The ideal profile's configured vehicle is the calibrated truth: any significant nuisance term
-  // is a finding; on real-profile logs the normal ranges apply.
-  o.diagnose.nuisance_ranges = real ? "normal" : "exact";
-  // The real profile reads the selftest compass only (the dynamics channel needs the simulator's row
-  // rate; gyro and accel have no targets), except on clean logs, where every compass is diagnosed
-  // for the any-compass false-alarm figure. The ideal profile diagnoses every channel.
-  DiagnoseOptions selftest_only = o.diagnose, every_compass = o.diagnose;
-  if (real) {
-    selftest_only.channels = {fmt::format("mag{}", kSelftestCompass + 1)};
-    every_compass.channels = {"mag"};
-    for (size_t c = 1; c < 8; ++c) every_compass.channels.push_back(fmt::format("mag{}", c + 1));
-  }
-  const auto& effects = real ? RealInjectableEffects() : InjectableEffects();
-  const std::string ch_name = fmt::format("mag{}", kSelftestCompass + 1);
-  const auto& dyn_effects = InjectableDynamicsEffects();
-  // The dynamics channel needs the simulator's row rate: the real profile does not run it.
-  const std::vector<const char*> classes =
-      real ? std::vector<const char*>{"clean", "one_effect", "two_effects", "out_of_library"}
-           : std::vector<const char*>{"clean", "one_effect", "two_effects", "out_of_library", "dynamics_one_effect"};
-  const int kClasses = static_cast<int>(classes.size());
-  // Flies a trial; on the real profile degrades its log and corrects the truth of the nuisance-like
-  // effects by the log's own nuisance terms.
-  auto fly = [&](Trial* trial, const std::string& ool_family, RngStream* rng) -> Result<logs::FlightLog> {
-    auto log = FlyTrial(trial, rng);
-    if (!log.ok() || !real) return log;
-    if (!ool_family.empty()) HEXSIM_RETURN_IF_ERROR(internal::InjectOutOfLibrary(&*log, kSelftestCompass, ool_family, rng));
-    internal::RealLogTruth lt;
-    auto deg = internal::DegradeToRealLog(*log, trial->configured, rng, &lt);
-    if (!deg.ok()) return deg.status();
-    trial->compass_latency_s = lt.latency_s;
-    const auto& ct = trial->truth.vehicle.compasses[kSelftestCompass].error;
-    const auto& cc = trial->configured.compasses[kSelftestCompass].error;
-    // The logged compass is (1 + s)·(sensor reading) + b: every effect the sensor reads reaches the
-    // log through its field-norm error s too (no diagnosis can tell a sensor's scale from the size
-    // of a field it reads), so the truth of each effect is what the log holds.
-    const auto& w = trial->truth.world;
-    auto wmm = magnetics::EvaluateWmm({w.home_lat_deg, w.home_lon_deg, w.home_alt_m}, w.date_decimal_year, true);
-    if (!wmm.ok()) return wmm.status();
-    for (size_t i = 0; i < trial->injections.size(); ++i) {
-      const std::string& e = trial->injections[i].effect;
-      double& tm = trial->true_magnitude[i];
-      if (e == "hard_iron_offset") {
-        tm = ((1 + lt.scale) * (ct.hard_iron_uT - cc.hard_iron_uT) + lt.scale * cc.hard_iron_uT + lt.offset_uT).norm();
-      } else if (e == "scale_error") {
-        tm = (1 + trial->injections[i].magnitude) * (1 + lt.scale) - 1;
-      } else if (e == "local_anomaly") {
-        // The fitted field's difference from WMM: (1 + s)·(B + a) − B.
-        tm = ((1 + lt.scale) * (wmm->B_N_uT + w.anomaly_N_uT) - wmm->B_N_uT).norm();
-      } else if (e == "current_hard_iron" || e == "current_soft_iron" || e == "throttle_hard_iron" ||
-                 e == "temperature_drift") {
-        tm *= 1 + lt.scale;
-      } else if (e == "unmodelled_latency") {
-        // The log's latency is the measured one; the vehicle models it less the withheld part.
-        trial->compass_latency_s = std::max(0.0, lt.latency_s - trial->injections[i].magnitude);
-        tm = lt.latency_s;
-      }
-    }
-    return deg;
-  };
-  std::vector<double> threshold_grid = {0.002, 0.005, 0.01, 0.02, 0.05, 0.1};
-  const int threshold_runs = static_cast<int>(threshold_grid.size()) * o.threshold_trials;
-  const int total = kClasses * o.trials + threshold_runs;
-  // Every trial is independent (trial i: simulator seed seed·100003 + i + 1, its own random stream
-  // "gap_selftest/i"), so the runner may run them in any order or in parallel; the metrics are
-  // accumulated afterwards in trial order. Trials [0, classes·trials) are the classes' (class-major),
-  // the rest the detection-threshold sweep (magnitude-major).
-  auto run_trial = [&](size_t index) -> Result<nlohmann::json> {
-    const int i = static_cast<int>(index);
-    RngStream rng(o.seed, fmt::format("gap_selftest/{}", i));
-    const uint64_t run_seed = o.seed * 100003 + index + 1;
-    if (i >= kClasses * o.trials) {
-      const double m = threshold_grid[static_cast<size_t>((i - kClasses * o.trials) / o.threshold_trials)];
-      auto trial = MakeTrial(o, run_seed, {{"current_hard_iron", m}}, &rng);
-      if (!trial.ok()) return trial.status();
-      auto log = fly(&*trial, "", &rng);
-      if (!log.ok()) return log.status();
-      DiagnoseOptions opt = selftest_only;
-      opt.compass_latency_s = trial->compass_latency_s;
-      auto rep = Diagnose(*log, trial->configured, opt);
-      if (!rep.ok()) return rep.status();
-      const ChannelResult* r = Find(*rep, ch_name);
-      return nlohmann::json{{"flagged", r && r->gap_detected}, {"magnitude", trial->true_magnitude[0]},
-                            {"verdict", r ? r->verdict : std::string("not diagnosed")}};
-    }
-    const std::string c = classes[static_cast<size_t>(i / o.trials)];
-    const int k = i % o.trials;
-    std::vector<Injection> inj;
-    auto draw = [&](size_t e_index) {
-      const EffectRange& e = effects[e_index];
-      double m = e.lo + (e.hi - e.lo) * rng.Uniform();
-      if (e.signed_magnitude && rng.Uniform() < 0.5) m = -m;
-      return Injection{e.effect, m};
-    };
-    if (c == "one_effect") {
-      inj.push_back(draw(static_cast<size_t>(k) % effects.size()));
-    } else if (c == "dynamics_one_effect") {
-      const EffectRange& e = dyn_effects[static_cast<size_t>(k) % dyn_effects.size()];
-      inj.push_back({e.effect, e.lo + (e.hi - e.lo) * rng.Uniform()});
-    } else if (c == "two_effects") {
-      const size_t a = static_cast<size_t>(rng.Uniform() * effects.size());
-      size_t b = static_cast<size_t>(rng.Uniform() * (effects.size() - 1));
-      if (b >= a) ++b;
-      inj.push_back(draw(a));
-      inj.push_back(draw(b));
-    }
-    std::string family;
-    if (c == "out_of_library" && real) {
-      const auto& fams = internal::OutOfLibraryFamilies();
-      family = fams[static_cast<size_t>(rng.Uniform() * static_cast<double>(fams.size())) % fams.size()];
-    } else if (c == "out_of_library") {
-      if (k % 2 == 0) inj.push_back({"current_exponent", 0.3 + 0.5 * rng.Uniform()});
-      else inj.push_back({"thermal_ramp", 2.0 + 4.0 * rng.Uniform()});
-    }
-    auto trial = MakeTrial(o, run_seed, inj, &rng);
-    if (!trial.ok()) return trial.status();
-    auto log = fly(&*trial, family, &rng);
-    if (!log.ok()) return log.status();
-    DiagnoseOptions opt = c == "clean" ? every_compass : selftest_only;
-    opt.compass_latency_s = trial->compass_latency_s;
-    auto rep = Diagnose(*log, trial->configured, opt);
-    if (!rep.ok()) return rep.status();
-    const bool dyn_class = c == "dynamics_one_effect";
-    const std::string cls_channel = dyn_class ? "dynamics" : ch_name;
-    const ChannelResult* r = Find(*rep, cls_channel);
-    if (!r) return Status::Numerical("selftest: channel " + cls_channel + " was not diagnosed");
-    // What the metrics need of this trial.
-    nlohmann::json out = {{"family", family},           {"verdict", r->verdict},
-                          {"gap_detected", r->gap_detected}, {"heldout_shrink", r->heldout_shrink},
-                          {"any_compass_alarm", false},  {"effects", nlohmann::json::array()},
-                          {"covered", nlohmann::json::array()}};
-    for (const Injection& x : inj) out["effects"].push_back(x.effect);
-    out["labels"] = nlohmann::json::array();
-    for (const Injection& x : inj) out["labels"].push_back(TruthLabel(x.effect));
-    // Honest about an out-of-library form: not explained, ambiguous, partial, or the structure it
-    // leaves reported beside the headline (CONTRACTS.md: the leftover is never a veto).
-    bool left_reported = false;
-    for (const std::string& f : r->findings) left_reported = left_reported || f.find("structure no candidate describes") != std::string::npos;
-    out["not_confident"] = r->verdict == "unexplained" || r->verdict == "ambiguous" || r->partial || left_reported;
-    int in_effects = 0;
-    for (const Injection& x : inj) {
-      for (const EffectShare& e : r->effects) in_effects += e.effect == TruthLabel(x.effect) ? 1 : 0;
-    }
-    out["all_in_effects"] = in_effects >= static_cast<int>(inj.size()) && !inj.empty();
-    // The trial as it came out (reported under "trials"): the truth beside what was reported of it.
-    out["true_magnitude"] = trial->true_magnitude;
-    out["explained_share"] = r->explained_share;
-    nlohmann::json reported = nlohmann::json::object();
-    for (const auto& cand : r->candidates) {
-      if (std::find_if(inj.begin(), inj.end(), [&](const Injection& x) { return TruthLabel(x.effect) == cand.effect; }) ==
-          inj.end()) {
-        continue;
-      }
-      reported[cand.effect] = {{"magnitude", cand.magnitude}, {"ci95", {cand.magnitude_ci95[0], cand.magnitude_ci95[1]}},
-                               {"explained_share", cand.explained_share}, {"selected", cand.selected}};
-    }
-    out["reported"] = reported;
-    std::string sel;
-    for (const auto& cand : r->candidates) {
-      if (cand.selected) sel += (sel.empty() ? "" : "+") + cand.effect;
-    }
-    out["selected"] = sel;
-    if (c == "clean") {
-      if (const ChannelResult* d = Find(*rep, "dynamics")) out["dynamics_detected"] = d->gap_detected;
-    }
-    for (const auto& cr : rep->channels) {
-      if (cr.unit == "uT" && cr.gap_detected) {
-        out["any_compass_alarm"] = true;
-        break;
-      }
-    }
-    if (c == "one_effect" || dyn_class) {
-      // The true effect's held-out explained share (of the baseline residual), 0 when not reported.
-      double true_share = 0;
-      for (const auto& cand : r->candidates) {
-        if (cand.effect == TruthLabel(inj[0].effect) && (cand.selected || true_share == 0)) true_share = cand.explained_share;
-      }
-      out["true_share"] = true_share;
-      for (const auto& cand : r->candidates) {
-        // The reported candidate of the injected form (the nuisance term for a uniform scale).
-        if (cand.effect != TruthLabel(inj[0].effect) || (inj[0].effect == "axis_scale_error" && cand.nuisance_term) ||
-            (inj[0].effect == "scale_error" && !cand.nuisance_term)) {
-          continue;
-        }
-        // The per-axis family reports the spread of the gains (≥ 0); every other form its signed size.
-        const double tm = inj[0].effect == "axis_scale_error" ? std::fabs(trial->true_magnitude[0]) : trial->true_magnitude[0];
-        out["covered"].push_back(tm >= cand.magnitude_ci95[0] && tm <= cand.magnitude_ci95[1]);
-        break;
-      }
-    }
-    return out;
+  const internal::SelftestPlan plan = MakePlan(options);
+  const int total = plan.total();
+  // Every trial is independent (its own simulator seed and random stream, SelftestPlan), so the
+  // runner may run them in any order or in parallel; the metrics are summed in trial order.
+  auto run_trial = [&plan](size_t index) -> Result<nlohmann::json> {
+    RngStream rng(plan.o.seed, fmt::format("gap_selftest/{}", index));
+    const internal::Slot slot = internal::Locate(plan, index);
+    if (!slot.segment) return Status::Numerical("selftest: no trial " + std::to_string(index));
+    if (slot.segment->cls == "threshold") return ThresholdTrial(plan, index, slot.k, &rng);
+    return ClassTrial(plan, index, slot.segment->cls, slot.k, &rng);
   };
   int done = 0;
   auto serial = [&](size_t n, const TrialFn& one) -> Result<std::vector<nlohmann::json>> {
@@ -475,238 +534,7 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
   auto outcomes = runner ? runner(static_cast<size_t>(total), run_trial) : serial(static_cast<size_t>(total), run_trial);
   if (!outcomes.ok()) return outcomes.status();
   if (outcomes->size() != static_cast<size_t>(total)) return Status::Numerical("selftest: the runner lost trials");
-  std::map<std::string, ClassStats> stats;
-  size_t next = 0;
-  for (const char* cls : classes) {
-    ClassStats& st = stats[cls];
-    const std::string c = cls;
-    const bool dyn_class = c == "dynamics_one_effect";
-    for (int k = 0; k < o.trials; ++k) {
-      const nlohmann::json& out = (*outcomes)[next++];
-      const std::string verdict = out.at("verdict").get<std::string>();
-      const std::string family = out.at("family").get<std::string>();
-      const auto inj = out.at("effects").get<std::vector<std::string>>();
-      const auto labels = out.at("labels").get<std::vector<std::string>>();
-      if (!family.empty()) ++st.per_effect[family].second;
-      if (out.contains("dynamics_detected")) {
-        ++st.dynamics_n;
-        st.dynamics_alarm += out["dynamics_detected"].get<bool>();
-      }
-      ++st.n;
-      st.detected += out.at("gap_detected").get<bool>();
-      ++st.verdicts[verdict];
-      st.any_compass_alarm += out.at("any_compass_alarm").get<bool>();
-      const bool hit = std::find(labels.begin(), labels.end(), verdict) != labels.end();
-      if (c == "two_effects") st.all_in_effects += out.at("all_in_effects").get<bool>();
-      if (c == "one_effect" || c == "two_effects" || dyn_class) {
-        st.top1 += hit;
-        auto& pe = st.per_effect[c != "two_effects" ? inj[0] : inj[0] + "+" + inj[1]];
-        pe.first += hit;
-        pe.second += 1;
-      }
-      if (c == "one_effect" || dyn_class) {
-        st.shrink.push_back(out.at("heldout_shrink").get<double>());
-        st.share.push_back(out.at("true_share").get<double>());
-        for (const auto& in : out.at("covered")) {
-          ++st.coverage_n;
-          st.covered += in.get<bool>();
-          auto& pc = st.per_effect_coverage[inj[0]];
-          pc.first += in.get<bool>();
-          pc.second += 1;
-        }
-      }
-      if (c == "out_of_library") {
-        if (!family.empty()) st.per_effect[family].first += out.at("not_confident").get<bool>();
-        st.unexplained += out.at("not_confident").get<bool>();
-        st.confident_wrong += !out.at("not_confident").get<bool>();
-      }
-    }
-  }
-  // Detection threshold of current_hard_iron: the smallest magnitude flagged in ≥ 90 % of trials
-  // (and at every larger magnitude of the grid).
-  std::vector<double> flagged_rate;
-  for (size_t g = 0; g < threshold_grid.size(); ++g) {
-    int flagged = 0;
-    for (int k = 0; k < o.threshold_trials; ++k) flagged += (*outcomes)[next++].at("flagged").get<bool>();
-    flagged_rate.push_back(static_cast<double>(flagged) / o.threshold_trials);
-  }
-  double threshold = std::nan("");
-  for (size_t i = threshold_grid.size(); i-- > 0;) {
-    if (flagged_rate[i] >= 0.9) threshold = threshold_grid[i];
-    else break;
-  }
-
-  const ClassStats& clean = stats["clean"];
-  const ClassStats& one = stats["one_effect"];
-  const ClassStats& two = stats["two_effects"];
-  const ClassStats& ool = stats["out_of_library"];
-  const ClassStats& dyn = stats["dynamics_one_effect"];
-  const double dyn_top1 = dyn.Rate(dyn.top1);
-  const double dyn_coverage = dyn.coverage_n > 0 ? static_cast<double>(dyn.covered) / dyn.coverage_n : 0.0;
-  const double dyn_false_alarm =
-      clean.dynamics_n > 0 ? static_cast<double>(clean.dynamics_alarm) / clean.dynamics_n : 0.0;
-  const double single_top1 = one.Rate(one.top1);
-  const double overall_top1 = one.n + two.n > 0 ? static_cast<double>(one.top1 + two.top1) / (one.n + two.n) : 0.0;
-  const double false_alarm = clean.Rate(clean.detected);
-  const double unexplained = ool.Rate(ool.unexplained);
-  const double coverage = one.coverage_n > 0 ? static_cast<double>(one.covered) / one.coverage_n : 0.0;
-  const double median_shrink = one.MedianShrink();
-  const double median_share = one.MedianShare();
-  // The ideal profile's targets (exact logs), and the real profile's (logs at real rates).
-  nlohmann::json targets =
-      real ? nlohmann::json{{"single_top1_ge_0.90", single_top1 >= 0.9},
-                            {"overall_top1_ge_0.75", overall_top1 >= 0.75},
-                            {"false_alarm_le_0.05", false_alarm <= 0.05},
-                            {"not_confident_ge_0.85", unexplained >= 0.85},
-                            {"coverage_ge_0.90", coverage >= 0.9},
-                            {"median_explained_share_ge_0.50", median_share >= 0.5},
-                            {"current_hard_iron_threshold_le_0.1uT_per_A", std::isfinite(threshold) && threshold <= 0.1}}
-           : nlohmann::json{{"single_top1_ge_0.90", single_top1 >= 0.9},
-                            {"overall_top1_ge_0.70", overall_top1 >= 0.7},
-                            {"false_alarm_le_0.05", false_alarm <= 0.05},
-                            {"not_confident_ge_0.80", unexplained >= 0.8},
-                            {"coverage_ge_0.90", coverage >= 0.9},
-                            {"median_shrink_ge_0.50", median_shrink >= 0.5},
-                            {"current_hard_iron_threshold_le_0.1uT_per_A", std::isfinite(threshold) && threshold <= 0.1}};
-  // The dynamics channel's targets are listed beside the compass ones; targets_met (and the exit
-  // code, CONTRACTS: exit 1 when a target is missed) covers both.
-  nlohmann::json dynamics_targets = {{"false_alarm_le_0.05", dyn_false_alarm <= 0.05},
-                                     {"single_top1_ge_0.90", dyn_top1 >= 0.9},
-                                     {"coverage_ge_0.90", dyn_coverage >= 0.9},
-                                     {"median_shrink_ge_0.50", dyn.MedianShrink() >= 0.5}};
-  bool dyn_met = true;
-  for (const auto& [k, v] : dynamics_targets.items()) dyn_met = dyn_met && v.get<bool>();
-  if (real) {
-    dyn_met = true;  // not run on this profile (reported as such)
-    dynamics_targets = nullptr;
-  }
-  bool met = true;
-  for (const auto& [k, v] : targets.items()) met = met && v.get<bool>();
-
-  SelftestResult res;
-  res.targets_met = met && dyn_met;
-  nlohmann::json j;
-  j["schema"] = "hexsim.gap_selftest/1";
-  j["profile"] = o.profile;
-  j["trials_per_class"] = o.trials;
-  j["seed"] = o.seed;
-  j["vehicle"] = o.vehicle;
-  j["mission"] = o.mission;
-  j["channel"] = ch_name;
-  j["classes"] = nlohmann::json::array();
-  for (const char* cls : classes) {
-    const ClassStats& s = stats[cls];
-    nlohmann::json cj = {{"class", cls},
-                         {"trials", s.n},
-                         {"gap_detected_rate", s.Rate(s.detected)},
-                         {"any_compass_alarm_rate", s.Rate(s.any_compass_alarm)},
-                         {"verdicts", s.verdicts}};
-    const std::string cname = cls;
-    if (cname == "one_effect" || cname == "two_effects" || cname == "dynamics_one_effect") {
-      cj["top1_rate"] = s.Rate(s.top1);
-      nlohmann::json pe = nlohmann::json::object();
-      for (const auto& [e, v] : s.per_effect) pe[e] = {{"top1", v.first}, {"trials", v.second}};
-      for (const auto& [e, v] : s.per_effect_coverage) pe[e]["covered"] = v.first, pe[e]["coverage_trials"] = v.second;
-      cj["per_effect"] = pe;
-    }
-    if (cname == "one_effect") {
-      cj["coverage_95"] = coverage;
-      cj["median_heldout_shrink"] = median_shrink;
-      cj["median_explained_share"] = median_share;
-    }
-    if (cname == "dynamics_one_effect") {
-      cj["channel"] = "dynamics";
-      cj["coverage_95"] = dyn_coverage;
-      cj["median_heldout_shrink"] = dyn.MedianShrink();
-    }
-    if (cname == "two_effects") cj["both_in_effects_rate"] = s.Rate(s.all_in_effects);
-    if (cname == "clean") {
-      cj["false_alarm_rate"] = false_alarm;
-      cj["dynamics_false_alarm_rate"] = dyn_false_alarm;
-    }
-    if (std::string(cls) == "out_of_library") {
-      if (real) {
-        nlohmann::json pf = nlohmann::json::object();
-        for (const auto& [e, v] : s.per_effect) pf[e] = {{"not_confident", v.first}, {"trials", v.second}};
-        cj["per_family"] = pf;
-      }
-      // Not a confident wrong answer: unexplained, ambiguous, partial, or its leftover reported.
-      cj["not_confident_rate"] = unexplained;
-      cj["confident_wrong_rate"] = s.Rate(s.confident_wrong);
-    }
-    j["classes"].push_back(cj);
-  }
-  j["overall_top1_rate"] = overall_top1;
-  j["detection_threshold"] = {{"current_hard_iron",
-                               {{"uT_per_A", std::isfinite(threshold) ? nlohmann::json(threshold) : nlohmann::json(nullptr)},
-                                {"grid_uT_per_A", threshold_grid},
-                                {"flagged_rate", flagged_rate},
-                                {"trials_per_magnitude", o.threshold_trials}}}};
-  // Every trial's outcome (class-major, then the threshold sweep), to read a failure from.
-  j["trials"] = nlohmann::json::array();
-  for (size_t i = 0; i < outcomes->size(); ++i) {
-    nlohmann::json tj = (*outcomes)[i];
-    const int ii = static_cast<int>(i);
-    tj["class"] = ii < kClasses * o.trials ? classes[static_cast<size_t>(ii / o.trials)] : "threshold";
-    j["trials"].push_back(std::move(tj));
-  }
-  j["targets"] = targets;
-  j["targets_met"] = met && dyn_met;
-  j["compass_targets_met"] = met;
-  j["dynamics_targets"] = dynamics_targets;
-  j["dynamics_targets_met"] = dyn_met;
-  res.json = j;
-  std::string t = fmt::format("gap selftest ({} profile): {} trials per class, vehicle {}, mission {}, channel {}\n", o.profile,
-                              o.trials, o.vehicle, o.mission, ch_name);
-  t += fmt::format("  clean            false alarms {:5.1f} %  (target <= 5 %; any compass {:.1f} %)\n", 100 * false_alarm,
-                   100 * clean.Rate(clean.any_compass_alarm));
-  t += fmt::format("  one effect       top-1 {:5.1f} %  (target >= 90 %), 95 % interval coverage {:5.1f} % (>= 90 %), "
-                   "median held-out shrink {:4.0f} % (>= 50 %)\n",
-                   100 * single_top1, 100 * coverage, 100 * median_shrink);
-  for (const auto& [e, v] : one.per_effect) {
-    const auto it = one.per_effect_coverage.find(e);
-    const auto cov = it == one.per_effect_coverage.end() ? std::pair<int, int>{0, 0} : it->second;
-    t += fmt::format("      {:<20} top-1 {}/{}  interval covers truth {}/{}\n", e, v.first, v.second, cov.first, cov.second);
-  }
-  t += fmt::format("  two effects      top-1 {:5.1f} %; overall top-1 {:5.1f} % (target >= {} %); both in effects {:5.1f} %\n",
-                   100 * two.Rate(two.top1), 100 * overall_top1, real ? 75 : 70, 100 * two.Rate(two.all_in_effects));
-  for (const char* cls : classes) {
-    t += fmt::format("      verdicts {:<15}", cls);
-    for (const auto& [v, k] : stats[cls].verdicts) t += fmt::format(" {}:{}", v, k);
-    t += "\n";
-  }
-  if (real) {
-    t += fmt::format("  median explained share of the true effect {:4.0f} % (target >= 50 %)\n", 100 * median_share);
-    t += "  dynamics channel: not run on the real profile (its replay needs the simulator's row rate)\n";
-  } else {
-    t += fmt::format("  dynamics channel false alarms on clean logs {:5.1f} % (target <= 5 %); one effect top-1 {:5.1f} %, "
-                     "95 % interval coverage {:5.1f} %, median held-out shrink {:4.0f} %\n",
-                     100 * dyn_false_alarm, 100 * dyn_top1, 100 * dyn_coverage, 100 * dyn.MedianShrink());
-  }
-  for (const auto& [e, v] : dyn.per_effect) {
-    const auto it = dyn.per_effect_coverage.find(e);
-    const auto cov = it == dyn.per_effect_coverage.end() ? std::pair<int, int>{0, 0} : it->second;
-    t += fmt::format("      {:<20} top-1 {}/{}  interval covers truth {}/{}\n", e, v.first, v.second, cov.first, cov.second);
-  }
-  t += fmt::format("  out of library   not confident (unexplained, ambiguous, partial or leftover reported) {:5.1f} % "
-                   "(target >= {} %), confident wrong {:5.1f} %\n",
-                   100 * unexplained, real ? 85 : 80, 100 * ool.Rate(ool.confident_wrong));
-  if (real) {
-    for (const auto& [e, v] : ool.per_effect) t += fmt::format("      {:<20} not confident {}/{}\n", e, v.first, v.second);
-  }
-  t += "  current_hard_iron detection threshold: ";
-  t += std::isfinite(threshold) ? fmt::format("{:.3g} uT/A ({:.3g} mG/A)", threshold, 10 * threshold) : std::string("not reached");
-  t += " (target <= 0.1 uT/A); flagged:";
-  for (size_t i = 0; i < threshold_grid.size(); ++i) t += fmt::format(" {}:{:.0f}%", threshold_grid[i], 100 * flagged_rate[i]);
-  t += fmt::format("\n  targets {}; dynamics channel targets {}", met ? "met" : "MISSED", real ? "not run" : (dyn_met ? "met" : "MISSED:"));
-  if (!real) {
-    for (const auto& [k, v] : dynamics_targets.items()) {
-      if (!v.get<bool>()) t += " " + k;
-    }
-  }
-  t += "\n";
-  res.table = t;
-  return res;
+  return internal::SummariseSelftest(plan, *outcomes);
 }
 
 }  // namespace hexsim::gap

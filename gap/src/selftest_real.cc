@@ -20,12 +20,12 @@
 #include "hexsim/common/rotation.h"
 
 namespace hexsim::gap::internal {
-namespace {
-
 Vec3 RandomUnit(RngStream* rng) {
   Vec3 v = rng->Normal3(1.0);
   return v / std::max(1e-12, v.norm());
 }
+
+namespace {
 
 // Index of the last row at or before tq (rows ascending).
 size_t RowAt(const std::vector<double>& t, double tq) {
@@ -37,10 +37,11 @@ std::string Prefix(size_t c) { return c == 0 ? "mag" : fmt::format("mag{}", c + 
 
 }  // namespace
 
-const std::vector<std::string>& OutOfLibraryFamilies() {
+const std::vector<LogForm>& OutOfLibraryFamilies() {
   // A static per-axis scale is in the library now (scale_error's per-axis family), not out of it.
-  static const std::vector<std::string> kFamilies = {"current_power", "current_saturation", "offset_drift", "cross_coupling",
-                                                     "periodic",      "spikes",             "regime_current"};
+  static const std::vector<LogForm> kFamilies = {{"current_power", {}},  {"current_saturation", {}}, {"offset_drift", {}},
+                                                 {"cross_coupling", {}}, {"periodic", {}},           {"spikes", {}},
+                                                 {"regime_current", {}}};
   return kFamilies;
 }
 

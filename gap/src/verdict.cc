@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <fmt/format.h>
 
 #include "detection.h"
@@ -15,6 +16,32 @@ namespace {
 
 std::string Percent(double x) { return fmt::format("{:.0f} %", 100 * x); }
 
+// The reported model's fitted field per sample, X_k·β (its candidate part, the baseline excluded);
+// empty where the model has none.
+std::vector<Vec3> ModelField(const Evaluated& model) {
+  if (!model.cand || !model.full.ok || model.cand->p() == 0) return {};
+  const Candidate& c = *model.cand;
+  const Eigen::VectorXd beta = model.full.beta.segment(model.off, c.p());
+  std::vector<Vec3> f(c.X.size());
+  for (size_t k = 0; k < f.size(); ++k) f[k] = c.X[k] * beta;
+  return f;
+}
+
+// Does `extra` hold a part the reported model leaves? Significant over the model by its
+// cluster-robust Wald test at alpha, and material: it removes at least the materiality share of the
+// noise floor's power (in sample). gain: that share of the noise floor's power.
+bool LeavesPart(const Analyzer& an, const Evaluated& model, const Candidate& extra, double noise_var, const DiagnoseOptions& o,
+                double* gain) {
+  *gain = 0.0;
+  if (!model.cand || !model.full.ok || extra.p() == 0 || !(noise_var > 0)) return false;
+  const Candidate& c = *model.cand;
+  const Evaluated ej = an.Evaluate(Join(c, extra));
+  if (!ej.full.ok || ej.cov.size() == 0) return false;
+  const double p = WaldP(ej.full.beta, ej.cov, Range(ej.off + c.p(), ej.off + c.p() + extra.p()), an.G());
+  *gain = std::max(0.0, model.full.sse - ej.full.sse) / an.total_n() / noise_var;
+  return p < o.alpha && *gain >= o.materiality;
+}
+
 // Ramsey's RESET for the reported model: the model's own fitted field f_k = X_k·β (its candidate
 // part, the baseline excluded) enters once more as f_k·|f_k| / rms|f|, one coefficient. A right
 // form leaves nothing that grows with the square of what it predicts; a linear form fitted to a
@@ -23,30 +50,75 @@ std::string Percent(double x) { return fmt::format("{:.0f} %", 100 * x); }
 // of the noise floor's power. One coefficient along the model's own prediction, so manoeuvre
 // transients of a 10 Hz replay (spread over every direction) hardly load on it.
 std::string ResetFinding(const Analyzer& an, const Evaluated& model, double noise_var, const DiagnoseOptions& o) {
-  if (!model.cand || !model.full.ok) return "";
-  const Candidate& c = *model.cand;
-  const size_t n = c.X.size();
-  if (n == 0 || c.p() == 0) return "";
-  const Eigen::VectorXd beta = model.full.beta.segment(model.off, c.p());
-  std::vector<Vec3> f(n);
+  const std::vector<Vec3> f = ModelField(model);
   double ms = 0;
-  for (size_t k = 0; k < n; ++k) {
-    f[k] = c.X[k] * beta;
-    ms += f[k].squaredNorm() / static_cast<double>(n);
-  }
+  for (const Vec3& v : f) ms += v.squaredNorm() / static_cast<double>(f.size());
   if (!(ms > 0)) return "";
   const double rms = std::sqrt(ms);
   Candidate reset = MakeCandidate("reset", {"f_abs_f"}, {1.0}, "");
-  for (size_t k = 0; k < n; ++k) reset.X.emplace_back(Mat3X(f[k] * (f[k].norm() / rms)));
-  const Evaluated ej = an.Evaluate(Join(c, reset));
-  if (!ej.full.ok || ej.cov.size() == 0) return "";
-  const int idx = ej.off + c.p();
-  const double p = WaldP(ej.full.beta, ej.cov, {idx}, an.G());
-  const double gain_ms = std::max(0.0, model.full.sse - ej.full.sse) / an.total_n();
-  if (p < o.alpha && gain_ms >= o.materiality * noise_var) {
+  for (const Vec3& v : f) reset.X.emplace_back(Mat3X(v * (v.norm() / rms)));
+  double gain = 0;
+  if (LeavesPart(an, model, reset, noise_var, o, &gain)) {
     return "a part that grows with the square of what the model predicts (a power law or a saturation, not its linear form)";
   }
   return "";
+}
+
+// The form check of the reported model. A field driven by the current or the throttle but not in
+// proportion to it (a saturation, a power law, a regime) leaves a part along the model's own field
+// direction that bends with what drives it; a linear model cannot show that, so its fit looks
+// confident. Regressors: along the direction d holding most of the model's fitted field, hinges
+// max(0, x − q)/sd(x) at the quantiles q of x in kShapeKnots, for x = the current and the throttle
+// (the model's own regressor is one of them or a power of one; the low knots hold a saturation's
+// bend). Significant by the cluster-robust Wald test at alpha over the model, and material as RESET. Only where the model's field keeps one direction (at least
+// kShapeDirectionShare of its power): a field matrix or a misalignment turns with the attitude.
+constexpr double kShapeKnots[3] = {0.1, 0.3, 0.6};
+// One direction of a current- or throttle-driven field holds all of its power; 0.9 leaves room for
+// the fitted noise of the other two.
+constexpr double kShapeDirectionShare = 0.9;
+
+void AddHinges(const std::vector<double>& x, const Vec3& d, Candidate* c) {
+  std::vector<double> s;
+  for (double v : x) {
+    if (std::isfinite(v)) s.push_back(v);
+  }
+  if (s.size() != x.size() || s.size() < 10) return;
+  std::sort(s.begin(), s.end());
+  double mean = 0, var = 0;
+  for (double v : s) mean += v / static_cast<double>(s.size());
+  for (double v : s) var += (v - mean) * (v - mean) / static_cast<double>(s.size());
+  const double sd = std::sqrt(var);
+  if (!(sd > 0)) return;
+  for (double q : kShapeKnots) {
+    const double knot = s[static_cast<size_t>(q * static_cast<double>(s.size() - 1))];
+    c->names.push_back(fmt::format("hinge{}", c->names.size()));
+    c->scale.push_back(1.0);
+    for (size_t k = 0; k < x.size(); ++k) {
+      c->X[k].conservativeResize(3, c->X[k].cols() + 1);
+      c->X[k].col(c->X[k].cols() - 1) = d * (std::max(0.0, x[k] - knot) / sd);
+    }
+  }
+}
+
+std::string ShapeFinding(const ChannelData& ch, const Analyzer& an, const Evaluated& model, double noise_var,
+                         const DiagnoseOptions& o) {
+  const std::vector<Vec3> f = ModelField(model);
+  Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
+  for (const Vec3& v : f) S += v * v.transpose();
+  if (f.empty() || !(S.trace() > 0)) return "";
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(S);
+  if (eig.info() != Eigen::Success || eig.eigenvalues()(2) < kShapeDirectionShare * S.trace()) return "";
+  const Vec3 d = eig.eigenvectors().col(2);
+  Candidate shape = MakeCandidate("shape", {}, {}, "");
+  shape.X.assign(f.size(), Mat3X(3, 0));
+  if (ch.current_A.size() == f.size()) AddHinges(ch.current_A, d, &shape);
+  if (ch.throttle.size() == f.size()) AddHinges(ch.throttle, d, &shape);
+  double gain = 0;
+  if (!LeavesPart(an, model, shape, noise_var, o, &gain)) return "";
+  return fmt::format("a part along the model's field that bends with the current or the throttle ({:.0f} % of the noise "
+                     "floor's power): the field is not in proportion to what drives it (a saturation, a power law or a "
+                     "regime)",
+                     100 * gain);
 }
 
 // A static per-axis scale, r_i = s_i·h_i (h the predicted field in the sensor frame), built from the
@@ -170,7 +242,52 @@ std::string LeftStructure(const ChannelData& ch, const Analyzer& an, const Selec
   std::string found = left.present ? left.found : std::string();
   const std::string reset = ResetFinding(an, m.eval, noise_var, o);
   if (!reset.empty()) found += (found.empty() ? "" : "; ") + reset;
+  const std::string shape = reset.empty() ? ShapeFinding(ch, an, m.eval, noise_var, o) : std::string();
+  if (!shape.empty()) found += (found.empty() ? "" : "; ") + shape;
   return found;
+}
+
+// Only the implausible fits that are why a family was refused: significant, and explaining more
+// than the reported effects (or structure stands and nothing is reported).
+void AddRefusedFindings(const std::vector<CandidateResult>& all, bool structure, const DiagnoseOptions& o, ChannelResult* res) {
+  for (const CandidateResult& k : all) {
+    if (k.plausible || k.p_value > o.alpha) continue;
+    if (!res->effects.empty() && k.explained_share > res->effects.front().explained_share) {
+      res->findings.push_back(RefusedFinding(k, true));
+    } else if (res->effects.empty() && structure && k.explained_share >= o.min_effect_share) {
+      res->findings.push_back(RefusedFinding(k, false));
+    }
+  }
+}
+
+// The nuisance terms beyond their normal ranges that join fitted effects: plausible (a term outside
+// its physical range is a model mismatch, never an effect), and not a name already listed (the
+// per-axis scale family and the field scale share scale_error).
+std::vector<CandidateResult> NuisanceBeside(const NuisanceReport& nu, const std::vector<EffectShare>& effects) {
+  std::vector<CandidateResult> out;
+  for (const CandidateResult& t : nu.terms) {
+    const bool beyond = std::find(nu.beyond_normal.begin(), nu.beyond_normal.end(), t.effect) != nu.beyond_normal.end();
+    const bool listed =
+        std::any_of(effects.begin(), effects.end(), [&](const EffectShare& e) { return e.effect == t.effect; });
+    if (!beyond || listed || !t.plausible) continue;
+    out.push_back(t);
+    out.back().selected = true;
+  }
+  return out;
+}
+
+// The nuisance terms as candidates: selected where one is the verdict (nothing else found) or an
+// effect beside the fitted ones.
+void AddNuisanceTerms(const NuisanceReport& nu, const std::vector<CandidateResult>& beside, ChannelResult* res,
+                      std::vector<CandidateResult>* all) {
+  for (CandidateResult t : nu.terms) {
+    if (res->effects.empty() && t.effect == res->verdict) {
+      t.selected = true;
+      res->effects.push_back(ToEffect(t, 0.0, "nuisance"));
+    }
+    for (const CandidateResult& b : beside) t.selected = t.selected || b.effect == t.effect;
+    all->push_back(t);
+  }
 }
 
 // The verdict from the effects (CONTRACTS.md order): the largest effect (partial below
@@ -307,18 +424,15 @@ ChannelResult AnalyzeCompass(const ChannelData& ch_in, const logs::FlightLog& lo
     }
   }
   SortEffects(&res.effects);
+  // What the baseline absorbed beyond its normal range (the gap is relative to the vehicle file): an
+  // effect beside the fitted ones, after them (its share is not over the baseline that absorbed it).
+  // Without a fitted effect the term is named by NameVerdict's rule (1), as before.
+  std::vector<CandidateResult> beside;
+  if (!res.effects.empty()) beside = NuisanceBeside(nu, res.effects);
+  for (CandidateResult& t : beside) res.effects.push_back(ToEffect(t, 0.0, "nuisance"));
   const double model_share = ExplainedShare(cv0, cv_after, noise_sse);
   res.explained_share = first < F ? L + (1.0 - L) * model_share : L;
-  // Only the implausible fits that are why a family was refused: significant, and explaining more
-  // than the reported effects (or structure stands and nothing is reported).
-  for (const CandidateResult& k : all) {
-    if (k.plausible || k.p_value > o.alpha) continue;
-    if (!res.effects.empty() && k.explained_share > res.effects.front().explained_share) {
-      res.findings.push_back(RefusedFinding(k, true));
-    } else if (res.effects.empty() && st.present && k.explained_share >= o.min_effect_share) {
-      res.findings.push_back(RefusedFinding(k, false));
-    }
-  }
+  AddRefusedFindings(all, st.present, o, &res);
   NameVerdict(nu, st, left_found, o, &res);
   res.heldout_shrink = Shrink(cv_after, cv0);
   res.residual_after = after;
@@ -327,13 +441,7 @@ ChannelResult AnalyzeCompass(const ChannelData& ch_in, const logs::FlightLog& lo
     res.residual_left = DescribeLeft(ch.t, after, 1.0 - std::max(0.0, res.explained_share), Locate(ch, after, log, phases));
   }
   if (timing.latency_ok) all.push_back(lat);
-  for (CandidateResult t : nu.terms) {
-    if (res.effects.empty() && t.effect == res.verdict) {
-      t.selected = true;
-      res.effects.push_back(ToEffect(t, 0.0, "nuisance"));
-    }
-    all.push_back(t);
-  }
+  AddNuisanceTerms(nu, beside, &res, &all);
   res.candidates = OrderCandidates(res.effects, std::move(all));
   return res;
 }

@@ -80,6 +80,9 @@ struct NuisanceReport {
   Nuisance nuisance;  // reported under `nuisance`
   std::vector<CandidateResult> terms;  // hard_iron_offset, local_anomaly, scale_error as candidates
   std::string out_of_range;            // the term named as the verdict when nothing else is found
+  // Every term beyond its normal range (exact ranges: significant), by the same rules: what the
+  // baseline absorbed that differs from the vehicle file. Beside fitted effects each is an effect too.
+  std::vector<std::string> beyond_normal;
   std::vector<std::string> findings;   // plain language
 };
 NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& baseline, const DiagnoseOptions& o);

@@ -99,5 +99,24 @@ TEST(GapDecomposition, GivenTwoWithheldEffects_WhenDiagnosed_ThenBothAreInEffect
   EXPECT_EQ(mag2->verdict, mag2->effects.front().effect);
 }
 
+// Given a current field and a residual offset beyond its normal range at once, when diagnosed, then
+// the offset the baseline absorbed is an effect beside the current one (after it: its share is not
+// over the baseline that absorbed it), and the current effect stays the headline.
+TEST(GapDecomposition, GivenACurrentFieldAndAnOffsetBeyondItsNormalRange_WhenDiagnosed_ThenBothAreInEffects) {
+  gaptest::Flown f = gaptest::FlyInjected({{"current_hard_iron", 0.5}, {"hard_iron_offset", 15.0}}, 2105, "decomposition");
+  auto rep = Diagnose(f.log, f.trial.configured);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr);
+  EXPECT_EQ(mag2->verdict, "current_hard_iron") << Summary(*rep);
+  ASSERT_TRUE(InEffects(*mag2, "hard_iron_offset")) << Summary(*rep);
+  EXPECT_EQ(mag2->effects.back().effect, "hard_iron_offset");
+  EXPECT_EQ(mag2->effects.back().source, "nuisance");
+  EXPECT_GT(mag2->effects.back().ci95.lo, 5.0);  // beyond the offset's normal range (plausibility table)
+  const CandidateResult* off = gaptest::FindCandidate(*mag2, "hard_iron_offset");
+  ASSERT_NE(off, nullptr);
+  EXPECT_TRUE(off->selected);
+}
+
 }  // namespace
 }  // namespace hexsim::gap

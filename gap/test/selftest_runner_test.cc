@@ -29,9 +29,14 @@ TEST(GapSelftestRunner, GivenOneTrialPerClass_WhenTheTrialsRunInReverseOrderThro
   };
   auto reversed = RunSelftest(o, nullptr, reverse);
   ASSERT_TRUE(reversed.ok()) << reversed.status().message();
-  EXPECT_EQ(ran.size(), 4u + 6u);  // four classes and the six-magnitude threshold sweep
+  EXPECT_EQ(ran.size(), 5u + 6u);  // five classes (beyond_library among them) and the six-magnitude threshold sweep
   EXPECT_EQ(in_order->json.dump(), reversed->json.dump());
   EXPECT_EQ(in_order->table, reversed->table);
+  // The forms beyond the library's names are a class of their own, judged by what names them right.
+  bool beyond = false;
+  for (const auto& c : in_order->json["classes"]) beyond = beyond || (c["class"] == "beyond_library" && c.contains("judged_right_rate"));
+  EXPECT_TRUE(beyond);
+  EXPECT_TRUE(in_order->json["targets"].contains("beyond_library_judged_right_ge_0.85"));
 }
 
 }  // namespace
