@@ -1,6 +1,7 @@
 // hexsim identify LOG.csv|LOG.bin|LOG.ulg [--frame auto|quad-x|...] [--base VEHICLE] --out vehicle.yaml
 // Beside vehicle.yaml: identify.json (hexsim.identify/1), identify.html and its plots. An
-// identification whose held-out residual is not below its base's exits 1 and writes no vehicle.
+// identification whose held-out residual is not below its base's exits 1, writes no vehicle and
+// removes one an earlier run left at --out.
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -46,15 +47,15 @@ Status IdentifyCommand(const IdentifyArgs& a, int* exit_code) {
   HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(dir + "/identify.json", identify::ToJson(*r).dump(2) + "\n"));
   HEXSIM_RETURN_IF_ERROR(reports::WriteIdentifyHtml(*r, dir));
   std::fputs(identify::Summary(*r).c_str(), stdout);
+  // Last: the vehicle file means "done". One that improves nothing is not written (CONTRACTS exit 1:
+  // the check failed), and a vehicle file an earlier run left at --out is removed.
+  std::string outcome;
+  HEXSIM_RETURN_IF_ERROR(identify::WriteIdentifiedVehicle(a.out, *base, *r, &outcome));
   if (!r->improves_on_base) {
-    // CONTRACTS exit 1: the check failed; the vehicle file, which means "done", is not written.
-    std::printf("identify: %s: %s not written\n", identify::ImprovementLine(*r).c_str(), a.out.c_str());
+    std::printf("identify: %s: %s %s\n", identify::ImprovementLine(*r).c_str(), a.out.c_str(), outcome.c_str());
     *exit_code = 1;
     return Status::Ok();
   }
-  auto yaml = identify::IdentifiedVehicleYaml(base->yaml, base->params, *r);
-  if (!yaml.ok()) return yaml.status();
-  HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(a.out, *yaml));  // last: the vehicle file means "done"
   *exit_code = 0;
   return Status::Ok();
 }

@@ -1,8 +1,8 @@
 // The HTML reports in a real browser: headless Chromium opens report.html (compare), gap.html (gap
-// diagnose) and the batch report, every <img> must load with a non-zero natural size, no block may
-// be wider than a 1280 px window (unless inside a scrolling box), no text may be raw JSON, and a
-// screenshot of the page must not be blank. Skipped, saying so, where Chromium is not installed
-// (scripts/test.sh installs Debian's `chromium`).
+// diagnose, with and without --sim), identify.html and the batch report; every <img> must load with
+// a non-zero natural size, no block may be wider than a 1280 px window (unless inside a scrolling
+// box), no text may be raw JSON, and a screenshot of the page must not be blank. Skipped, saying so,
+// where Chromium is not installed (scripts/test.sh installs Debian's `chromium`).
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -199,9 +199,18 @@ TEST_F(Browser, GivenACompareReportWhenOpenedHeadlessThenEveryImageLoadsAndThePa
 TEST_F(Browser, GivenAGapReportWhenOpenedHeadlessThenEveryImageLoadsAndThePageIsNotBlank) {
   Hexsim("import " + std::string(HEXSIM_SOURCE_DIR) + "/data/real/ardupilot_copter_log171.bin --out {}/real/log.csv");
   Hexsim("gap diagnose --real {}/real/log.csv --sim quad_x --out {}/gap");
-  // gap.html still shows raw JSON (9 blocks at 45f04d0): the real-log issue is rewriting that page;
-  // switch its layout check on with that change.
-  ExpectPageLoads(*dir_ / "gap" / "gap.html", /*layout=*/false);
+  ExpectPageLoads(*dir_ / "gap" / "gap.html");
+}
+
+// Without --sim: the vehicle identified first (gap.json's vehicle_source, the identification's table).
+TEST_F(Browser, GivenAGapReportWithoutSimWhenOpenedHeadlessThenItFitsTheWindowWithoutRawJson) {
+  Hexsim("gap diagnose --real " + std::string(HEXSIM_SOURCE_DIR) + "/data/real/ardupilot_copter_log171.bin --out {}/gap_nosim");
+  ExpectPageLoads(*dir_ / "gap_nosim" / "gap.html");
+}
+
+TEST_F(Browser, GivenAnIdentifyReportWhenOpenedHeadlessThenItFitsTheWindowWithoutRawJson) {
+  Hexsim("identify " + std::string(HEXSIM_SOURCE_DIR) + "/data/real/ardupilot_copter_log171.bin --out {}/identify/v.yaml");
+  ExpectPageLoads(*dir_ / "identify" / "identify.html");
 }
 
 // The layout check itself: a page with a block twice the window's width and a JSON dump as text.

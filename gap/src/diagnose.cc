@@ -5,6 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -128,6 +132,91 @@ void AttachAbsoluteTerms(Result<CompassTerms> terms, const logs::FlightLog& log,
   r->absolute_terms = std::move(*terms);
 }
 
+// What every compass channel of one diagnosis shares.
+struct CompassRun {
+  const logs::FlightLog& log;
+  const vehicle::VehicleParams& vehicle;
+  const DiagnoseOptions& options;
+  const internal::ReplayResult& rr;
+  const realdata::FlightWindows& fw;
+  const std::vector<std::string>& phases;
+  const logs::FlightLog& model_log;  // the in-flight model's log (the whole log when gap holds blocks out)
+  const realdata::FlightWindows& model_windows;
+  const realdata::LagEstimate& stale;
+  double shift_s, share_exponent, fitted_share_exponent, flight_s;
+  bool sim_truth;
+};
+
+struct CompassChannel {
+  ChannelResult result;
+  ChannelData data;
+};
+
+// One compass channel (c: its index): the in-flight model's absolute terms, the timing scan, the
+// replay and its analysis; nullopt, with the reason in *not_diagnosed, when it cannot be diagnosed.
+std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
+                                              std::vector<std::pair<std::string, std::string>>* not_diagnosed) {
+  const logs::FlightLog& log = run.log;
+  const vehicle::VehicleParams& vehicle = run.vehicle;
+  const DiagnoseOptions& options = run.options;
+  const internal::ReplayResult& rr = run.rr;
+  const realdata::LagEstimate& stale = run.stale;
+  const double shift_s = run.shift_s;
+  const std::string name = internal::MagPrefix(c);
+  // The in-flight model's absolute terms, the same fit as `hexsim calibrate --method flight`. A
+  // compass is diagnosed whenever this model can fit it (its own minimum: min_samples samples in
+  // min_blocks jackknife blocks, flight_fit.h), else by the channel minimums below.
+  Result<CompassTerms> terms = internal::FitCompassTerms(run.model_log, vehicle, c, name, run.model_windows, options.seed);
+  if (!terms.ok() && !(run.flight_s >= options.min_duration_s)) {
+    not_diagnosed->emplace_back(name, fmt::format("flight windows too short: {:.1f} s, needs {:.0f} s", run.flight_s,
+                                                  options.min_duration_s));
+    return std::nullopt;
+  }
+  internal::CompassReplayOptions ro;
+  ro.row_kind = &run.fw.row_kind;
+  ro.calibrated_log = !run.sim_truth;
+  ro.share_exponent = run.share_exponent;
+  internal::CompassTiming timing;
+  if (options.timing_scan) {
+    timing = internal::ScanCompassTiming(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro, stale, shift_s, options);
+  }
+  // Align only a resolved latency (its interval clear of zero): a zero-width shift changes nothing.
+  const bool align = timing.latency_ok && (timing.latency_ci95_s[0] > 0 || timing.latency_ci95_s[1] < 0);
+  ro.latency_s = align ? timing.latency_s : 0.0;
+  ro.current_shift_s = shift_s;
+  ro.member_shift_s =
+      stale.ok() && plausibility::IsPlausible("current_staleness", stale.value_s) ? stale.value_s : 0.0;
+  ChannelData ch = internal::ReplayCompass(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro);
+  if (!terms.ok() && static_cast<int>(ch.t.size()) < options.min_samples) {
+    not_diagnosed->emplace_back(name, fmt::format("too few flight samples: {}, needs {}; in-flight model: {}", ch.t.size(),
+                                                  options.min_samples, terms.status().message()));
+    return std::nullopt;
+  }
+  RngStream rng(options.seed, "gap_bootstrap/" + name);
+  ChannelResult r = internal::AnalyzeCompass(ch, log, run.phases, options, timing, &rng);
+  if (options.timing_scan) {
+    internal::PropagatePlugIns(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro, timing, stale, options, &r);
+  }
+  r.nuisance.current_split_exponent = run.fitted_share_exponent;
+  for (CandidateResult& k : r.candidates) {
+    if (k.effect == "throttle_hard_iron") {
+      AddCurrentEquivalent(ch, &k);
+      GateCurrentEquivalent(terms, &k, &r.findings);
+    }
+    if (k.effect == "per_motor_current_hard_iron") AddPerMotorEquivalent(ch, &k);
+  }
+  ro.want = realdata::RowKind::kGround;
+  ro.baseline_only = true;  // the ground-vs-flight check reads the residual, baseline and current only
+  const ChannelData ground = internal::ReplayCompass(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro);
+  r.ground_vs_flight = internal::CompareGroundFlight(ch, ground, r.nuisance);
+  if (ro.calibrated_log) {
+    r.findings.emplace_back("logged values are the autopilot's calibrated ones: the vehicle file's hard and soft iron are "
+                            "not applied to them; its wiring (current) field still is");
+  }
+  AttachAbsoluteTerms(std::move(terms), log, &run.model_log != &log, &r);
+  return CompassChannel{std::move(r), std::move(ch)};
+}
+
 }  // namespace
 
 std::vector<std::string> ClassifyPhases(const logs::FlightLog& log) {
@@ -189,60 +278,11 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
   };
   const logs::FlightLog& model_log = options.compass_model_log != nullptr ? *options.compass_model_log : log;
   const realdata::FlightWindows model_windows = &model_log == &log ? fw : Windows(model_log, options);
+  const CompassRun run{log,   vehicle, options, rr,      fw,        phases, model_log, model_windows, stale, shift_s,
+                       share_exponent, fitted_share_exponent, flight_s, sim_truth};
   for (size_t c : rr.compasses) {
-    const std::string name = internal::MagPrefix(c);
-    // The in-flight model's absolute terms, the same fit as `hexsim calibrate --method flight`. A
-    // compass is diagnosed whenever this model can fit it (its own minimum: min_samples samples in
-    // min_blocks jackknife blocks, flight_fit.h), else by the channel minimums below.
-    Result<CompassTerms> terms = internal::FitCompassTerms(model_log, vehicle, c, name, model_windows, options.seed);
-    if (!terms.ok() && !(flight_s >= options.min_duration_s)) {
-      rep.not_diagnosed.emplace_back(name, fmt::format("flight windows too short: {:.1f} s, needs {:.0f} s", flight_s,
-                                                       options.min_duration_s));
-      continue;
-    }
-    internal::CompassReplayOptions ro;
-    ro.row_kind = &fw.row_kind;
-    ro.calibrated_log = !sim_truth;
-    ro.share_exponent = share_exponent;
-    internal::CompassTiming timing;
-    if (options.timing_scan) {
-      timing = internal::ScanCompassTiming(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro, stale, shift_s, options);
-    }
-    // Align only a resolved latency (its interval clear of zero): a zero-width shift changes nothing.
-    const bool align = timing.latency_ok && (timing.latency_ci95_s[0] > 0 || timing.latency_ci95_s[1] < 0);
-    ro.latency_s = align ? timing.latency_s : 0.0;
-    ro.current_shift_s = shift_s;
-    ro.member_shift_s =
-        stale.ok() && plausibility::IsPlausible("current_staleness", stale.value_s) ? stale.value_s : 0.0;
-    const ChannelData ch = internal::ReplayCompass(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro);
-    if (!terms.ok() && static_cast<int>(ch.t.size()) < options.min_samples) {
-      rep.not_diagnosed.emplace_back(name, fmt::format("too few flight samples: {}, needs {}; in-flight model: {}", ch.t.size(),
-                                                       options.min_samples, terms.status().message()));
-      continue;
-    }
-    RngStream rng(options.seed, "gap_bootstrap/" + name);
-    ChannelResult r = internal::AnalyzeCompass(ch, log, phases, options, timing, &rng);
-    if (options.timing_scan) {
-      internal::PropagatePlugIns(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro, timing, stale, options, &r);
-    }
-    r.nuisance.current_split_exponent = fitted_share_exponent;
-    for (CandidateResult& k : r.candidates) {
-      if (k.effect == "throttle_hard_iron") {
-        AddCurrentEquivalent(ch, &k);
-        GateCurrentEquivalent(terms, &k, &r.findings);
-      }
-      if (k.effect == "per_motor_current_hard_iron") AddPerMotorEquivalent(ch, &k);
-    }
-    ro.want = realdata::RowKind::kGround;
-    ro.baseline_only = true;  // the ground-vs-flight check reads the residual, baseline and current only
-    const ChannelData ground = internal::ReplayCompass(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro);
-    r.ground_vs_flight = internal::CompareGroundFlight(ch, ground, r.nuisance);
-    if (ro.calibrated_log) {
-      r.findings.emplace_back("logged values are the autopilot's calibrated ones: the vehicle file's hard and soft iron are "
-                           "not applied to them; its wiring (current) field still is");
-    }
-    AttachAbsoluteTerms(std::move(terms), log, &model_log != &log, &r);
-    finish(std::move(r), ch);
+    std::optional<CompassChannel> cc = DiagnoseCompass(run, c, &rep.not_diagnosed);
+    if (cc) finish(std::move(cc->result), cc->data);
   }
   for (const ChannelData& ch : rr.channels) {
     if (!(duration >= options.min_duration_s)) {

@@ -120,12 +120,10 @@ double HoverRotorTimeConstant_s(const vehicle::VehicleParams& v) { return intern
 }  // namespace hexsim::gap
 
 namespace hexsim::gap::internal {
+namespace {
 
-void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v, const DiagnoseOptions& options,
-                    const std::vector<realdata::RowKind>& row_kind, ReplayResult* out) {
-  const char* kName = "dynamics";
-  auto skip = [&](const std::string& why) { out->not_diagnosed.emplace_back(kName, why); };
-  const size_t n_rot = v.rotors.size();
+// "" when the log holds every column the replay reads, else what it lacks.
+std::string MissingInputs(const logs::FlightLog& log, size_t n_rot) {
   std::vector<std::string> missing;
   for (const char* c : {"accel_x_mps2", "accel_y_mps2", "accel_z_mps2"}) {
     if (!HasData(log, c)) missing.emplace_back(c);
@@ -136,90 +134,110 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
   for (size_t m = 0; m < n_rot; ++m) {
     if (!HasData(log, fmt::format("motor_{}_u", m + 1))) missing.push_back(fmt::format("motor_{}_u", m + 1));
   }
-  const bool has_V = HasData(log, "voltage_V");
-  const bool has_I = HasData(log, "current_A");
-  if (!has_V && !has_I) missing.emplace_back("voltage_V (or current_A to model the battery)");
+  if (!HasData(log, "voltage_V") && !HasData(log, "current_A")) {
+    missing.emplace_back("voltage_V (or current_A to model the battery)");
+  }
   if (n_rot == 0) missing.emplace_back("rotors in the vehicle");
-  if (!missing.empty()) {
-    std::string list;
-    for (const auto& m : missing) list += (list.empty() ? "" : ", ") + m;
-    skip("open-loop dynamics replay needs " + list);
-    return;
-  }
-  // The replay's drag (and every wind candidate) is driven by the logged velocity, and its airborne
-  // test by the height: a velocity that does not follow the accelerometer makes the channel meaningless.
-  if (const realdata::VelocityCheck vc = realdata::CheckVelocityAgainstAccel(log, row_kind); !vc.ok) {
-    skip(vc.why);
-    return;
-  }
-  const auto& t = log.Column("t_s");
-  const auto& vn = log.Column("vel_N_mps");
-  const auto& ve = log.Column("vel_E_mps");
-  const auto& vd = log.Column("vel_D_mps");
-  const auto& ax = log.Column("accel_x_mps2");
-  const auto& ay = log.Column("accel_y_mps2");
-  const auto& az = log.Column("accel_z_mps2");
-  const std::vector<double>* qc[4] = {&log.Column("q_w"), &log.Column("q_x"), &log.Column("q_y"), &log.Column("q_z")};
-  std::vector<const std::vector<double>*> mu;
-  for (size_t m = 0; m < n_rot; ++m) mu.push_back(&log.Column(fmt::format("motor_{}_u", m + 1)));
+  std::string list;
+  for (const auto& m : missing) list += (list.empty() ? "" : ", ") + m;
+  return list;
+}
+
+// The log columns the replay reads (pointers into the log), and what the battery monitor is worth.
+struct DynamicsInputs {
+  const std::vector<double>*t, *vn, *ve, *vd, *ax, *ay, *az;
+  const std::vector<double>* q[4];
+  std::vector<const std::vector<double>*> mu;  // motor outputs, one per rotor
+  bool has_V = false, V_usable = false;
+  double median_V = std::nan("");
+  const std::vector<double>* V = nullptr;  // the logged bus voltage, when usable
+  bool current_usable = true;              // the same monitor measures both
+  const std::vector<double>* I = nullptr;
+  const std::vector<double>* soc = nullptr;
+  const std::vector<double>* payload = nullptr;
+  const std::vector<double>* alt = nullptr;  // pos_D_m, else baro_alt_m
+  double alt_sign = 1.0;                     // alt_sign·alt is the height up
+  size_t rows = 0;
+};
+
+DynamicsInputs FindInputs(const logs::FlightLog& log, size_t n_rot) {
+  DynamicsInputs in;
+  in.t = &log.Column("t_s");
+  in.vn = &log.Column("vel_N_mps");
+  in.ve = &log.Column("vel_E_mps");
+  in.vd = &log.Column("vel_D_mps");
+  in.ax = &log.Column("accel_x_mps2");
+  in.ay = &log.Column("accel_y_mps2");
+  in.az = &log.Column("accel_z_mps2");
+  in.q[0] = &log.Column("q_w");
+  in.q[1] = &log.Column("q_x");
+  in.q[2] = &log.Column("q_y");
+  in.q[3] = &log.Column("q_z");
+  for (size_t m = 0; m < n_rot; ++m) in.mu.push_back(&log.Column(fmt::format("motor_{}_u", m + 1)));
   // A logged voltage whose median is no battery bus (no power monitor connected: e.g. 0.06 V) would
   // stop every rotor in the replay; the configured battery stands in for it, and the channel says so.
-  const double median_V = has_V ? MedianFinite(log.Column("voltage_V")) : std::nan("");
-  const bool V_usable = has_V && plausibility::IsPlausible("bus_voltage_V", median_V);
-  const std::vector<double>* Vcol = V_usable ? &log.Column("voltage_V") : nullptr;
-  const bool current_usable = !has_V || V_usable;  // the same monitor measures both
-  const std::vector<double>* Icol = has_I ? &log.Column("current_A") : nullptr;
-  const std::vector<double>* soc_col = HasData(log, "battery_soc") ? &log.Column("battery_soc") : nullptr;
-  const std::vector<double>* payload = HasData(log, "payload_kg") ? &log.Column("payload_kg") : nullptr;
+  in.has_V = HasData(log, "voltage_V");
+  in.median_V = in.has_V ? MedianFinite(log.Column("voltage_V")) : std::nan("");
+  in.V_usable = in.has_V && plausibility::IsPlausible("bus_voltage_V", in.median_V);
+  in.V = in.V_usable ? &log.Column("voltage_V") : nullptr;
+  in.current_usable = !in.has_V || in.V_usable;
+  in.I = HasData(log, "current_A") ? &log.Column("current_A") : nullptr;
+  in.soc = HasData(log, "battery_soc") ? &log.Column("battery_soc") : nullptr;
+  in.payload = HasData(log, "payload_kg") ? &log.Column("payload_kg") : nullptr;
   const bool has_pos = HasData(log, "pos_D_m");
-  const std::vector<double>* alt = has_pos ? &log.Column("pos_D_m") : HasData(log, "baro_alt_m") ? &log.Column("baro_alt_m") : nullptr;
-  const double alt_sign = has_pos ? -1.0 : 1.0;  // height up
-  const size_t N = log.rows();
+  in.alt = has_pos ? &log.Column("pos_D_m") : HasData(log, "baro_alt_m") ? &log.Column("baro_alt_m") : nullptr;
+  in.alt_sign = has_pos ? -1.0 : 1.0;
+  in.rows = log.rows();
+  return in;
+}
 
-  // Bus voltage per row: the logged one, else the configured battery V_oc(SoC) − R_int·I.
+// Bus voltage per row: the logged one, else the configured battery V_oc(SoC) − R_int·I.
+std::vector<double> BusVoltage(const DynamicsInputs& in, const vehicle::VehicleParams& v) {
+  const size_t N = in.rows;
+  const auto& t = *in.t;
   std::vector<double> bus_V(N, std::nan(""));
   double soc = v.battery.initial_soc;
   const double capacity_As = v.battery.capacity_Ah * 3600.0;
   for (size_t i = 0; i < N; ++i) {
-    if (Vcol) {
-      bus_V[i] = (*Vcol)[i];
+    if (in.V) {
+      bus_V[i] = (*in.V)[i];
       continue;
     }
-    const double I = Icol && current_usable ? (*Icol)[i] : 0.0;  // no usable monitor: no load known
-    if (soc_col && std::isfinite((*soc_col)[i])) soc = (*soc_col)[i];
+    const double I = in.I && in.current_usable ? (*in.I)[i] : 0.0;  // no usable monitor: no load known
+    if (in.soc && std::isfinite((*in.soc)[i])) soc = (*in.soc)[i];
     if (std::isfinite(I)) bus_V[i] = v.battery.OpenCircuitVoltage_V(soc) - v.battery.internal_resistance_ohm * I;
-    if (!soc_col && i + 1 < N && std::isfinite(I) && capacity_As > 0) {
+    if (!in.soc && i + 1 < N && std::isfinite(I) && capacity_As > 0) {
       soc = std::clamp(soc - I * (t[i + 1] - t[i]) / capacity_As, 0.0, 1.0);
     }
   }
-  // Height of the CG above the take-off point (the first finite altitude).
-  double h0 = std::nan("");
-  if (alt) {
-    for (double a : *alt) {
-      if (std::isfinite(a)) {
-        h0 = alt_sign * a;
-        break;
-      }
+  return bus_V;
+}
+
+// Height of the take-off point (the first finite altitude, as height up); NaN without an altitude.
+double TakeOffHeight(const DynamicsInputs& in) {
+  if (in.alt) {
+    for (double a : *in.alt) {
+      if (std::isfinite(a)) return in.alt_sign * a;
     }
   }
+  return std::nan("");
+}
 
-  // Rotor speeds at each row: the configured powertrain integrated at the logged voltage, commands
-  // interpolated between rows and held between autopilot ticks.
+// Rotor speeds at each row: the configured powertrain integrated at the logged voltage, commands
+// interpolated between rows and held between autopilot ticks.
+class PowertrainReplay {
+ public:
+  PowertrainReplay(const DynamicsInputs& in, const vehicle::VehicleParams& v)
+      : in_(in), v_(v), bus_V_(BusVoltage(in, v)), ap_rate_hz_(v.sensors.gyro.rate_hz) {}
+
   // inertia_scale multiplies every rotor's inertia (the rotor time constant scales with it);
   // delta_R_ohm lowers the voltage the ESCs see by ΔR·I.
-  std::vector<double> cmd(n_rot), c0(n_rot), c1(n_rot);
-  // The autopilot's control loop runs at the IMU rate (as ArduPilot's and the simulator's do).
-  const double ap_rate_hz = v.sensors.gyro.rate_hz;
-  auto commands_at = [&](size_t i, std::vector<double>* c) {
-    for (size_t m = 0; m < n_rot; ++m) (*c)[m] = (*mu[m])[i];
-    return std::all_of(c->begin(), c->end(), [](double x) { return std::isfinite(x); });
-  };
-  auto esc_V = [&](size_t i, double delta_R_ohm) {
-    return delta_R_ohm != 0 && Icol && std::isfinite((*Icol)[i]) ? bus_V[i] - delta_R_ohm * (*Icol)[i] : bus_V[i];
-  };
-  auto replay = [&](double inertia_scale, double delta_R_ohm, std::vector<std::vector<double>>* omega,
-                    std::vector<bool>* row_ok) {
-    vehicle::VehicleParams stiff = v;
+  void Run(double inertia_scale, double delta_R_ohm, std::vector<std::vector<double>>* omega,
+           std::vector<bool>* row_ok) const {
+    const size_t N = in_.rows, n_rot = v_.rotors.size();
+    const auto& t = *in_.t;
+    std::vector<double> cmd(n_rot), c0(n_rot), c1(n_rot);
+    vehicle::VehicleParams stiff = v_;
     stiff.motor.inertia_kgm2 *= inertia_scale;
     for (auto& r : stiff.rotors) r.inertia_kgm2 *= inertia_scale;
     vehicle::PowertrainState ps = vehicle::InitialPowertrainState(stiff);
@@ -227,7 +245,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     row_ok->assign(N, false);
     bool have_state = false;
     for (size_t i = 0; i < N; ++i) {
-      const bool ok_i = commands_at(i, &c1) && std::isfinite(bus_V[i]) && bus_V[i] > 0;
+      const bool ok_i = CommandsAt(i, &c1) && std::isfinite(bus_V_[i]) && bus_V_[i] > 0;
       if (!ok_i) {
         have_state = false;
         continue;
@@ -235,20 +253,21 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
       if (!have_state || !(t[i] - t[i - 1] <= kMaxRowGap_s) || !(t[i] > t[i - 1])) {
         // Restart at the steady state of this row's commands.
         for (size_t m = 0; m < n_rot; ++m) {
-          ps.omega_radps[m] = c1[m] > 0 ? vehicle::SteadyOmega_radps(v, m, v.esc.Duty(c1[m]) * esc_V(i, delta_R_ohm)) : 0.0;
+          ps.omega_radps[m] =
+              c1[m] > 0 ? vehicle::SteadyOmega_radps(v_, m, v_.esc.Duty(c1[m]) * EscVoltage(i, delta_R_ohm)) : 0.0;
         }
       } else {
-        commands_at(i - 1, &c0);
+        CommandsAt(i - 1, &c0);
         const double dt = t[i] - t[i - 1];
         const int sub = std::max(1, static_cast<int>(std::ceil(dt / kSubstep_s - 1e-9)));
         const double h = dt / sub;
-        const double V0 = esc_V(i - 1, delta_R_ohm), V1 = esc_V(i, delta_R_ohm);
+        const double V0 = EscVoltage(i - 1, delta_R_ohm), V1 = EscVoltage(i, delta_R_ohm);
         for (int s = 0; s < sub; ++s) {
           // The autopilot updates the commands at its own rate and holds them in between: the
           // command acting at time τ is the one of its last tick, interpolated between the rows.
           // A step acts with the command in force at its start (as the simulator's loop does).
           const double tau = s * h;
-          const double w = ap_rate_hz > 0 ? std::floor(tau * ap_rate_hz + 1e-9) / (ap_rate_hz * dt) : tau / dt;
+          const double w = ap_rate_hz_ > 0 ? std::floor(tau * ap_rate_hz_ + 1e-9) / (ap_rate_hz_ * dt) : tau / dt;
           for (size_t m = 0; m < n_rot; ++m) cmd[m] = (1 - w) * c0[m] + w * c1[m];
           SetStiffBattery((1 - w) * V0 + w * V1, &stiff);
           vehicle::StepPowertrain(stiff, cmd, h, &ps);
@@ -258,229 +277,305 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
       (*omega)[i] = ps.omega_radps;
       (*row_ok)[i] = true;
     }
-  };
-  std::vector<std::vector<double>> omega;
-  std::vector<bool> row_ok;
-  replay(1.0, 0.0, &omega, &row_ok);
-
-  ChannelData ch;
-  ch.name = kName;
-  ch.unit = "m/s^2";
-  if (has_V && !V_usable) {
-    ch.note = fmt::format("logged voltage_V (median {:.3g} V) is outside {}: no power monitor; the configured battery's "
-                          "open-circuit voltage drives the replay", median_V, plausibility::RangeText("bus_voltage_V"));
   }
-  const vehicle::NoiseParams& np = v.sensors.accel.noise;
-  ch.bias_nuisance = np.bias_std > 0 || np.bias_walk_per_sqrt_s > 0;
-  ch.explain_above_noise = true;
-  std::vector<Vec3> F_T, v_B;  // per kept sample: thrust force, body velocity
+
+ private:
+  bool CommandsAt(size_t i, std::vector<double>* c) const {
+    for (size_t m = 0; m < c->size(); ++m) (*c)[m] = (*in_.mu[m])[i];
+    return std::all_of(c->begin(), c->end(), [](double x) { return std::isfinite(x); });
+  }
+  double EscVoltage(size_t i, double delta_R_ohm) const {
+    return delta_R_ohm != 0 && in_.I && std::isfinite((*in_.I)[i]) ? bus_V_[i] - delta_R_ohm * (*in_.I)[i] : bus_V_[i];
+  }
+
+  const DynamicsInputs& in_;
+  const vehicle::VehicleParams& v_;
+  std::vector<double> bus_V_;
+  double ap_rate_hz_;  // the autopilot's control loop runs at the IMU rate (as ArduPilot's and the simulator's do)
+};
+
+// The kept (airborne, in-flight) samples' quantities besides the channel's residual.
+struct Airborne {
+  std::vector<Vec3> F_T, v_B;  // thrust force, body velocity
   std::vector<double> mass, omega_sum, current, height;
-  std::vector<Eigen::Matrix3d> Rt;
+  std::vector<Eigen::Matrix3d> Rt;  // R_BN
   size_t dropped_ground = 0;
-  for (size_t i = 0; i < N; ++i) {
+};
+
+// The channel's residual accel − (thrust + drag)/m at the airborne flight rows, and what the
+// candidates need there.
+void CollectAirborne(const DynamicsInputs& in, const vehicle::VehicleParams& v,
+                     const std::vector<std::vector<double>>& omega, const std::vector<bool>& row_ok,
+                     const std::vector<realdata::RowKind>& row_kind, ChannelData* ch, Airborne* air) {
+  const size_t n_rot = v.rotors.size();
+  const double h0 = TakeOffHeight(in);
+  for (size_t i = 0; i < in.rows; ++i) {
     if (!row_ok[i] || row_kind[i] != realdata::RowKind::kFlight) continue;
-    const Vec3 meas(ax[i], ay[i], az[i]);
-    const Vec3 vel(vn[i], ve[i], vd[i]);
-    Eigen::Quaterniond q((*qc[0])[i], (*qc[1])[i], (*qc[2])[i], (*qc[3])[i]);
+    const Vec3 meas((*in.ax)[i], (*in.ay)[i], (*in.az)[i]);
+    const Vec3 vel((*in.vn)[i], (*in.ve)[i], (*in.vd)[i]);
+    Eigen::Quaterniond q((*in.q[0])[i], (*in.q[1])[i], (*in.q[2])[i], (*in.q[3])[i]);
     if (!meas.allFinite() || !vel.allFinite() || !q.coeffs().allFinite() || !(q.norm() > 0.5)) continue;
     q.normalize();
     bool armed = true;
-    for (size_t m = 0; m < n_rot; ++m) armed = armed && (*mu[m])[i] > 0;
+    for (size_t m = 0; m < n_rot; ++m) armed = armed && (*in.mu[m])[i] > 0;
     double hgt = std::nan("");
-    if (alt && std::isfinite((*alt)[i])) hgt = alt_sign * (*alt)[i] - h0;
+    if (in.alt && std::isfinite((*in.alt)[i])) hgt = in.alt_sign * (*in.alt)[i] - h0;
     // Ground contact forces are not in the model: only airborne samples (height known and clear).
     if (!armed || !(hgt > kMinHeight_m)) {
-      ++dropped_ground;
+      ++air->dropped_ground;
       continue;
     }
     const Eigen::Matrix3d R_BN = q.toRotationMatrix().transpose();
     const Vec3 vb = R_BN * vel;
-    double m_kg = v.mass_kg + (payload && std::isfinite((*payload)[i]) ? (*payload)[i] : v.payload.mass_kg);
+    double m_kg = v.mass_kg + (in.payload && std::isfinite((*in.payload)[i]) ? (*in.payload)[i] : v.payload.mass_kg);
     const Vec3 Ft = vehicle::RotorWrench(v, omega[i]).force_B_N;
     const Vec3 pred = (Ft + DragForce_B(v.drag, vb)) / m_kg;
     double wsum = 0;
     for (size_t m = 0; m < n_rot; ++m) wsum += omega[i][m];
-    ch.t.push_back(t[i]);
-    ch.y.emplace_back(meas - pred);
-    ch.row.push_back(static_cast<int>(i));
-    F_T.push_back(Ft);
-    v_B.push_back(vb);
-    mass.push_back(m_kg);
-    omega_sum.push_back(wsum);
-    current.push_back(Icol ? (*Icol)[i] : std::nan(""));
-    height.push_back(hgt);
-    Rt.push_back(R_BN);
+    ch->t.push_back((*in.t)[i]);
+    ch->y.emplace_back(meas - pred);
+    ch->row.push_back(static_cast<int>(i));
+    air->F_T.push_back(Ft);
+    air->v_B.push_back(vb);
+    air->mass.push_back(m_kg);
+    air->omega_sum.push_back(wsum);
+    air->current.push_back(in.I ? (*in.I)[i] : std::nan(""));
+    air->height.push_back(hgt);
+    air->Rt.push_back(R_BN);
   }
-  const size_t n = ch.t.size();
-  if (n == 0) {
-    skip(fmt::format("no airborne samples with motor outputs (dropped {} on the ground or disarmed)", dropped_ground));
-    return;
-  }
+}
 
-  // thrust_scale: k_T (or the mass) off by a factor.
+// Thrust force at the kept samples from a replay variant.
+std::vector<Vec3> ThrustAtKept(const vehicle::VehicleParams& v, const ChannelData& ch,
+                               const std::vector<std::vector<double>>& w, const std::vector<bool>& ok) {
+  std::vector<Vec3> F(ch.t.size(), Vec3::Zero());
+  for (size_t k = 0; k < F.size(); ++k) {
+    const size_t i = static_cast<size_t>(ch.row[k]);
+    if (ok[i]) F[k] = vehicle::RotorWrench(v, w[i]).force_B_N;
+  }
+  return F;
+}
+
+// motor_time_constant: the rotors respond slower than configured; the replay with every rotor's
+// inertia scaled by (1 + κ) (τ ∝ J at a given speed), fitted by Gauss–Newton with secant Jacobians
+// over replays; its columns (no regressor yet) give the extra time constant at hover Δτ = κ·τ_hover.
+Candidate MotorTimeConstant(const PowertrainReplay& replay, const vehicle::VehicleParams& v, const ChannelData& ch,
+                            const Airborne& air) {
+  Candidate mt = MakeCandidate("motor_time_constant", {"tau_extra_s"}, {1.0}, "s", "dthrust_dt_N_per_s");
+  const double tau_h = HoverRotorTimeConstant_s(v);
+  if (!(tau_h > 0)) return mt;
+  const size_t n = ch.t.size();
+  std::vector<std::vector<double>> w_k;
+  std::vector<bool> ok_k;
+  auto effect = [&](double kappa) {
+    replay.Run(1.0 + kappa, 0.0, &w_k, &ok_k);
+    std::vector<Vec3> F = ThrustAtKept(v, ch, w_k, ok_k);
+    for (size_t k = 0; k < n; ++k) F[k] = (F[k] - air.F_T[k]) / air.mass[k];
+    return F;
+  };
+  auto demeaned_dot = [&](const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+    Vec3 ma = Vec3::Zero(), mb = Vec3::Zero();
+    if (ch.bias_nuisance) {
+      for (size_t k = 0; k < n; ++k) {
+        ma += a[k];
+        mb += b[k];
+      }
+      ma /= static_cast<double>(n);
+      mb /= static_cast<double>(n);
+    }
+    double s = 0;
+    for (size_t k = 0; k < n; ++k) s += (a[k] - ma).dot(b[k] - mb);
+    return s;
+  };
+  constexpr double kKappaMin = -0.8, kKappaMax = 10.0;
+  double ka = 0.0, kb = 1.0;
+  std::vector<Vec3> ga(n, Vec3::Zero()), gb = effect(kb);
+  for (int it = 0; it < 8; ++it) {
+    std::vector<Vec3> J(n), r(n);
+    for (size_t k = 0; k < n; ++k) {
+      J[k] = (gb[k] - ga[k]) / (kb - ka);
+      r[k] = ch.y[k] - gb[k];
+    }
+    const double jj = demeaned_dot(J, J);
+    if (!(jj > 0)) break;
+    const double kn = std::clamp(kb + demeaned_dot(J, r) / jj, kKappaMin, kKappaMax);
+    if (std::fabs(kn - kb) < 1e-4) break;
+    ka = kb;
+    ga = std::move(gb);
+    kb = kn;
+    gb = effect(kb);
+  }
+  if (std::fabs(kb) < 0.05) {  // secant through a visible lag so the regressor is not noise
+    kb = 0.5;
+    gb = effect(kb);
+  }
+  for (size_t k = 0; k < n; ++k) mt.X.emplace_back(gb[k] / (kb * tau_h));  // coefficient = Δτ at the fit
+  return mt;
+}
+
+// thrust_scale, rotor_drag and motor_time_constant (regressors of all three in one pass).
+void AddThrustCandidates(const PowertrainReplay& replay, const vehicle::VehicleParams& v, const Airborne& air,
+                         ChannelData* ch) {
+  const size_t n = ch->t.size();
   // thrust_scale: k_T (or the mass) off by a factor. Over one flight's thrust range it is nearly
   // collinear with battery_sag (both grow with the thrust); the bootstrap then says "ambiguous".
   Candidate ts = MakeCandidate("thrust_scale", {"thrust_scale_minus_1"}, {1.0}, "1", "thrust_N");
   // rotor_drag: regressor in units of 10⁴ (rad/s)·(m/s) so the coefficient is O(1).
   constexpr double kDragUnit = 1e-4;
   Candidate rd = MakeCandidate("rotor_drag", {"rotor_drag_N_per_radps_mps"}, {kDragUnit}, "N/(rad/s*m/s)", "omega_sum_x_speed");
-  // Thrust force at the kept samples from a replay variant.
-  auto thrust_at_kept = [&](const std::vector<std::vector<double>>& w, const std::vector<bool>& ok) {
-    std::vector<Vec3> F(n, Vec3::Zero());
-    for (size_t k = 0; k < n; ++k) {
-      const size_t i = static_cast<size_t>(ch.row[k]);
-      if (ok[i]) F[k] = vehicle::RotorWrench(v, w[i]).force_B_N;
-    }
-    return F;
-  };
-  // motor_time_constant: the rotors respond slower than configured; the replay with every rotor's
-  // inertia scaled by (1 + κ) (τ ∝ J at a given speed), fitted by Gauss–Newton with secant
-  // Jacobians over replays; reported as the extra time constant at hover Δτ = κ·τ_hover.
-  const double tau_h = HoverRotorTimeConstant_s(v);
-  Candidate mt = MakeCandidate("motor_time_constant", {"tau_extra_s"}, {1.0}, "s", "dthrust_dt_N_per_s");
-  if (tau_h > 0) {
-    std::vector<std::vector<double>> w_k;
-    std::vector<bool> ok_k;
-    auto effect = [&](double kappa) {
-      replay(1.0 + kappa, 0.0, &w_k, &ok_k);
-      std::vector<Vec3> F = thrust_at_kept(w_k, ok_k);
-      for (size_t k = 0; k < n; ++k) F[k] = (F[k] - F_T[k]) / mass[k];
-      return F;
-    };
-    auto demeaned_dot = [&](const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
-      Vec3 ma = Vec3::Zero(), mb = Vec3::Zero();
-      if (ch.bias_nuisance) {
-        for (size_t k = 0; k < n; ++k) {
-          ma += a[k];
-          mb += b[k];
-        }
-        ma /= static_cast<double>(n);
-        mb /= static_cast<double>(n);
-      }
-      double s = 0;
-      for (size_t k = 0; k < n; ++k) s += (a[k] - ma).dot(b[k] - mb);
-      return s;
-    };
-    constexpr double kKappaMin = -0.8, kKappaMax = 10.0;
-    double ka = 0.0, kb = 1.0;
-    std::vector<Vec3> ga(n, Vec3::Zero()), gb = effect(kb);
-    for (int it = 0; it < 8; ++it) {
-      std::vector<Vec3> J(n), r(n);
-      for (size_t k = 0; k < n; ++k) {
-        J[k] = (gb[k] - ga[k]) / (kb - ka);
-        r[k] = ch.y[k] - gb[k];
-      }
-      const double jj = demeaned_dot(J, J);
-      if (!(jj > 0)) break;
-      const double kn = std::clamp(kb + demeaned_dot(J, r) / jj, kKappaMin, kKappaMax);
-      if (std::fabs(kn - kb) < 1e-4) break;
-      ka = kb;
-      ga = std::move(gb);
-      kb = kn;
-      gb = effect(kb);
-    }
-    if (std::fabs(kb) < 0.05) {  // secant through a visible lag so the regressor is not noise
-      kb = 0.5;
-      gb = effect(kb);
-    }
-    for (size_t k = 0; k < n; ++k) mt.X.emplace_back(gb[k] / (kb * tau_h));  // coefficient = Δτ at the fit
-  }
+  Candidate mt = MotorTimeConstant(replay, v, *ch, air);
+  const auto& F_T = air.F_T;
   for (size_t k = 0; k < n; ++k) {
-    ts.X.emplace_back(F_T[k] / mass[k]);
+    ts.X.emplace_back(F_T[k] / air.mass[k]);
     ts.regressor.push_back(F_T[k].norm());
-    rd.X.emplace_back(-omega_sum[k] * kDragUnit * Vec3(v_B[k].x(), v_B[k].y(), 0.0) / mass[k]);
-    rd.regressor.push_back(omega_sum[k] * std::hypot(v_B[k].x(), v_B[k].y()));
-    const size_t a = k > 0 && ch.row[k - 1] == ch.row[k] - 1 ? k - 1 : k;
-    const size_t b = k + 1 < n && ch.row[k + 1] == ch.row[k] + 1 ? k + 1 : k;
-    mt.regressor.push_back(b > a ? (F_T[b] - F_T[a]).norm() / (ch.t[b] - ch.t[a]) : 0.0);
+    rd.X.emplace_back(-air.omega_sum[k] * kDragUnit * Vec3(air.v_B[k].x(), air.v_B[k].y(), 0.0) / air.mass[k]);
+    rd.regressor.push_back(air.omega_sum[k] * std::hypot(air.v_B[k].x(), air.v_B[k].y()));
+    const size_t a = k > 0 && ch->row[k - 1] == ch->row[k] - 1 ? k - 1 : k;
+    const size_t b = k + 1 < n && ch->row[k + 1] == ch->row[k] + 1 ? k + 1 : k;
+    mt.regressor.push_back(b > a ? (F_T[b] - F_T[a]).norm() / (ch->t[b] - ch->t[a]) : 0.0);
   }
-  ch.candidates.push_back(std::move(ts));
-  ch.candidates.push_back(std::move(rd));
-  if (!mt.X.empty()) ch.candidates.push_back(std::move(mt));
+  ch->candidates.push_back(std::move(ts));
+  ch->candidates.push_back(std::move(rd));
+  if (!mt.X.empty()) ch->candidates.push_back(std::move(mt));
+}
 
-  // battery_sag: the ESCs see V − ΔR·I.
-  bool current_ok = Icol != nullptr && current_usable;
-  for (double I : current) current_ok = current_ok && std::isfinite(I);
-  if (current_ok) {
-    // Secant over a replay with the ESC voltage lowered by δ·I (rotor dynamics included).
-    constexpr double kDeltaR_ohm = 0.05;
-    std::vector<std::vector<double>> w_s;
-    std::vector<bool> ok_s;
-    replay(1.0, kDeltaR_ohm, &w_s, &ok_s);
-    const std::vector<Vec3> F_s = thrust_at_kept(w_s, ok_s);
-    Candidate bs = MakeCandidate("battery_sag", {"delta_R_ohm"}, {1.0}, "ohm", "current_A");
-    for (size_t k = 0; k < n; ++k) {
-      bs.X.emplace_back((F_s[k] - F_T[k]) / (kDeltaR_ohm * mass[k]));
-      bs.regressor.push_back(current[k]);
-    }
-    ch.candidates.push_back(std::move(bs));
-  } else {
-    ch.not_available.emplace_back(current_usable ? "battery_sag (no current_A column)" : "battery_sag (no usable power monitor)");
+// battery_sag: the ESCs see V − ΔR·I; the secant over a replay with the ESC voltage lowered by δ·I
+// (rotor dynamics included).
+void AddBatterySag(const PowertrainReplay& replay, const DynamicsInputs& in, const vehicle::VehicleParams& v,
+                   const Airborne& air, ChannelData* ch) {
+  bool current_ok = in.I != nullptr && in.current_usable;
+  for (double I : air.current) current_ok = current_ok && std::isfinite(I);
+  if (!current_ok) {
+    ch->not_available.emplace_back(in.current_usable ? "battery_sag (no current_A column)"
+                                                     : "battery_sag (no usable power monitor)");
+    return;
   }
+  constexpr double kDeltaR_ohm = 0.05;
+  std::vector<std::vector<double>> w_s;
+  std::vector<bool> ok_s;
+  replay.Run(1.0, kDeltaR_ohm, &w_s, &ok_s);
+  const std::vector<Vec3> F_s = ThrustAtKept(v, *ch, w_s, ok_s);
+  Candidate bs = MakeCandidate("battery_sag", {"delta_R_ohm"}, {1.0}, "ohm", "current_A");
+  for (size_t k = 0; k < ch->t.size(); ++k) {
+    bs.X.emplace_back((F_s[k] - air.F_T[k]) / (kDeltaR_ohm * air.mass[k]));
+    bs.regressor.push_back(air.current[k]);
+  }
+  ch->candidates.push_back(std::move(bs));
+}
 
-  // ground_effect: gain(a, z) − 1 = 1/(1 − a/(16 z²)) − 1, a = R², z the rotor height above ground.
+// ground_effect: gain(a, z) − 1 = 1/(1 − a/(16 z²)) − 1, a = R², z the rotor height above ground.
+void AddGroundEffect(const DiagnoseOptions& options, const Airborne& air, ChannelData* ch) {
+  const size_t n = ch->t.size();
   const double z_rest = options.rotor_height_at_rest_m;
   double h_min = 1e300;
-  for (double h : height) h_min = std::min(h_min, h);
+  for (double h : air.height) h_min = std::min(h_min, h);
+  if (!(h_min + z_rest < 1.0)) {
+    ch->not_available.emplace_back("ground_effect (no airborne samples within 1 m of the ground)");
+    return;
+  }
   std::vector<double> u(n);  // 1/(16 z²)
   for (size_t k = 0; k < n; ++k) {
-    const double z = std::max(kMinGroundZ_m, height[k] + z_rest);
+    const double z = std::max(kMinGroundZ_m, air.height[k] + z_rest);
     u[k] = 1.0 / (16.0 * z * z);
   }
-  if (h_min + z_rest < 1.0) {
-    const double a_max = 0.8 * 16.0 * kMinGroundZ_m * kMinGroundZ_m;  // keeps a·u ≤ 0.8
-    auto model = [&](size_t k, const Eigen::VectorXd& th, Vec3* g, Mat3X* J) {
-      const double au = th[0] * u[k];
-      *g = F_T[k] / mass[k] * (1.0 / (1.0 - au) - 1.0);
-      *J = F_T[k] / mass[k] * (u[k] / ((1.0 - au) * (1.0 - au)));
-    };
-    const Eigen::VectorXd a0 =
-        GaussNewton(ch.y, ch.bias_nuisance, 1, model, Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, a_max));
-    const double a = std::max(a0[0], 1e-4);  // secant point; tangent at a → 0
-    Candidate ge = MakeCandidate("ground_effect", {"radius_sq_m2"}, {1.0}, "m", "height_m");
-    for (size_t k = 0; k < n; ++k) {
-      const double au = a * u[k];
-      ge.X.emplace_back(F_T[k] / mass[k] * ((1.0 / (1.0 - au) - 1.0) / a));
-      ge.regressor.push_back(height[k]);
-    }
-    ch.candidates.push_back(std::move(ge));
-  } else {
-    ch.not_available.emplace_back("ground_effect (no airborne samples within 1 m of the ground)");
+  const double a_max = 0.8 * 16.0 * kMinGroundZ_m * kMinGroundZ_m;  // keeps a·u ≤ 0.8
+  auto model = [&](size_t k, const Eigen::VectorXd& th, Vec3* g, Mat3X* J) {
+    const double au = th[0] * u[k];
+    *g = air.F_T[k] / air.mass[k] * (1.0 / (1.0 - au) - 1.0);
+    *J = air.F_T[k] / air.mass[k] * (u[k] / ((1.0 - au) * (1.0 - au)));
+  };
+  const Eigen::VectorXd a0 =
+      GaussNewton(ch->y, ch->bias_nuisance, 1, model, Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, a_max));
+  const double a = std::max(a0[0], 1e-4);  // secant point; tangent at a → 0
+  Candidate ge = MakeCandidate("ground_effect", {"radius_sq_m2"}, {1.0}, "m", "height_m");
+  for (size_t k = 0; k < n; ++k) {
+    const double au = a * u[k];
+    ge.X.emplace_back(air.F_T[k] / air.mass[k] * ((1.0 / (1.0 - au) - 1.0) / a));
+    ge.regressor.push_back(air.height[k]);
   }
+  ch->candidates.push_back(std::move(ge));
+}
 
-  // wind: a constant horizontal wind seen through the configured airframe drag.
+// wind: a constant horizontal wind seen through the configured airframe drag.
+void AddWind(const vehicle::VehicleParams& v, const Airborne& air, ChannelData* ch) {
   const auto& dr = v.drag;
-  if (dr.linear_Nspm.norm() + dr.quadratic_Ns2pm2.norm() > 0) {
-    auto model = [&](size_t k, const Eigen::VectorXd& th, Vec3* g, Mat3X* J) {
-      const Vec3 w_B = Rt[k].leftCols<2>() * th;
-      const Vec3 a_B = v_B[k] - w_B;
-      *g = (DragForce_B(dr, a_B) - DragForce_B(dr, v_B[k])) / mass[k];
-      const Vec3 slope = dr.linear_Nspm + 2.0 * dr.quadratic_Ns2pm2.cwiseProduct(a_B.cwiseAbs());  // −∂F/∂a
-      *J = slope.asDiagonal() * Rt[k].leftCols<2>() / mass[k];
-    };
-    constexpr double kMaxWind_mps = 30.0;
-    const Eigen::VectorXd w0 = GaussNewton(ch.y, ch.bias_nuisance, 2, model, Eigen::VectorXd::Constant(2, -kMaxWind_mps),
-                                           Eigen::VectorXd::Constant(2, kMaxWind_mps));
-    Candidate wi = MakeCandidate("wind", {"wind_N_mps", "wind_E_mps"}, {1.0, 1.0}, "m/s", "speed_mps");
-    for (size_t k = 0; k < n; ++k) {
-      // Secant slope per body axis through the working point (tangent where the wind component is ~0).
-      const Vec3 b = Rt[k].leftCols<2>() * w0;
-      const Vec3 dF = DragForce_B(dr, v_B[k] - b) - DragForce_B(dr, v_B[k]);
-      Vec3 slope;
-      for (int i = 0; i < 3; ++i) {
-        slope[i] = std::fabs(b[i]) > 1e-3 ? dF[i] / b[i]
-                                          : dr.linear_Nspm[i] + 2.0 * dr.quadratic_Ns2pm2[i] * std::fabs(v_B[k][i]);
-      }
-      wi.X.emplace_back(slope.asDiagonal() * Rt[k].leftCols<2>() / mass[k]);
-      wi.regressor.push_back(std::hypot(v_B[k].x(), v_B[k].y()));
-    }
-    ch.candidates.push_back(std::move(wi));
-  } else {
-    ch.not_available.emplace_back("wind (the vehicle configures no airframe drag to see it through)");
+  if (!(dr.linear_Nspm.norm() + dr.quadratic_Ns2pm2.norm() > 0)) {
+    ch->not_available.emplace_back("wind (the vehicle configures no airframe drag to see it through)");
+    return;
   }
+  const auto& v_B = air.v_B;
+  const auto& Rt = air.Rt;
+  auto model = [&](size_t k, const Eigen::VectorXd& th, Vec3* g, Mat3X* J) {
+    const Vec3 w_B = Rt[k].leftCols<2>() * th;
+    const Vec3 a_B = v_B[k] - w_B;
+    *g = (DragForce_B(dr, a_B) - DragForce_B(dr, v_B[k])) / air.mass[k];
+    const Vec3 slope = dr.linear_Nspm + 2.0 * dr.quadratic_Ns2pm2.cwiseProduct(a_B.cwiseAbs());  // −∂F/∂a
+    *J = slope.asDiagonal() * Rt[k].leftCols<2>() / air.mass[k];
+  };
+  constexpr double kMaxWind_mps = 30.0;
+  const Eigen::VectorXd w0 = GaussNewton(ch->y, ch->bias_nuisance, 2, model, Eigen::VectorXd::Constant(2, -kMaxWind_mps),
+                                         Eigen::VectorXd::Constant(2, kMaxWind_mps));
+  Candidate wi = MakeCandidate("wind", {"wind_N_mps", "wind_E_mps"}, {1.0, 1.0}, "m/s", "speed_mps");
+  for (size_t k = 0; k < ch->t.size(); ++k) {
+    // Secant slope per body axis through the working point (tangent where the wind component is ~0).
+    const Vec3 b = Rt[k].leftCols<2>() * w0;
+    const Vec3 dF = DragForce_B(dr, v_B[k] - b) - DragForce_B(dr, v_B[k]);
+    Vec3 slope;
+    for (int i = 0; i < 3; ++i) {
+      slope[i] = std::fabs(b[i]) > 1e-3 ? dF[i] / b[i]
+                                        : dr.linear_Nspm[i] + 2.0 * dr.quadratic_Ns2pm2[i] * std::fabs(v_B[k][i]);
+    }
+    wi.X.emplace_back(slope.asDiagonal() * Rt[k].leftCols<2>() / air.mass[k]);
+    wi.regressor.push_back(std::hypot(v_B[k].x(), v_B[k].y()));
+  }
+  ch->candidates.push_back(std::move(wi));
+}
+
+}  // namespace
+
+void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v, const DiagnoseOptions& options,
+                    const std::vector<realdata::RowKind>& row_kind, ReplayResult* out) {
+  const char* kName = "dynamics";
+  auto skip = [&](const std::string& why) { out->not_diagnosed.emplace_back(kName, why); };
+  if (const std::string missing = MissingInputs(log, v.rotors.size()); !missing.empty()) {
+    skip("open-loop dynamics replay needs " + missing);
+    return;
+  }
+  // The replay's drag (and every wind candidate) is driven by the logged velocity, and its airborne
+  // test by the height: a velocity that does not follow the accelerometer makes the channel meaningless.
+  if (const realdata::VelocityCheck vc = realdata::CheckVelocityAgainstAccel(log, row_kind); !vc.ok) {
+    skip(vc.why);
+    return;
+  }
+  const DynamicsInputs in = FindInputs(log, v.rotors.size());
+  const PowertrainReplay replay(in, v);
+  std::vector<std::vector<double>> omega;
+  std::vector<bool> row_ok;
+  replay.Run(1.0, 0.0, &omega, &row_ok);
+
+  ChannelData ch;
+  ch.name = kName;
+  ch.unit = "m/s^2";
+  if (in.has_V && !in.V_usable) {
+    ch.note = fmt::format("logged voltage_V (median {:.3g} V) is outside {}: no power monitor; the configured battery's "
+                          "open-circuit voltage drives the replay", in.median_V, plausibility::RangeText("bus_voltage_V"));
+  }
+  const vehicle::NoiseParams& np = v.sensors.accel.noise;
+  ch.bias_nuisance = np.bias_std > 0 || np.bias_walk_per_sqrt_s > 0;
+  ch.explain_above_noise = true;
+  Airborne air;
+  CollectAirborne(in, v, omega, row_ok, row_kind, &ch, &air);
+  if (ch.t.empty()) {
+    skip(fmt::format("no airborne samples with motor outputs (dropped {} on the ground or disarmed)", air.dropped_ground));
+    return;
+  }
+  AddThrustCandidates(replay, v, air, &ch);
+  AddBatterySag(replay, in, v, air, &ch);
+  AddGroundEffect(options, air, &ch);
+  AddWind(v, air, &ch);
   if (!ch.bias_nuisance) {
     Candidate off = MakeCandidate("bias", {"b_x", "b_y", "b_z"}, {1, 1, 1}, "m/s^2", "");
-    for (size_t k = 0; k < n; ++k) off.X.emplace_back(Mat3X(Eigen::Matrix3d::Identity()));
+    for (size_t k = 0; k < ch.t.size(); ++k) off.X.emplace_back(Mat3X(Eigen::Matrix3d::Identity()));
     ch.candidates.push_back(std::move(off));
   }
   out->channels.push_back(std::move(ch));

@@ -33,36 +33,26 @@ constexpr double kPerMotorExponent = 0.65;
 // throttle^r (pymavlink magfit_compassmot fits r): the grid the throttle family is profiled over.
 constexpr double kThrottleExponents[] = {0.5, 1.0, 1.5, 2.0, 3.0};
 
-}  // namespace
-
-ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
-                          const Vec3& B_N_uT, const CompassReplayOptions& o) {
-  const std::string pre = MagPrefix(c);
-  CompassSampler sampler(log, v, c, in, B_N_uT, o.calibrated_log, o.share_exponent);
-  const magnetics::CurrentFieldParams& wiring = sampler.wiring();
-
-  ChannelData ch;
-  ch.name = pre;
-  ch.unit = "uT";
-  ch.compass = true;
-  ch.bias_nuisance = false;  // the baseline's offset holds any bias
-  ch.field_N_uT = B_N_uT;
-  ch.undone_compensation = sampler.undone_compensation();
-
+// Per replayed sample, what the candidates' regressors are built from.
+struct CompassRows {
   std::vector<Vec3> h;                     // predicted field before hard iron, sensor frame
   std::vector<Eigen::Matrix3d> Msens, Rt;  // R_SB·scale·K(I), R_NBᵀ
   std::vector<double> I_log, I_mem, u, temp;
   std::vector<std::vector<double>> mu;     // per-motor outputs
   std::vector<magnetics::Currents> currents;
-  const bool has_current = in.current != nullptr;
-  const bool has_throttle = in.control_u != nullptr || !in.motor_u.empty();
-  sampler.Begin(o.latency_s, o.current_shift_s, o.member_shift_s);
+};
+
+// The configured model at every wanted, locatable compass sample: the channel's residual, times,
+// rows, current and throttle, and the rows' regressor inputs.
+void SampleCompass(CompassSampler* sampler, const LogInputs& in, const CompassReplayOptions& o, ChannelData* ch,
+                   CompassRows* rows) {
+  sampler->Begin(o.latency_s, o.current_shift_s, o.member_shift_s);
   LocatedSample ls;
-  for (const CompassSample& s : sampler.samples()) {
+  for (const CompassSample& s : sampler->samples()) {
     if (o.row_kind && (*o.row_kind)[static_cast<size_t>(s.row)] != o.want) continue;
-    if (!sampler.Locate(s, &ls)) continue;
+    if (!sampler->Locate(s, &ls)) continue;
     const Eigen::Matrix3d R_NB = ls.q.toRotationMatrix();
-    const CompassSampler::Prediction p = sampler.Predict(s, ls, R_NB);
+    const CompassSampler::Prediction p = sampler->Predict(s, ls, R_NB);
     double thr = std::nan("");
     std::vector<double> motors;
     if (!o.baseline_only) {
@@ -74,188 +64,185 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
       thr = 0;
       for (auto* m : in.motor_u) thr += Lerp(*m, ls.i, ls.w) / static_cast<double>(in.motor_u.size());
     }
-    ch.t.push_back(s.t);
-    ch.y.emplace_back(s.m - p.pred);
-    ch.row.push_back(s.row);
-    ch.current_A.push_back(ls.currents.battery_A);
-    ch.throttle.push_back(thr);
-    h.push_back(p.h);
-    Msens.push_back(p.M);
-    Rt.emplace_back(R_NB.transpose());
-    I_log.push_back(ls.i_logged);
-    I_mem.push_back(ls.i_member);
-    u.push_back(thr);
+    ch->t.push_back(s.t);
+    ch->y.emplace_back(s.m - p.pred);
+    ch->row.push_back(s.row);
+    ch->current_A.push_back(ls.currents.battery_A);
+    ch->throttle.push_back(thr);
+    rows->h.push_back(p.h);
+    rows->Msens.push_back(p.M);
+    rows->Rt.emplace_back(R_NB.transpose());
+    rows->I_log.push_back(ls.i_logged);
+    rows->I_mem.push_back(ls.i_member);
+    rows->u.push_back(thr);
     if (!o.baseline_only) {
-      mu.push_back(std::move(motors));
-      temp.push_back(in.temp ? Lerp(*in.temp, ls.i, ls.w) : std::nan(""));
-      currents.push_back(ls.currents);
+      rows->mu.push_back(std::move(motors));
+      rows->temp.push_back(in.temp ? Lerp(*in.temp, ls.i, ls.w) : std::nan(""));
+      rows->currents.push_back(ls.currents);
     }
   }
-  const size_t n = ch.t.size();
+}
 
-  ch.baseline = MakeCandidate("baseline", {"offset_x_uT", "offset_y_uT", "offset_z_uT", "dB_N_uT", "dB_E_uT", "dB_D_uT"},
-                              {1, 1, 1, 1, 1, 1}, "uT");
-  for (size_t k = 0; k < n; ++k) {
-    Mat3X x(3, 6);
-    x << Eigen::Matrix3d::Identity(), Msens[k] * Rt[k];
-    ch.baseline.X.push_back(x);
+// Library-free set (detection): r = A·h + d_I·I + d_u·u, A any 3×3 matrix (scale, cross-coupling,
+// misalignment of any form), linear in the current and the throttle (squares extrapolate wildly
+// into a held-out block; a drift is left to the spectral test).
+void AddLibraryFree(const CompassRows& rows, bool has_current, ChannelData* ch) {
+  ch->flexible = MakeCandidate("library_free", {}, {}, "");
+  for (size_t k = 0; k < ch->t.size(); ++k) {
+    std::vector<double> f;
+    if (has_current) f.push_back(rows.I_log[k]);
+    if (std::isfinite(rows.u[k])) f.push_back(rows.u[k]);
+    Mat3X x3 = Mat3X::Zero(3, 9 + 3 * static_cast<Eigen::Index>(f.size()));
+    for (int r = 0; r < 3; ++r) x3.block(r, 3 * r, 1, 3) = rows.h[k].transpose();
+    for (size_t j = 0; j < f.size(); ++j) x3.block(0, 9 + 3 * static_cast<Eigen::Index>(j), 3, 3) = Eigen::Matrix3d::Identity() * f[j];
+    ch->flexible.X.push_back(x3);
   }
-  if (o.baseline_only) {
-    if (has_current) {
-      Candidate chi = MakeCandidate("current_hard_iron", {"d_x_uT_per_A", "d_y_uT_per_A", "d_z_uT_per_A"}, {1, 1, 1}, "uT/A");
-      for (size_t k = 0; k < n; ++k) chi.X.push_back(Diag3(ch.current_A[k]));
-      ch.candidates.push_back(std::move(chi));
-    }
-    return ch;
+  // Every sample must carry the same columns.
+  bool same = true;
+  for (const auto& x : ch->flexible.X) same = same && x.cols() == ch->flexible.X.front().cols();
+  if (!same || ch->flexible.X.empty()) ch->flexible.X.clear();
+  for (Eigen::Index j = 0; !ch->flexible.X.empty() && j < ch->flexible.X.front().cols(); ++j) {
+    ch->flexible.names.push_back(fmt::format("z{}", j));
+    ch->flexible.scale.push_back(1.0);
   }
-  // Library-free set (detection): r = A·h + d_I·I + d_u·u, A any 3×3 matrix (scale, cross-coupling,
-  // misalignment of any form), linear in the current and the throttle (squares extrapolate wildly
-  // into a held-out block; a drift is left to the spectral test).
-  if (o.library_free) {
-    ch.flexible = MakeCandidate("library_free", {}, {}, "");
-    for (size_t k = 0; k < n; ++k) {
-      std::vector<double> f;
-      if (has_current) f.push_back(I_log[k]);
-      if (std::isfinite(u[k])) f.push_back(u[k]);
-      Mat3X x3 = Mat3X::Zero(3, 9 + 3 * static_cast<Eigen::Index>(f.size()));
-      for (int r = 0; r < 3; ++r) x3.block(r, 3 * r, 1, 3) = h[k].transpose();
-      for (size_t j = 0; j < f.size(); ++j) x3.block(0, 9 + 3 * static_cast<Eigen::Index>(j), 3, 3) = Eigen::Matrix3d::Identity() * f[j];
-      ch.flexible.X.push_back(x3);
+}
+
+// current_hard_iron and current_soft_iron, each with the logged current and (when a staleness is
+// applied) the aligned member.
+void AddCurrentIron(const CompassRows& rows, const CompassReplayOptions& o, ChannelData* ch) {
+  for (int aligned = 0; aligned < 2; ++aligned) {
+    if (aligned == 1 && o.member_shift_s == 0) break;
+    Candidate chi = MakeCandidate("current_hard_iron", {"d_x_uT_per_A", "d_y_uT_per_A", "d_z_uT_per_A"}, {1, 1, 1},
+                                  "uT/A", "current_A");
+    Candidate csi = MakeCandidate("current_soft_iron",
+                                  {"dK_xx_per_A", "dK_xy_per_A", "dK_xz_per_A", "dK_yx_per_A", "dK_yy_per_A",
+                                   "dK_yz_per_A", "dK_zx_per_A", "dK_zy_per_A", "dK_zz_per_A"},
+                                  std::vector<double>(9, 1.0), "1/A", "current_A");
+    chi.grid_name = csi.grid_name = "current_aligned";
+    chi.grid_value = csi.grid_value = aligned;
+    for (size_t k = 0; k < ch->t.size(); ++k) {
+      const double Ik = aligned ? rows.I_mem[k] : rows.I_log[k];
+      chi.X.push_back(Diag3(Ik));
+      chi.regressor.push_back(Ik);
+      Mat3X x = Mat3X::Zero(3, 9);
+      for (int r = 0; r < 3; ++r) {
+        for (int j = 0; j < 3; ++j) x(r, 3 * r + j) = Ik * rows.h[k][j];  // r_i = Σ_j E_ij·I·h_j
+      }
+      csi.X.push_back(x);
+      csi.regressor.push_back(Ik);
     }
-    // Every sample must carry the same columns.
-    bool same = true;
-    for (const auto& x : ch.flexible.X) same = same && x.cols() == ch.flexible.X.front().cols();
-    if (!same || ch.flexible.X.empty()) ch.flexible.X.clear();
-    for (Eigen::Index j = 0; !ch.flexible.X.empty() && j < ch.flexible.X.front().cols(); ++j) {
-      ch.flexible.names.push_back(fmt::format("z{}", j));
-      ch.flexible.scale.push_back(1.0);
-    }
+    ch->candidates.push_back(std::move(chi));
+    ch->candidates.push_back(std::move(csi));
   }
-  // Misalignment only (scale and latency are the baseline's and the timing scan's).
+}
+
+// current_lag: the configured wiring field arrives through a first-order lag τ instead of the
+// configured one: r = a·M·(W(lp_τ(I)) − W(lp_τcfg(I))), a ≈ 1, τ profiled over a grid.
+// The configured field W(I) is linear in the currents (exponent 1), so a first-order lag of the
+// currents is the same lag of the field: W(lp_τ(I)) = lp_τ(W(I)). The field is then evaluated
+// once per sample and lagged as a vector for each τ; the configured lag's field once.
+void AddCurrentLag(const CompassSampler& sampler, const CompassRows& rows, ChannelData* ch) {
+  const magnetics::CurrentFieldParams& wiring = sampler.wiring();
+  const size_t n = ch->t.size();
+  std::vector<Vec3> field(n), field_cfg(n);
+  double wiring_energy = 0;
   {
-    Candidate mis = MakeCandidate("misalignment", {"phi_x_deg", "phi_y_deg", "phi_z_deg"}, {kRadToDeg, kRadToDeg, kRadToDeg},
-                                  "deg");
-    for (size_t k = 0; k < n; ++k) mis.X.emplace_back(-Skew(h[k]));  // φ × h = −[h]×·φ
-    ch.candidates.push_back(std::move(mis));
-  }
-  if (has_current) {
-    for (int aligned = 0; aligned < 2; ++aligned) {
-      if (aligned == 1 && o.member_shift_s == 0) break;
-      Candidate chi = MakeCandidate("current_hard_iron", {"d_x_uT_per_A", "d_y_uT_per_A", "d_z_uT_per_A"}, {1, 1, 1},
-                                    "uT/A", "current_A");
-      Candidate csi = MakeCandidate("current_soft_iron",
-                                    {"dK_xx_per_A", "dK_xy_per_A", "dK_xz_per_A", "dK_yx_per_A", "dK_yy_per_A",
-                                     "dK_yz_per_A", "dK_zx_per_A", "dK_zy_per_A", "dK_zz_per_A"},
-                                    std::vector<double>(9, 1.0), "1/A", "current_A");
-      chi.grid_name = csi.grid_name = "current_aligned";
-      chi.grid_value = csi.grid_value = aligned;
-      for (size_t k = 0; k < n; ++k) {
-        const double Ik = aligned ? I_mem[k] : I_log[k];
-        chi.X.push_back(Diag3(Ik));
-        chi.regressor.push_back(Ik);
-        Mat3X x = Mat3X::Zero(3, 9);
-        for (int r = 0; r < 3; ++r) {
-          for (int j = 0; j < 3; ++j) x(r, 3 * r + j) = Ik * h[k][j];  // r_i = Σ_j E_ij·I·h_j
-        }
-        csi.X.push_back(x);
-        csi.regressor.push_back(Ik);
-      }
-      ch.candidates.push_back(std::move(chi));
-      ch.candidates.push_back(std::move(csi));
-    }
-    // current_lag: the configured wiring field arrives through a first-order lag τ instead of the
-    // configured one: r = a·M·(W(lp_τ(I)) − W(lp_τcfg(I))), a ≈ 1, τ profiled over a grid.
-    // The configured field W(I) is linear in the currents (exponent 1), so a first-order lag of the
-    // currents is the same lag of the field: W(lp_τ(I)) = lp_τ(W(I)). The field is then evaluated
-    // once per sample and lagged as a vector for each τ; the configured lag's field once.
-    std::vector<Vec3> field(n), field_cfg(n);
-    double wiring_energy = 0;
-    {
-      magnetics::CurrentLagState s_cfg;
-      for (size_t k = 0; k < n; ++k) {
-        const double dt = k == 0 ? 0.0 : ch.t[k] - ch.t[k - 1];
-        field[k] = sampler.field()(currents[k]);
-        field_cfg[k] = sampler.field()(magnetics::StepCurrentLag(wiring, currents[k], dt, &s_cfg));
-        wiring_energy += field[k].squaredNorm();
-      }
-    }
-    if (n > 0 && std::sqrt(wiring_energy / static_cast<double>(n)) > 0.05) {
-      const bool linear = wiring.exponent == 1.0;
-      for (double tau : kLagGrid_s) {
-        if (tau <= wiring.lag_tau_s) continue;
-        magnetics::CurrentFieldParams lagged_wiring = wiring;
-        lagged_wiring.lag_tau_s = tau;
-        magnetics::CurrentLagState s_new;
-        Candidate cl = MakeCandidate("current_lag", {"amplitude"}, {1.0}, "s", "current_A");
-        cl.grid_value = tau;
-        cl.grid_name = "tau_s";
-        cl.X.reserve(n);
-        cl.regressor.reserve(n);
-        Vec3 a = Vec3::Zero();
-        for (size_t k = 0; k < n; ++k) {
-          const double dt = k == 0 ? 0.0 : ch.t[k] - ch.t[k - 1];
-          if (!linear) {
-            a = sampler.field()(magnetics::StepCurrentLag(lagged_wiring, currents[k], dt, &s_new));
-          } else if (k == 0) {
-            a = field[0];  // steady state at the first sample, as StepCurrentLag starts
-          } else {
-            const double alpha = std::exp(-dt / tau);
-            a = alpha * a + (1.0 - alpha) * field[k];
-          }
-          cl.X.emplace_back(Msens[k] * (a - field_cfg[k]));
-          cl.regressor.push_back(currents[k].battery_A);
-        }
-        ch.candidates.push_back(std::move(cl));
-      }
-    } else {
-      ch.not_available.emplace_back("current_lag (configured wiring field at this compass too small to show a lag)");
-    }
-  } else {
-    ch.not_available.emplace_back("current_hard_iron, current_soft_iron, current_lag (no current_A column)");
-  }
-  bool throttle_ok = has_throttle && n > 0;
-  for (double x : u) throttle_ok = throttle_ok && std::isfinite(x);
-  if (throttle_ok) {
-    for (double r : kThrottleExponents) {
-      Candidate thi = MakeCandidate("throttle_hard_iron",
-                                    {"d_x_uT_per_throttle", "d_y_uT_per_throttle", "d_z_uT_per_throttle"}, {1, 1, 1},
-                                    "uT/throttle", "throttle");
-      thi.grid_name = "exponent";
-      thi.grid_value = r;
-      for (size_t k = 0; k < n; ++k) {
-        thi.X.push_back(Diag3(std::pow(std::max(0.0, u[k]), r)));
-        thi.regressor.push_back(u[k]);
-      }
-      ch.candidates.push_back(std::move(thi));
-    }
-  } else {
-    ch.not_available.emplace_back("throttle_hard_iron (no control_u or motor_i_u)");
-  }
-  const size_t n_motor = in.motor_u.size();
-  if (n_motor > 0 && n > 0) {
-    // B = Σ_i c_i·u_i^0.65 (ArduPilot's per-motor compensation form), 3 parameters per motor.
-    std::vector<std::string> names;
-    for (size_t m = 0; m < n_motor; ++m) {
-      for (const char* a : {"x", "y", "z"}) names.push_back(fmt::format("c{}_{}_uT", m + 1, a));
-    }
-    Candidate pm = MakeCandidate("per_motor_current_hard_iron", names, std::vector<double>(names.size(), 1.0), "uT",
-                                 "throttle");
-    bool finite = true;
+    magnetics::CurrentLagState s_cfg;
     for (size_t k = 0; k < n; ++k) {
-      Mat3X x(3, static_cast<Eigen::Index>(3 * n_motor));
-      for (size_t m = 0; m < n_motor; ++m) {
-        const double um = mu[k][m];
-        finite = finite && std::isfinite(um);
-        x.block(0, static_cast<Eigen::Index>(3 * m), 3, 3) = Eigen::Matrix3d::Identity() * std::pow(std::max(0.0, um), kPerMotorExponent);
-      }
-      pm.X.push_back(x);
-      pm.regressor.push_back(u[k]);
+      const double dt = k == 0 ? 0.0 : ch->t[k] - ch->t[k - 1];
+      field[k] = sampler.field()(rows.currents[k]);
+      field_cfg[k] = sampler.field()(magnetics::StepCurrentLag(wiring, rows.currents[k], dt, &s_cfg));
+      wiring_energy += field[k].squaredNorm();
     }
-    if (finite) ch.candidates.push_back(std::move(pm));
-  } else {
-    ch.not_available.emplace_back("per_motor_current_hard_iron (no motor_i_u columns)");
   }
-  bool temp_ok = in.temp != nullptr && n > 0;
+  if (!(n > 0 && std::sqrt(wiring_energy / static_cast<double>(n)) > 0.05)) {
+    ch->not_available.emplace_back("current_lag (configured wiring field at this compass too small to show a lag)");
+    return;
+  }
+  const bool linear = wiring.exponent == 1.0;
+  for (double tau : kLagGrid_s) {
+    if (tau <= wiring.lag_tau_s) continue;
+    magnetics::CurrentFieldParams lagged_wiring = wiring;
+    lagged_wiring.lag_tau_s = tau;
+    magnetics::CurrentLagState s_new;
+    Candidate cl = MakeCandidate("current_lag", {"amplitude"}, {1.0}, "s", "current_A");
+    cl.grid_value = tau;
+    cl.grid_name = "tau_s";
+    cl.X.reserve(n);
+    cl.regressor.reserve(n);
+    Vec3 a = Vec3::Zero();
+    for (size_t k = 0; k < n; ++k) {
+      const double dt = k == 0 ? 0.0 : ch->t[k] - ch->t[k - 1];
+      if (!linear) {
+        a = sampler.field()(magnetics::StepCurrentLag(lagged_wiring, rows.currents[k], dt, &s_new));
+      } else if (k == 0) {
+        a = field[0];  // steady state at the first sample, as StepCurrentLag starts
+      } else {
+        const double alpha = std::exp(-dt / tau);
+        a = alpha * a + (1.0 - alpha) * field[k];
+      }
+      cl.X.emplace_back(rows.Msens[k] * (a - field_cfg[k]));
+      cl.regressor.push_back(rows.currents[k].battery_A);
+    }
+    ch->candidates.push_back(std::move(cl));
+  }
+}
+
+// throttle_hard_iron: d·throttle^r, r profiled over kThrottleExponents.
+void AddThrottleIron(const CompassRows& rows, bool has_throttle, ChannelData* ch) {
+  const size_t n = ch->t.size();
+  bool throttle_ok = has_throttle && n > 0;
+  for (double x : rows.u) throttle_ok = throttle_ok && std::isfinite(x);
+  if (!throttle_ok) {
+    ch->not_available.emplace_back("throttle_hard_iron (no control_u or motor_i_u)");
+    return;
+  }
+  for (double r : kThrottleExponents) {
+    Candidate thi = MakeCandidate("throttle_hard_iron", {"d_x_uT_per_throttle", "d_y_uT_per_throttle", "d_z_uT_per_throttle"},
+                                  {1, 1, 1}, "uT/throttle", "throttle");
+    thi.grid_name = "exponent";
+    thi.grid_value = r;
+    for (size_t k = 0; k < n; ++k) {
+      thi.X.push_back(Diag3(std::pow(std::max(0.0, rows.u[k]), r)));
+      thi.regressor.push_back(rows.u[k]);
+    }
+    ch->candidates.push_back(std::move(thi));
+  }
+}
+
+// per_motor_current_hard_iron: B = Σ_i c_i·u_i^0.65 (ArduPilot's per-motor compensation form), 3
+// parameters per motor.
+void AddPerMotorIron(const CompassRows& rows, size_t n_motor, ChannelData* ch) {
+  const size_t n = ch->t.size();
+  if (!(n_motor > 0 && n > 0)) {
+    ch->not_available.emplace_back("per_motor_current_hard_iron (no motor_i_u columns)");
+    return;
+  }
+  std::vector<std::string> names;
+  for (size_t m = 0; m < n_motor; ++m) {
+    for (const char* a : {"x", "y", "z"}) names.push_back(fmt::format("c{}_{}_uT", m + 1, a));
+  }
+  Candidate pm = MakeCandidate("per_motor_current_hard_iron", names, std::vector<double>(names.size(), 1.0), "uT",
+                               "throttle");
+  bool finite = true;
+  for (size_t k = 0; k < n; ++k) {
+    Mat3X x(3, static_cast<Eigen::Index>(3 * n_motor));
+    for (size_t m = 0; m < n_motor; ++m) {
+      const double um = rows.mu[k][m];
+      finite = finite && std::isfinite(um);
+      x.block(0, static_cast<Eigen::Index>(3 * m), 3, 3) = Eigen::Matrix3d::Identity() * std::pow(std::max(0.0, um), kPerMotorExponent);
+    }
+    pm.X.push_back(x);
+    pm.regressor.push_back(rows.u[k]);
+  }
+  if (finite) ch->candidates.push_back(std::move(pm));
+}
+
+// temperature_drift: B = d·(T − T_ref), where the temperature varies by more than 0.1 °C.
+void AddTemperatureDrift(const CompassRows& rows, bool has_temp, ChannelData* ch) {
+  const size_t n = ch->t.size();
+  const std::vector<double>& temp = rows.temp;
+  bool temp_ok = has_temp && n > 0;
   double tmean = 0;
   for (double x : temp) {
     temp_ok = temp_ok && std::isfinite(x);
@@ -267,22 +254,75 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
     for (double x : temp) tvar += (x - tmean) * (x - tmean);
     temp_ok = tvar / static_cast<double>(n) > 0.01;  // needs > 0.1 °C of variation
   }
-  if (temp_ok) {
-    // B = d·(T − T_ref), T_ref the median of the first 10 samples (the sensor is taken as calibrated
-    // where the flight starts; the baseline's offset holds any constant part).
-    std::vector<double> first10(temp.begin(), temp.begin() + static_cast<std::ptrdiff_t>(std::min<size_t>(10, n)));
-    std::nth_element(first10.begin(), first10.begin() + static_cast<std::ptrdiff_t>(first10.size() / 2), first10.end());
-    const double tref = first10[first10.size() / 2];
-    Candidate td = MakeCandidate("temperature_drift", {"d_x_uT_per_C", "d_y_uT_per_C", "d_z_uT_per_C"}, {1, 1, 1}, "uT/C",
-                                 "imu_temp_C");
-    for (size_t k = 0; k < n; ++k) {
-      td.X.push_back(Diag3(temp[k] - tref));
-      td.regressor.push_back(temp[k]);
-    }
-    ch.candidates.push_back(std::move(td));
-  } else {
-    ch.not_available.emplace_back("temperature_drift (no imu_temp_C column with varying temperature)");
+  if (!temp_ok) {
+    ch->not_available.emplace_back("temperature_drift (no imu_temp_C column with varying temperature)");
+    return;
   }
+  // T_ref the median of the first 10 samples (the sensor is taken as calibrated where the flight
+  // starts; the baseline's offset holds any constant part).
+  std::vector<double> first10(temp.begin(), temp.begin() + static_cast<std::ptrdiff_t>(std::min<size_t>(10, n)));
+  std::nth_element(first10.begin(), first10.begin() + static_cast<std::ptrdiff_t>(first10.size() / 2), first10.end());
+  const double tref = first10[first10.size() / 2];
+  Candidate td = MakeCandidate("temperature_drift", {"d_x_uT_per_C", "d_y_uT_per_C", "d_z_uT_per_C"}, {1, 1, 1}, "uT/C",
+                               "imu_temp_C");
+  for (size_t k = 0; k < n; ++k) {
+    td.X.push_back(Diag3(temp[k] - tref));
+    td.regressor.push_back(temp[k]);
+  }
+  ch->candidates.push_back(std::move(td));
+}
+
+}  // namespace
+
+ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
+                          const Vec3& B_N_uT, const CompassReplayOptions& o) {
+  const std::string pre = MagPrefix(c);
+  CompassSampler sampler(log, v, c, in, B_N_uT, o.calibrated_log, o.share_exponent);
+
+  ChannelData ch;
+  ch.name = pre;
+  ch.unit = "uT";
+  ch.compass = true;
+  ch.bias_nuisance = false;  // the baseline's offset holds any bias
+  ch.field_N_uT = B_N_uT;
+  ch.undone_compensation = sampler.undone_compensation();
+
+  CompassRows rows;
+  SampleCompass(&sampler, in, o, &ch, &rows);
+  const size_t n = ch.t.size();
+  const bool has_current = in.current != nullptr;
+  const bool has_throttle = in.control_u != nullptr || !in.motor_u.empty();
+
+  ch.baseline = MakeCandidate("baseline", {"offset_x_uT", "offset_y_uT", "offset_z_uT", "dB_N_uT", "dB_E_uT", "dB_D_uT"},
+                              {1, 1, 1, 1, 1, 1}, "uT");
+  for (size_t k = 0; k < n; ++k) {
+    Mat3X x(3, 6);
+    x << Eigen::Matrix3d::Identity(), rows.Msens[k] * rows.Rt[k];
+    ch.baseline.X.push_back(x);
+  }
+  if (o.baseline_only) {
+    if (has_current) {
+      Candidate chi = MakeCandidate("current_hard_iron", {"d_x_uT_per_A", "d_y_uT_per_A", "d_z_uT_per_A"}, {1, 1, 1}, "uT/A");
+      for (size_t k = 0; k < n; ++k) chi.X.push_back(Diag3(ch.current_A[k]));
+      ch.candidates.push_back(std::move(chi));
+    }
+    return ch;
+  }
+  if (o.library_free) AddLibraryFree(rows, has_current, &ch);
+  // Misalignment only (scale and latency are the baseline's and the timing scan's).
+  Candidate mis = MakeCandidate("misalignment", {"phi_x_deg", "phi_y_deg", "phi_z_deg"}, {kRadToDeg, kRadToDeg, kRadToDeg},
+                                "deg");
+  for (size_t k = 0; k < n; ++k) mis.X.emplace_back(-Skew(rows.h[k]));  // φ × h = −[h]×·φ
+  ch.candidates.push_back(std::move(mis));
+  if (has_current) {
+    AddCurrentIron(rows, o, &ch);
+    AddCurrentLag(sampler, rows, &ch);
+  } else {
+    ch.not_available.emplace_back("current_hard_iron, current_soft_iron, current_lag (no current_A column)");
+  }
+  AddThrottleIron(rows, has_throttle, &ch);
+  AddPerMotorIron(rows, in.motor_u.size(), &ch);
+  AddTemperatureDrift(rows, in.temp != nullptr, &ch);
   return ch;
 }
 

@@ -1,10 +1,13 @@
 // The identified vehicle: the base with the fitted values applied, as parameters and as YAML.
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <system_error>
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include "hexsim/common/atomic_file.h"
 #include "hexsim/common/plausibility.h"
 #include "hexsim/common/rotation.h"
 #include "hexsim/common/yaml_reader.h"
@@ -212,6 +215,22 @@ Result<std::string> IdentifiedVehicleYaml(const std::string& base_yaml_text, con
           "# The controller's gains act on accelerations and its model of thrust and inertia comes from this\n"
           "# file, so the identified thrust enters through the model; a slower rotor slows the cascade.\n";
   return head + e.c_str() + "\n";
+}
+
+Status WriteIdentifiedVehicle(const std::string& path, const BaseVehicle& base, const IdentifyResult& result,
+                              std::string* outcome) {
+  if (result.improves_on_base) {
+    auto yaml = IdentifiedVehicleYaml(base.yaml, base.params, result);
+    if (!yaml.ok()) return yaml.status();
+    HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(path, *yaml));
+    if (outcome) *outcome = "written";
+    return Status::Ok();
+  }
+  std::error_code ec;
+  const bool removed = std::filesystem::remove(path, ec);
+  if (ec) return Status::BadInput(fmt::format("{}: cannot remove the vehicle file of an earlier run: {}", path, ec.message()));
+  if (outcome) *outcome = removed ? "not written (the file an earlier run left there removed)" : "not written";
+  return Status::Ok();
 }
 
 }  // namespace hexsim::identify

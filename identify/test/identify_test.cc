@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <map>
 
 #include <fmt/format.h>
@@ -289,6 +290,22 @@ TEST(Identify, GivenFitBlocksThatMisleadTheFit_WhenIdentified_ThenItImprovesNoth
   EXPECT_GE(r->dynamics_rms_identified, r->dynamics_rms_base);
   EXPECT_EQ(ImprovementLine(*r).rfind("improves nothing on its base", 0), 0u) << ImprovementLine(*r);
   EXPECT_FALSE(ToJson(*r)["improves_on_base"].get<bool>());
+
+  // The vehicle file means "done": the repaired identification writes it; the one that improves
+  // nothing writes none and removes the file an earlier run left at the same path.
+  auto base = ChooseBaseVehicle(f.log, "quad_x", "auto", "log.csv", "give --base");
+  ASSERT_TRUE(base.ok()) << base.status().message();
+  base->params = weak;
+  const std::string path = ::testing::TempDir() + "identify_stale_vehicle.yaml";
+  std::string outcome;
+  ASSERT_TRUE(WriteIdentifiedVehicle(path, *base, *repaired, &outcome).ok());
+  EXPECT_EQ(outcome, "written");
+  ASSERT_TRUE(vehicle::LoadVehicleFile(path).ok());
+  ASSERT_TRUE(WriteIdentifiedVehicle(path, *base, *r, &outcome).ok());
+  EXPECT_FALSE(std::filesystem::exists(path)) << "a stale vehicle file stands beside a run that exits 1";
+  EXPECT_EQ(outcome, "not written (the file an earlier run left there removed)");
+  ASSERT_TRUE(WriteIdentifiedVehicle(path, *base, *r, &outcome).ok());
+  EXPECT_EQ(outcome, "not written");
 }
 
 // The simulated quad's motors renumbered as another autopilot order: motor k of the new log is the

@@ -9,7 +9,7 @@ and frames (NED earth frame, FRD body frame, ``q_NB`` as w, x, y, z, units in ev
     sim.state(), sim.sensors(), sim.log()                   # dicts of numpy arrays
     hexsim.wmm.field(43.88, 125.35, 200, "2016-07-01")      # hexsim.field/1 keys
     hexsim.calibrate(xyz)                                   # an (N, 3) array -> offset_uT, A, report
-    hexsim.gap.diagnose("log.csv", "quad_x")                # gap.json as a dict
+    hexsim.gap.diagnose("log.bin", "quad_x")                # gap.json as a dict (.csv, .bin or .ulg)
 
 Errors raise hexsim.BadInputError (a ValueError), NumericalError or CheckFailedError, all
 hexsim.Error, carrying the one-line message the CLI prints after "hexsim: ".
@@ -44,7 +44,8 @@ STATE_VECTOR_FIELDS = ("t_s", "p_N_m", "p_E_m", "p_D_m", "v_N_mps", "v_E_mps", "
 wmm = _types.SimpleNamespace(field=_wmm_field)
 wmm.__doc__ = "World Magnetic Model: field(lat_deg, lon_deg, alt_m, date, model='', allow_extrapolation=False)"
 gap = _types.SimpleNamespace(diagnose=_gap_diagnose)
-gap.__doc__ = "Sim-to-real gap: diagnose(log, vehicle, seed=1, from_s=0, to_s=0, meta=None) -> gap.json dict"
+gap.__doc__ = ("Sim-to-real gap: diagnose(log, vehicle, seed=1, from_s=0, to_s=0, meta=None) -> gap.json dict "
+               "(log: a FlightLog CSV, .bin or .ulg path, or {column: array}; plus summary_text and import_notes)")
 
 __all__ = ["Simulation", "Error", "BadInputError", "NumericalError", "CheckFailedError", "calibrate", "wmm",
            "gap", "STATE_VECTOR_FIELDS", "__version__"]

@@ -5,6 +5,7 @@
 
 #include "bindings.h"
 #include "hexsim/experiments/log_diagnosis.h"
+#include "hexsim/logs/read_log.h"
 #include "hexsim/magnetics/autopilot_params.h"
 #include "hexsim/magnetics/calib_io.h"
 #include "hexsim/magnetics/calibrate.h"
@@ -97,18 +98,21 @@ py::dict Calibrate(const py::object& samples, const std::string& method, const s
 }
 
 // `hexsim gap diagnose --real LOG [--sim VEHICLE]`: gap.json's content (experiments::DiagnoseLog, the
-// CLI's call). `log` is a FlightLog CSV path or {column: array} (with `meta`, the .meta.json content,
-// when the log has one); vehicle "" identifies the vehicle from the log (held-out blocks diagnosed).
+// CLI's call). `log` is a path read as the CLI reads it (FlightLog CSV, ArduPilot .bin or PX4 .ulg,
+// logs::ReadAnyFlightLog; what the import says goes to "import_notes", the CLI's "log:" lines) or
+// {column: array} (with `meta`, the .meta.json content, when the log has one); vehicle "" identifies
+// the vehicle from the log (held-out blocks diagnosed).
 py::dict Diagnose(const py::object& log_arg, const std::string& vehicle_name, uint64_t seed, double from_s,
                   double to_s, const py::object& meta) {
   logs::FlightLog log;
+  std::vector<std::string> notes;
   experiments::LogDiagnosisOptions o;
   o.log_name = "<dict>";
   if (py::isinstance<py::dict>(log_arg)) {
     log = FlightLogFromDict(log_arg.cast<py::dict>(), meta);
   } else {
     o.log_name = py::str(py::module_::import("os").attr("fspath")(log_arg)).cast<std::string>();
-    log = ValueOrRaise(logs::ReadFlightLog(o.log_name));
+    log = ValueOrRaise(logs::ReadAnyFlightLog(o.log_name, &notes));
   }
   o.vehicle = vehicle_name;
   o.seed = seed;
@@ -117,6 +121,9 @@ py::dict Diagnose(const py::object& log_arg, const std::string& vehicle_name, ui
   const experiments::LogDiagnosis d = ValueOrRaise(experiments::DiagnoseLog(log, o));
   py::dict out = JsonToPython(experiments::LogDiagnosisJson(d));
   out["summary_text"] = gap::Summary(d.report);
+  py::list import_notes;
+  for (const auto& line : notes) import_notes.append(line);
+  out["import_notes"] = import_notes;
   return out;
 }
 
@@ -132,8 +139,9 @@ void BindAnalysis(py::module_& m) {
         "Compass calibration of an (N, 3) array: calibrated = A·(raw − offset_uT); report = hexsim.calib/1.");
   m.def("gap_diagnose", &Diagnose, py::arg("log"), py::arg("vehicle"), py::kw_only(), py::arg("seed") = 1,
         py::arg("from_s") = 0.0, py::arg("to_s") = 0.0, py::arg("meta") = py::none(),
-        "Sim-to-real gap diagnosis of a FlightLog (path or {column: array}) against a vehicle ('': identified "
-        "from the log, held-out blocks diagnosed): gap.json as a dict.");
+        "Sim-to-real gap diagnosis of a log (FlightLog CSV, .bin or .ulg path, or {column: array}) against a "
+        "vehicle ('': identified from the log, held-out blocks diagnosed): gap.json as a dict, plus summary_text "
+        "and import_notes.");
 }
 
 }  // namespace hexsim::python

@@ -1,10 +1,13 @@
 """hexsim.calibrate on (N, 3) arrays, hexsim.wmm.field and hexsim.gap.diagnose against the CLI."""
 import json
+import os
 
 import numpy as np
 import pytest
 
 import hexsim
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
 def sphere_samples(n, radius_uT, rng):
@@ -64,7 +67,22 @@ def test_given_a_simulated_log_when_diagnosing_then_the_clis_gap_json(cli, tmp_p
     expected = json.loads((tmp_path / "gap" / "gap.json").read_text())
     got = hexsim.gap.diagnose(log, "default_hex")
     assert got.pop("summary_text").strip() in done.stdout
+    assert got.pop("import_notes") == []
     assert got == expected
+
+
+def test_given_a_dataflash_bin_when_diagnosing_then_it_is_imported_as_the_cli_does(cli, tmp_path):
+    # The shared real log as it is: Python reads .bin/.ulg through the CLI's importer, not CSV only.
+    log = os.path.join(ROOT, "data", "real", "ardupilot_copter_log171.bin")
+    done = cli("gap", "diagnose", "--real", log, "--sim", "quad_x", "--out", tmp_path / "gap")
+    assert done.returncode == 0, done.stderr
+    expected = json.loads((tmp_path / "gap" / "gap.json").read_text())
+    got = hexsim.gap.diagnose(log, "quad_x")
+    assert got.pop("summary_text").strip() in done.stdout
+    notes = got.pop("import_notes")
+    assert notes and all(f"log: {line}" in done.stdout for line in notes)
+    assert got == expected
+    assert {c["channel"] for c in got["channels"]} >= {"mag", "mag2"}
 
 
 def test_given_a_missing_log_when_diagnosing_then_the_clis_message(cli, tmp_path):

@@ -153,6 +153,12 @@ Result<BaseVehicle> ChooseBaseVehicle(const logs::FlightLog& log, const std::str
 // inertia, drag, battery), a header comment listing what was fitted and what kept.
 Result<std::string> IdentifiedVehicleYaml(const std::string& base_yaml_text, const vehicle::VehicleParams& base,
                                           const IdentifyResult& result);
+// The vehicle file at `path`, which means "done": written (IdentifiedVehicleYaml) when the
+// identification improves on its base; otherwise nothing is written and a file an earlier run left
+// at `path` is removed, so no stale vehicle stands beside this run's identify.json. `*outcome` (optional)
+// gets "written", "not written" or "not written (the file an earlier run left there removed)".
+Status WriteIdentifiedVehicle(const std::string& path, const BaseVehicle& base, const IdentifyResult& result,
+                              std::string* outcome = nullptr);
 // The base vehicle with the identified values applied (what the YAML describes).
 vehicle::VehicleParams ApplyIdentified(const vehicle::VehicleParams& base, const IdentifyResult& result);
 
