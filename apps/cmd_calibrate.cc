@@ -159,6 +159,12 @@ Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
               f.coverage.eigenvalues(0), f.coverage.eigenvalues(1), f.coverage.eigenvalues(2),
               100 * f.norm_spread_before, 100 * f.norm_spread_after, f.fitness_uT);
   std::printf("offset %.3f %.3f %.3f uT\n", f.offset_uT(0), f.offset_uT(1), f.offset_uT(2));
+  if (f.OffsetAxisUndetermined()) {
+    const Eigen::Vector3d& n = f.undetermined_axis;
+    std::printf("offset along the spin axis (body %+.3f %+.3f %+.3f): UNDETERMINED by a flat spin (%.2f uT carried, not "
+                "measured)\n",
+                n(0), n(1), n(2), n.dot(f.offset_uT));
+  }
   if (o->flight) PrintFlight(*o->flight);
   for (const auto& w : f.warnings) std::printf("warning: %s\n", w.c_str());
   std::printf("calibrate: %s -> %s (+ %s)\n", accepted ? "accepted" : "REJECTED by its gate", a.out.c_str(),
