@@ -86,20 +86,16 @@ Status WriteFieldNormPng(const magnetics::CalibrateOutcome& o, const logs::MagIn
   }
   render::Figure fig;
   fig.title = "field norm before and after calibration";
-  render::Plot2D vs_t;
-  vs_t.title = "|B| against time";
-  vs_t.x_label = "time (s)";
-  vs_t.y_label = "|B| (uT)";
-  vs_t.series = {before_t, after_t};
-  fig.panels.emplace_back(vs_t);
-  if (has_current) {
-    render::Plot2D vs_i;
-    vs_i.title = "|B| against battery current";
-    vs_i.x_label = "current (A)";
-    vs_i.y_label = "|B| (uT)";
-    vs_i.series = {before_i, after_i};
-    fig.panels.emplace_back(vs_i);
-  }
+  const auto panel = [](const char* against, const char* x_label, render::Series before, render::Series after) {
+    render::Plot2D p;
+    p.title = std::string("|B| against ") + against;
+    p.x_label = x_label;
+    p.y_label = "|B| (uT)";
+    p.series = {std::move(before), std::move(after)};
+    return p;
+  };
+  fig.panels.emplace_back(panel("time", "time (s)", before_t, after_t));
+  if (has_current) fig.panels.emplace_back(panel("battery current", "current (A)", before_i, after_i));
   // The Earth field where and when the log flew (WMM), where the flight fit had it.
   const double wmm_uT = o.flight ? o.flight->in.options.prior_field_N_uT.norm() : 0.0;
   if (wmm_uT > 0.0) {
