@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <variant>
 
 #include "cli_util.h"
 #include "commands.h"
@@ -19,6 +20,7 @@
 #include "hexsim/realdata/windows.h"
 #include "hexsim/render/figures.h"
 #include "hexsim/render/image.h"
+#include "hexsim/render/plot.h"
 
 namespace hexsim::app {
 namespace {
@@ -48,6 +50,61 @@ Status WriteBeforeAfterPng(const magnetics::CalibrateOutcome& o, const std::stri
     sphere.shape[static_cast<size_t>(i)] = {i == 0 ? target : 0.0, i == 1 ? target : 0.0, i == 2 ? target : 0.0};
   }
   auto image = render::RenderEllipsoidClouds({before, after}, {fitted, sphere});
+  if (!image.ok()) return image.status();
+  return render::WritePng(*image, path);
+}
+
+// A log's field norm before (raw) and after calibration against time and against battery current:
+// a current-driven field shows as a norm that follows the current (PX4 Flight Review's norm-vs-thrust
+// view). At most kNormPlotPoints points per series (evenly thinned).
+Status WriteFieldNormPng(const magnetics::CalibrateOutcome& o, const logs::MagInput& input, const std::string& path) {
+  constexpr size_t kNormPlotPoints = 4000;
+  const size_t n = o.raw_uT.size();
+  const bool has_current = input.current_A.size() == n;
+  const size_t step = std::max<size_t>(1, n / kNormPlotPoints);
+  render::Series before_t{"as read", {}, {}, render::PaletteColour(0)}, after_t{"calibrated", {}, {}, render::PaletteColour(1)};
+  render::Series before_i = before_t, after_i = after_t;
+  for (auto* s : {&before_i, &after_i}) {
+    s->style = render::SeriesStyle::kScatter;
+    s->marker_px = 2.5f;
+  }
+  for (size_t i = 0; i < n; i += step) {
+    magnetics::CompensatorInput in;
+    if (input.control_u.size() == n) in.control_u = input.control_u[i];
+    if (has_current && std::isfinite(input.current_A[i])) in.current_A = input.current_A[i];
+    const double raw = o.raw_uT[i].norm(), after = o.compensator->Correct(o.raw_uT[i], in).norm();
+    before_t.x.push_back(input.t_s[i]);
+    before_t.y.push_back(raw);
+    after_t.x.push_back(input.t_s[i]);
+    after_t.y.push_back(after);
+    if (has_current) {
+      before_i.x.push_back(input.current_A[i]);
+      before_i.y.push_back(raw);
+      after_i.x.push_back(input.current_A[i]);
+      after_i.y.push_back(after);
+    }
+  }
+  render::Figure fig;
+  fig.title = "field norm before and after calibration";
+  const auto panel = [](const char* against, const char* x_label, render::Series before, render::Series after) {
+    render::Plot2D p;
+    p.title = std::string("|B| against ") + against;
+    p.x_label = x_label;
+    p.y_label = "|B| (uT)";
+    p.series = {std::move(before), std::move(after)};
+    return p;
+  };
+  fig.panels.emplace_back(panel("time", "time (s)", before_t, after_t));
+  if (has_current) fig.panels.emplace_back(panel("battery current", "current (A)", before_i, after_i));
+  // The Earth field where and when the log flew (WMM), where the flight fit had it.
+  const double wmm_uT = o.flight ? o.flight->in.options.prior_field_N_uT.norm() : 0.0;
+  if (wmm_uT > 0.0) {
+    for (auto& p : fig.panels) {
+      std::get<render::Plot2D>(p).ref_lines.push_back({render::RefLine::Axis::kHorizontal, wmm_uT, "WMM", {}});
+    }
+  }
+  fig.cols = static_cast<int>(fig.panels.size());
+  auto image = render::Render(fig, 700 * fig.cols, 520);
   if (!image.ok()) return image.status();
   return render::WritePng(*image, path);
 }
@@ -168,6 +225,9 @@ Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
     std::filesystem::remove(base + ".params", ec);
   }
   HEXSIM_RETURN_IF_ERROR(WriteBeforeAfterPng(*o, base + ".png"));
+  // A log (samples with times): the norm against time and current, before and after.
+  const bool timed = input->t_s.size() == o->raw_uT.size() && !o->raw_uT.empty();
+  if (timed) HEXSIM_RETURN_IF_ERROR(WriteFieldNormPng(*o, *input, base + ".norm.png"));
   HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(a.out, magnetics::CompensatorToYamlText(*o->compensator)));
   for (const auto& n : input->notes) std::printf("input: %s\n", n.c_str());
   const auto& f = o->field;
@@ -176,10 +236,18 @@ Status CalibrateCommand(const CalibrateArgs& a, int* exit_code) {
               f.coverage.eigenvalues(0), f.coverage.eigenvalues(1), f.coverage.eigenvalues(2),
               100 * f.norm_spread_before, 100 * f.norm_spread_after, f.fitness_uT);
   std::printf("offset %.3f %.3f %.3f uT\n", f.offset_uT(0), f.offset_uT(1), f.offset_uT(2));
+  if (f.OffsetAxisUndetermined()) {
+    const Eigen::Vector3d& n = f.undetermined_axis;
+    std::printf("offset along the spin axis (body %+.3f %+.3f %+.3f): UNDETERMINED by a flat spin (%.2f uT carried, not "
+                "measured)\n",
+                n(0), n(1), n(2), n.dot(f.offset_uT));
+  }
   if (o->flight) PrintFlight(*o->flight);
   for (const auto& w : f.warnings) std::printf("warning: %s\n", w.c_str());
   std::printf("calibrate: %s -> %s (+ %s)\n", accepted ? "accepted" : "REJECTED by its gate", a.out.c_str(),
-              accepted ? ".report.json .parm .params .png" : ".report.json .png; no .parm/.params for a rejected fit");
+              accepted ? (timed ? ".report.json .parm .params .png .norm.png" : ".report.json .parm .params .png")
+                       : (timed ? ".report.json .png .norm.png; no .parm/.params for a rejected fit"
+                                : ".report.json .png; no .parm/.params for a rejected fit"));
   *exit_code = o->exit_code;
   return Status::Ok();
 }

@@ -10,6 +10,10 @@
 # fuzz/corpus/<target> (cut from the real log by fuzz/make_corpus.sh) and are only read; new inputs
 # go to a scratch corpus, crashes to build-fuzz/artifacts/. Exit status: non-zero on any finding.
 # Seeds for batch_yaml are the shipped batch file and a hand-written one using every key.
+# fuzz_cli (the command line's flag parsing, every subcommand) links the whole simulator, so it is
+# built in the sanitizer build (scripts/gates.sh sanitize: HEXSIM_FUZZ_CLI_BUILD_DIR, default
+# build-gates-asan beside the sources), which already holds every library: only the commands'
+# sources compile again. Where that build is not configured, fuzz_cli is skipped with a line saying so.
 # The mutation seed is fixed (HEXSIM_FUZZ_SEED, default 1) so that a CI run is repeatable: the same
 # sources explore the same inputs. Set HEXSIM_FUZZ_SEED=0 for a fresh random seed on long runs, and
 # keep every crash that one finds in fuzz/corpus/<target> as a regression seed.
@@ -39,7 +43,18 @@ mkdir -p "$build/artifacts"
 # between them so the target still gets N executions in all, in 1/jobs of the wall time.
 workers=${HEXSIM_FUZZ_WORKERS:-${HEXSIM_FUZZ_JOBS:-2}}
 seed=${HEXSIM_FUZZ_SEED:-1}
-for target in dataflash flightlog_csv ulog batch_yaml mavlink; do
+cli_build=${HEXSIM_FUZZ_CLI_BUILD_DIR:-$root/build-gates-asan}
+targets=(dataflash flightlog_csv ulog batch_yaml mavlink)
+declare -A binary
+for t in "${targets[@]}"; do binary[$t]=$build/fuzz/fuzz_$t; done
+if [ -f "$cli_build/build.ninja" ] && grep -q '^HEXSIM_SANITIZE:BOOL=ON' "$cli_build/CMakeCache.txt"; then
+  ninja -C "$cli_build" -j"${HEXSIM_FUZZ_JOBS:-2}" fuzz_cli
+  targets+=(cli)
+  binary[cli]=$cli_build/apps/fuzz_cli
+else
+  echo "fuzz_cli: skipped: no sanitizer build at $cli_build (run scripts/gates.sh sanitize first)"
+fi
+for target in "${targets[@]}"; do
   wlimit=()
   for l in "${limit[@]}"; do
     if [[ $l =~ ^-runs=([0-9]+)$ ]]; then l=-runs=$(( (BASH_REMATCH[1] + workers - 1) / workers )); fi
@@ -53,7 +68,7 @@ for target in dataflash flightlog_csv ulog batch_yaml mavlink; do
     scratch[w]=$(mktemp -d)
     wseed=$seed
     [ "$seed" = 0 ] || wseed=$((seed + w))
-    "$build/fuzz/fuzz_$target" "${scratch[w]}" "$root/fuzz/corpus/$target" -max_len=65536 "${wlimit[@]}" \
+    "${binary[$target]}" "${scratch[w]}" "$root/fuzz/corpus/$target" -max_len=65536 "${wlimit[@]}" \
       -seed="$wseed" -print_final_stats=1 -artifact_prefix="$build/artifacts/${target}-" \
       > "$build/fuzz_$target.$w.log" 2>&1 &
     pids[w]=$!

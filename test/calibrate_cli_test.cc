@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -64,6 +65,7 @@ TEST(CalibrateCli, GivenAPlainDumpInMilligauss_WhenAuto_ThenEllipsoidAndEveryOut
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("assuming mG"), std::string::npos) << r.out;
   for (const char* f : {"c.yaml", "c.report.json", "c.parm", "c.params", "c.png"}) EXPECT_TRUE(fs::exists(d / f)) << f;
+  EXPECT_FALSE(fs::exists(d / "c.norm.png"));  // no times: no norm-against-time view
   const auto j = nlohmann::json::parse(Slurp(d / "c.report.json"));
   EXPECT_EQ(j["method_used"], "ellipsoid");
   EXPECT_EQ(j["units_assumed"], "mG");
@@ -249,6 +251,12 @@ TEST(CalibrateCli, GivenTheRealArduPilotLog_WhenAuto_ThenTheFlightFitFindsMag2sC
   const std::string log = std::string(HEXSIM_SOURCE_DIR) + "/data/real/ardupilot_copter_log171.bin";
   CliRun r = Hexsim("calibrate " + log + " --compass mag2 --out " + (d / "m2" / "c.yaml").string());
   ASSERT_EQ(r.code, 0) << r.out << r.err;
+  // The field norm before and after against time and against current: two 700-px panels side by side.
+  const std::string png = Slurp(d / "m2" / "c.norm.png");
+  ASSERT_GT(png.size(), 24U);
+  EXPECT_EQ(png.substr(1, 3), "PNG");
+  const auto byte = [&](size_t i) { return static_cast<uint32_t>(static_cast<unsigned char>(png[i])); };
+  EXPECT_EQ(byte(16) << 24 | byte(17) << 16 | byte(18) << 8 | byte(19), 1400U);  // IHDR width
   auto rep = nlohmann::json::parse(Slurp(d / "m2" / "c.report.json"));
   EXPECT_EQ(rep["method_used"], "flight") << r.out;
   const auto& cur = rep["flight_fit"]["current"];

@@ -93,6 +93,9 @@ Result<CompareResult> RunComparison(const CompareOptions& o, const std::string& 
   pool.run_dir = [&out_dir, &name_of](const batch::RunPoint& p) {
     return out_dir + "/" + RunDir(name_of.at(p.calibration), p.seed);
   };
+  // Each flight runs in a forked worker (batch/pool.h: a crash or a runaway stays in its process):
+  // the summary comes back through the pool's JSON channel and reaches `record` typed again, and
+  // the flight itself stays on disk, where the evidence below reads the first seed's log.
   const batch::RunFn fly = [&o, &pool](const batch::RunPoint& p) -> Result<json> {
     sim::RunRequest req = o.request;
     req.seed = p.seed;
@@ -159,6 +162,7 @@ Result<CompareResult> RunComparison(const CompareOptions& o, const std::string& 
   if (!fits.ok()) return fits.status().WithContext("report");
   ev.ground_fits = std::move(*fits);
   ev.heading = std::move(table1->curves);
+  // The parent never held these flights (forked workers flew them): their log.csv is the copy.
   for (const auto& c : o.calibrations) {
     auto log = logs::ReadFlightLog(out_dir + "/" + RunDir(name_of.at(c), o.request.seed) + "/log.csv");
     if (!log.ok()) return log.status();

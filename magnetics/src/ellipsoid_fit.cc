@@ -578,31 +578,38 @@ EllipsoidFit FitSphere(const std::vector<Vector3d>& H, const EllipsoidFitOptions
   return f;
 }
 
-EllipsoidFit FitSpherePlanar(const std::vector<Vector3d>& H, const Vector3d& normal, const EllipsoidFitOptions& o) {
+EllipsoidFit FitCircle(const std::vector<Vector3d>& H, const Vector3d& normal, const EllipsoidFitOptions& o) {
   EllipsoidFit f;
-  Vector3d mean;
-  double scale = 0.0;
-  if (!PrepareFit(H, o, &f, &mean, &scale)) return f;
   if (!(normal.norm() > 0.0) || !normal.allFinite()) {
-    f.status = Status::BadInput("planar sphere fit: the plane's normal must be a non-zero vector");
+    f.status = Status::BadInput("circle fit: the plane's normal must be a non-zero vector");
     return f;
   }
-  // Frame with z' along the normal: H' = Rᵀ H, β' = (cx, cy, 0).
+  // The samples projected onto the plane: what a spin about `normal` determines.
   const Vector3d nz = normal.normalized();
+  std::vector<Vector3d> P;
+  P.reserve(H.size());
+  for (const auto& h : H) P.push_back(ProjectOntoPlane(h, nz));
+  Vector3d mean;
+  double scale = 0.0;
+  if (!PrepareFit(P, o, &f, &mean, &scale)) return f;
+  // Frame with z' along the normal: the projected samples have z' = n·mean, dropped.
   const Vector3d ax = (std::abs(nz.x()) < 0.9 ? Vector3d::UnitX() : Vector3d::UnitY()).cross(nz).normalized();
   Matrix3d R;
   R.col(0) = ax;
   R.col(1) = nz.cross(ax);
   R.col(2) = nz;
-  std::vector<Vector3d> Hr;
-  Hr.reserve(H.size());
-  for (const auto& h : H) Hr.emplace_back(R.transpose() * h / scale);
-  // ‖h'‖² = 2 cx x' + 2 cy y' + (r² − cx² − cy²), on scaled data (z' is carried in ‖h'‖²).
-  const Eigen::Index n = static_cast<Eigen::Index>(H.size());
+  std::vector<Vector3d> Pr;
+  Pr.reserve(P.size());
+  for (const auto& p : P) {
+    const Vector3d q = R.transpose() * (p - mean) / scale;
+    Pr.emplace_back(q(0), q(1), 0.0);
+  }
+  // Kåsa: x'² + y'² = 2 cx x' + 2 cy y' + (ρ² − cx² − cy²), on centred, scaled data.
+  const Eigen::Index n = static_cast<Eigen::Index>(P.size());
   Eigen::MatrixXd A(n, 3);
   Eigen::VectorXd b(n);
   for (Eigen::Index i = 0; i < n; ++i) {
-    const Vector3d& x = Hr[static_cast<size_t>(i)];
+    const Vector3d& x = Pr[static_cast<size_t>(i)];
     const double sw = o.weights.empty() ? 1.0 : std::sqrt(o.weights[static_cast<size_t>(i)]);
     A.row(i) << 2 * x(0) * sw, 2 * x(1) * sw, sw;
     b(i) = x.squaredNorm() * sw;
@@ -615,26 +622,28 @@ EllipsoidFit FitSpherePlanar(const std::vector<Vector3d>& H, const Vector3d& nor
   const Eigen::Vector3d sol = svd.solve(b);
   const double r2 = sol(2) + sol(0) * sol(0) + sol(1) * sol(1);
   if (!(r2 > 0.0)) {
-    f.status = Status::Numerical("planar sphere fit: negative squared radius");
+    f.status = Status::Numerical("circle fit: negative squared radius");
     return f;
   }
-  for (auto& h : Hr) h *= scale;
+  for (auto& x : Pr) x *= scale;
+  // Geometric refinement: the planar sphere LM on z' = 0 points is the circle ‖(x', y') − c‖ = ρ.
   Eigen::Matrix<double, 9, 1> p;
   const double m0 = 1.0 / (std::sqrt(r2) * scale);
   p << m0, m0, m0, 0, 0, 0, sol(0) * scale, sol(1) * scale, 0.0;
-  const LmResult lm = RefineLm(Hr, o, /*sphere=*/true, &p, /*planar=*/true);
+  const LmResult lm = RefineLm(Pr, o, /*sphere=*/true, &p, /*planar=*/true);
   f.iterations = lm.iterations;
   f.converged = lm.converged;
   f.condition_number = lm.condition_number;
   if (!lm.status.ok() || !(p(0) > 0.0)) {
-    f.status = lm.status.ok() ? Status::Numerical("planar sphere fit: non-positive radius") : lm.status;
+    f.status = lm.status.ok() ? Status::Numerical("circle fit: non-positive radius") : lm.status;
     return f;
   }
   f.soft_iron.setIdentity();
   f.soft_iron_inv.setIdentity();
   f.radius_uT = 1.0 / p(0);
-  f.hard_iron_uT = R * Vector3d(p(6), p(7), 0.0);
-  FinishFit(H, o, &f);
+  // The centre in the plane (no component along the normal).
+  f.hard_iron_uT = ProjectOntoPlane(mean, nz) + R * Vector3d(p(6), p(7), 0.0);
+  FinishFit(P, o, &f);
   return f;
 }
 

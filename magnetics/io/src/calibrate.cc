@@ -52,6 +52,13 @@ Result<CalibrateOutcome> FieldPath(CalibrateOutcome out, const std::string& meth
   if (!f.method_used.empty() && f.method_used != "none") {
     r["coverage"] = {{"fraction", f.fit.coverage_fraction}, {"planes", 0}};
   }
+  if (f.OffsetAxisUndetermined()) {
+    const Vector3d& n = f.undetermined_axis;
+    out.param_comments.push_back(fmt::format(
+        "flat spin: the offset along the spin axis (body {:+.3f} {:+.3f} {:+.3f}) is UNDETERMINED; these offsets carry "
+        "{:.2f} uT there, not a measured value: calibrate with the vehicle tilted too before flying",
+        n(0), n(1), n(2), n.dot(f.offset_uT)));
+  }
   out.exit_code = f.accepted ? 0 : 1;
   return out;
 }
@@ -179,6 +186,8 @@ Result<CalibrateOutcome> Calibrate(std::vector<MagSample> samples, const Calibra
   r["units_assumed"] = o.units.unit;
   r["units_note"] = o.units.assumption;
   r["offset_uT"] = Vec(f.offset_uT);
+  // A flat spin: the offset along the spin axis is not measured (the parameters carry the prior's).
+  r["offset_undetermined_along"] = f.OffsetAxisUndetermined() ? Vec(f.undetermined_axis) : nlohmann::json(nullptr);
   r["A"] = Mat(f.A);
   r["K"] = Mat(f.K);
   r["radius_uT"] = f.radius_uT;

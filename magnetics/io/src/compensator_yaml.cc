@@ -147,8 +147,8 @@ Result<std::unique_ptr<Compensator>> CompensatorFromYaml(const YAML::Node& node,
   std::unique_ptr<Compensator> out;
   if (method == "none") {
     out = MakeNoneCompensator();
-  } else if (method == "traditional" || method == "sphere" || method == "sphere-planar" || method == "ellipsoid" ||
-             method == "robust-sphere" || method == "robust-sphere-planar" || method == "robust-ellipsoid") {
+  } else if (method == "traditional" || method == "sphere" || method == "sphere-planar" || method == "circle" || method == "ellipsoid" ||
+             method == "robust-sphere" || method == "robust-sphere-planar" || method == "robust-circle" || method == "robust-ellipsoid") {
     // K⁻¹(H − β); the free-hand fits of field_calibration.h write K = A⁻¹ (any scale).
     ReadSoftIron(r, &K);
     r.Req("hard_iron_uT", &beta);

@@ -103,10 +103,16 @@ EllipsoidFit FitEllipsoid(const std::vector<Eigen::Vector3d>& H_uT, const Ellips
 // residual. The diagonal/off-diagonal criteria pass trivially.
 EllipsoidFit FitSphere(const std::vector<Eigen::Vector3d>& H_uT, const EllipsoidFitOptions& options);
 
-// Hard iron only, for samples from a flat spin: the offset along `normal` (the spin axis) is not
-// determined by such data and is held at 0; the in-plane offset and r are fitted.
-EllipsoidFit FitSpherePlanar(const std::vector<Eigen::Vector3d>& H_uT, const Eigen::Vector3d& normal,
-                             const EllipsoidFitOptions& options);
+// Hard iron in the plane only, for samples from a flat spin about `normal`: the samples are projected
+// onto the plane and a circle ‖P·h − c‖ = ρ is fitted (Kåsa, then LM on the geometric residual).
+// hard_iron_uT is the circle's centre c (no component along `normal`: a spin does not determine it),
+// radius_uT is ρ (the field's component in the plane), residuals are in the plane. A tilt of the
+// spin axis or a wobble of a few degrees moves samples along the normal and changes nothing here.
+EllipsoidFit FitCircle(const std::vector<Eigen::Vector3d>& H_uT, const Eigen::Vector3d& normal,
+                       const EllipsoidFitOptions& options);
+
+// h − (n·h)·n for a unit n: h's component in the plane normal to n.
+inline Eigen::Vector3d ProjectOntoPlane(const Eigen::Vector3d& h, const Eigen::Vector3d& n) { return h - n.dot(h) * n; }
 
 // Fraction of `bins` Fibonacci-sphere direction bins hit by the directions of `v`.
 double DirectionCoverage(const std::vector<Eigen::Vector3d>& v, int bins);

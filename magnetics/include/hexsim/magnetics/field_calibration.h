@@ -54,16 +54,16 @@ struct FieldCalibrationOptions {
   // auto | sphere | ellipsoid | robust | robust-sphere | robust-ellipsoid | none
   std::string method = "auto";
   double field_norm_uT = 0.0;  // local field (e.g. `hexsim field`); 0 = unknown
-  // A flat spin does not determine the offset along its axis: that component is held at this prior
-  // (the autopilot's current offset for a log, else 0).
+  // A flat spin does not determine the offset along its axis: the parameters carry this prior's
+  // component there (the autopilot's current offset for a log, else 0), reported as undetermined.
   Eigen::Vector3d prior_offset_uT = Eigen::Vector3d::Zero();
   EllipsoidFitOptions fit;     // LM settings and acceptance gate
   int min_sphere_samples = 8;       // 4 parameters, twice over
   int min_ellipsoid_samples = 12;   // 9 parameters
   int auto_ellipsoid_samples = 50;  // auto prefers a sphere below this
   // Coverage thresholds on λ (see top): λ1 ≥ ellipsoid_eigen for an ellipsoid; λ1 below
-  // sphere_eigen makes the offset along the weak axis undetermined (fixed at 0); λ2 below
-  // sphere_eigen is too little rotation for any fit.
+  // sphere_eigen is a flat spin (a circle fit in its plane; the offset along the weak axis is
+  // undetermined); λ2 below sphere_eigen is too little rotation for any fit.
   double ellipsoid_eigen = 0.05;
   double sphere_eigen = 0.01;
   double consistent_spread = 0.03;  // norm spread below this: "already consistent"
@@ -71,10 +71,16 @@ struct FieldCalibrationOptions {
   double tukey_c = 4.685;
   int robust_iterations = 12;
   double outlier_sigmas = 5.0;  // auto switches to robust when a residual exceeds this many σ
+  // Before any fit (auto and robust): samples farther than outlier_sigmas robust σ from the rest are
+  // left out of the coverage and the starting fit, unless they are more than this fraction (then
+  // they are no glitches and the samples are taken as they are).
+  double max_screened_fraction = 0.25;
+  double sigma_floor_uT = 0.0;  // robust σ never below this (the reading's LSB/√12 is always added)
 };
 
 struct FieldCalibration {
-  std::string method_used;  // none | sphere | sphere-planar | ellipsoid | robust-sphere | robust-ellipsoid
+  // none | sphere | circle | ellipsoid | robust-sphere | robust-circle | robust-ellipsoid
+  std::string method_used;
   std::string why;          // why this method (auto says what it looked at)
   Eigen::Vector3d offset_uT = Eigen::Vector3d::Zero();  // b
   Eigen::Matrix3d A = Eigen::Matrix3d::Identity();      // calibrated = A·(raw − b)
@@ -87,6 +93,9 @@ struct FieldCalibration {
   std::vector<std::string> warnings;  // incl. "model mismatch" for an offset or shape outside its range
   std::vector<size_t> downweighted;  // robust: samples whose weight ended below 0.1 (outliers)
   EllipsoidFit fit;                  // gate, iterations, ...; status OK and defaults for "none"
+  // A flat spin (circle): the unit spin axis along which the offset is undetermined; zero otherwise.
+  Eigen::Vector3d undetermined_axis = Eigen::Vector3d::Zero();
+  bool OffsetAxisUndetermined() const { return !undetermined_axis.isZero(); }
   bool accepted = true;              // the fit's gate
 
   Eigen::Vector3d Correct(const Eigen::Vector3d& raw_uT) const { return A * (raw_uT - offset_uT); }
