@@ -1,5 +1,7 @@
 // hexsim serve-px4 [--vehicle V] [--world W] [--calibration C] [--port 4560] [--realtime] --out DIR
+#include <atomic>
 #include <csignal>
+#include <cstdio>
 #include <memory>
 #include <string>
 
@@ -17,7 +19,13 @@ namespace hexsim::app {
 namespace {
 
 std::atomic<bool> g_stop{false};
-extern "C" void OnStopSignal(int) { g_stop.store(true); }
+volatile std::sig_atomic_t g_stop_signal = 0;
+extern "C" void OnStopSignal(int sig) {
+  g_stop_signal = sig;
+  g_stop.store(true);
+}
+
+constexpr int kExitInterrupted = 130;  // CONTRACTS: SIGINT/SIGTERM
 
 struct ServeArgs {
   sim::RunRequest request;
@@ -44,6 +52,13 @@ Status ServeCommand(ServeArgs& args, int* exit_code) {
   args.options.stop = &g_stop;
   args.options.log = [](const std::string& line) { std::fprintf(stderr, "hexsim serve-px4: %s\n", line.c_str()); };
   auto served = bridge::ServePx4(*setup, args.options);
+  if (!served.ok() && g_stop.load()) {
+    // Nothing flown, nothing written (the output directory is removed uncommitted).
+    std::fprintf(stderr, "hexsim serve-px4: interrupted (%s) before a client connected: nothing written\n",
+                 g_stop_signal == SIGTERM ? "SIGTERM" : "SIGINT");
+    *exit_code = kExitInterrupted;
+    return Status::Ok();
+  }
   if (!served.ok()) return served.status();
   sim::RunOutput& run = served->run;
   run.log.meta["bridge"] = {{"protocol", "PX4 Simulator MAVLink API (MAVLink 2)"},
@@ -67,6 +82,14 @@ Status ServeCommand(ServeArgs& args, int* exit_code) {
                served->end_reason.c_str(), run.summary.duration_s,
                static_cast<unsigned long long>(served->stats.sensor_messages),
                static_cast<unsigned long long>(served->stats.actuator_messages), args.out.c_str());
+  if (served->interrupted || g_stop.load()) {
+    // The flight log is complete up to the signal (closed and renamed into place above); the user
+    // ended it, so the exit code says interrupted (CONTRACTS: 130), also for a signal while writing.
+    std::fprintf(stderr, "hexsim serve-px4: interrupted (%s): flight log closed cleanly at %.2f s in %s\n",
+                 g_stop_signal == SIGTERM ? "SIGTERM" : "SIGINT", run.summary.duration_s, args.out.c_str());
+    *exit_code = kExitInterrupted;
+    return Status::Ok();
+  }
   *exit_code = run.status.ok() ? 0 : Report(run.status);
   return Status::Ok();
 }

@@ -55,6 +55,7 @@ Result<sockaddr_in> ParseAddress(const std::string& host, int port, const std::s
 }
 
 constexpr uint8_t kArmedFlag = 128;  // MAV_MODE_FLAG_SAFETY_ARMED
+constexpr const char* kInterrupted = "interrupted";
 
 struct Session {
   const ServeOptions& opt;
@@ -223,7 +224,7 @@ struct Session {
 
   // The command hook: one exchange per IMU sample.
   void OnImu(double t, std::vector<double>* commands) {
-    if (!ended && opt.stop != nullptr && opt.stop->load()) End("interrupted");
+    if (!ended && opt.stop != nullptr && opt.stop->load()) End(kInterrupted);
     if (ended) {
       std::fill(commands->begin(), commands->end(), 0.0);
       return;
@@ -245,7 +246,7 @@ struct Session {
           break;
         }
         Poll(static_cast<int>(std::min<long long>(left_ms, 100)));
-        if (opt.stop != nullptr && opt.stop->load()) End("interrupted");
+        if (opt.stop != nullptr && opt.stop->load()) End(kInterrupted);
       }
     } else {
       Poll(0);
@@ -333,6 +334,7 @@ Result<ServeResult> ServePx4(const sim::RunSetup& setup_in, const ServeOptions& 
   ServeResult result;
   result.run = (*sim)->Finish();
   result.end_reason = s.end_reason;
+  result.interrupted = s.end_reason == kInterrupted;
   s.stats.parser = s.parser.stats();
   result.stats = s.stats;
   if (result.run.summary.status != sim::RunStatus::kDiverged) {

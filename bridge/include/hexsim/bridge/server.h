@@ -58,6 +58,7 @@ struct ServeStats {
 struct ServeResult {
   sim::RunOutput run;       // log and summary, as `hexsim run` writes them
   std::string end_reason;   // why the flight ended
+  bool interrupted = false; // ended by `stop` (a signal): the CLI exits 130 after writing the log
   ServeStats stats;
 };
 
