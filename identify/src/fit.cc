@@ -370,6 +370,219 @@ void DynamicsComparison(const FlightSamples& s, const vehicle::VehicleParams& ba
   res->improves_on_base = n > 0 && res->dynamics_rms_identified < res->dynamics_rms_base;
 }
 
+// Per-block sufficient statistics of every linear sub-model (vertical and yaw at each lag of the grid,
+// lateral drag, battery) and the second differences' energy for the noise estimates.
+internal::BlockStats AccumulateBlockStats(const FlightSamples& s, size_t G, double expo) {
+  using namespace internal;
+  BlockStats st;
+  const int pv = ExpoFixed(expo) ? 2 : 4;
+  st.vertical.assign(kTauCount, std::vector<Normal>(G, Normal(pv)));
+  st.yaw.assign(kTauCount, std::vector<Normal>(G, Normal(4)));
+  st.lateral.assign(G, Normal(4));
+  st.battery.assign(G, Normal(3));
+  st.gyro2.assign(G, Eigen::Vector3d::Zero());
+  st.accel2.assign(G, Eigen::Vector3d::Zero());
+  st.dn.assign(G, 0.0);
+  Eigen::VectorXd zx(4), lx(4), bx(3);
+  for (size_t k = 0; k < s.t_s.size(); ++k) {
+    const size_t b = static_cast<size_t>(s.block[k]);
+    for (size_t g = 0; g < kTauCount; ++g) {
+      st.vertical[g][b].Add(VerticalX(s, k, g, expo), -s.f_B[k].z());
+      zx << s.sums[k].Z1[g], s.sums[k].Z2[g], s.w_B[k].z(), 1.0;
+      st.yaw[g][b].Add(zx, s.r_dot[k]);
+    }
+    for (int a = 0; a < 2; ++a) {
+      const double v = s.v_B[k](a);
+      lx << v, std::fabs(v) * v, a == 0 ? 1.0 : 0.0, a == 1 ? 1.0 : 0.0;
+      st.lateral[b].Add(lx, s.f_B[k](a));
+    }
+  }
+  for (size_t k = 0; k < s.batt_V.size(); ++k) {
+    bx << 1.0, -s.batt_I[k], -s.batt_Q_Ah[k];
+    st.battery[static_cast<size_t>(s.batt_block[k])].Add(bx, s.batt_V[k]);
+  }
+  for (size_t k = 0; k < s.d_gyro.size(); ++k) {
+    const size_t b = static_cast<size_t>(s.d_block[k]);
+    st.gyro2[b] += s.d_gyro[k].cwiseAbs2();
+    st.accel2[b] += s.d_accel[k].cwiseAbs2();
+    st.dn[b] += 1;
+  }
+  return st;
+}
+
+// The model-error half-widths added in quadrature to each bootstrap interval (see the comments inside).
+std::map<std::string, double> ModelErrorShifts(const internal::BlockStats& st, const FlightSamples& s,
+                                               const vehicle::VehicleParams& base, double expo,
+                                               const std::vector<double>& w_fit,
+                                               const std::map<std::string, double>& value,
+                                               const std::map<std::string, std::vector<double>>& boot) {
+  using namespace internal;
+  const size_t G = st.battery.size();
+  Eigen::VectorXd bx(3);
+  // Model-error terms, each added to every interval in quadrature (the largest change of the point
+  // fit over the alternatives): (1) the accelerometer's constant bias cannot be told from thrust in
+  // hover: the vertical specific force shifted by ±1.96·σ_b (σ_b from the base vehicle's
+  // accelerometer: bias_std and its walk over the flight); (2) the charge drawn is a sum over the
+  // sampled current: the right instead of the left Riemann sum.
+  std::map<std::string, double> bias_shift;
+  auto shift_by = [&](const BlockStats& alt) {
+    for (const auto& [k, v] : Derive(FitWeighted(alt, w_fit, expo), s, base, expo)) {
+      if (std::isfinite(v - value.at(k))) bias_shift[k] = std::max(bias_shift[k], std::fabs(v - value.at(k)));
+    }
+  };
+  const double flight_s = s.t_s.empty() ? 0.0 : s.t_s.back() - s.t_s.front();
+  const double sigma_b = std::hypot(base.sensors.accel.noise.bias_std,
+                                    base.sensors.accel.noise.bias_walk_per_sqrt_s * std::sqrt(flight_s));
+  for (double sign : {-1.0, 1.0}) {
+    BlockStats shifted = st;
+    for (auto& per_tau : shifted.vertical) {
+      for (auto& nb : per_tau) nb.ShiftY(sign * 1.96 * sigma_b);
+    }
+    shift_by(shifted);
+  }
+  {
+    BlockStats right = st;
+    right.battery.assign(G, Normal(3));
+    for (size_t k = 0; k < s.batt_V.size(); ++k) {
+      bx << 1.0, -s.batt_I[k], -s.batt_Q_right_Ah[k];
+      right.battery[static_cast<size_t>(s.batt_block[k])].Add(bx, s.batt_V[k]);
+    }
+    shift_by(right);
+  }
+  // (3) the motor lag is known only within its interval, and the parameters fitted at the profiled lag
+  // move with it (the yaw coefficient, fitted beside the yaw damping, by ~2 % per millisecond: a 10-ms
+  // grid step moved it by 20 %, while the resamples of the bootstrap, on the same grid, mostly kept the
+  // same lag). Each parameter is refitted with the lag at the ends of the lag's own interval (half-way
+  // to the next grid value, as that interval states: the mean of the fits at the two grid values).
+  std::map<std::string, double> lag_shift;
+  {
+    const std::vector<double>& bt = boot.at("motor_time_constant_s");
+    const double tau0 = value.at("motor_time_constant_s");
+    const double db = bias_shift["motor_time_constant_s"];
+    const double t_lo = tau0 - std::hypot(tau0 - Percentile(bt, 0.025), db);
+    const double t_hi = tau0 + std::hypot(Percentile(bt, 0.975) - tau0, db);
+    const double* g0 = std::begin(kTauGrid_s);
+    const double* g1 = std::end(kTauGrid_s);
+    const double* lo = std::lower_bound(g0, g1, t_lo - 1e-12);
+    const double* hi = std::lower_bound(g0, g1, t_hi - 1e-12);
+    auto fit_at = [&](const double* g) { return Derive(FitWeighted(st, w_fit, expo, static_cast<int>(g - g0)), s, base, expo); };
+    auto end_shift = [&](const double* a, const double* b) {  // the fit half-way between grid values a and b
+      const auto fa = fit_at(a), fb = fit_at(b);
+      for (const auto& [k, v] : fa) {
+        const double d = 0.5 * (v + fb.at(k)) - value.at(k);
+        if (std::isfinite(d) && k != "motor_time_constant_s") lag_shift[k] = std::max(lag_shift[k], std::fabs(d));
+      }
+    };
+    if (lo != g1) end_shift(lo != g0 ? lo - 1 : lo, lo);
+    if (hi != g1) end_shift(hi, hi + 1 != g1 ? hi + 1 : hi);
+  }
+  for (auto& [k, v] : lag_shift) bias_shift[k] = std::max(bias_shift[k], v);
+  return bias_shift;
+}
+
+// One reported parameter per kSpecs row: value, interval (bootstrap percentile widened by the
+// model-error shift), physical range, and whether the vehicle file applies it.
+void FillParams(const std::map<std::string, double>& value, const std::map<std::string, std::vector<double>>& boot,
+                const std::map<std::string, double>& bias_shift, const FlightSamples& s, IdentifyResult* out) {
+  using namespace internal;
+  IdentifyResult& res = *out;
+  auto shift_of = [&bias_shift](const std::string& k) {
+    const auto it = bias_shift.find(k);
+    return it == bias_shift.end() ? 0.0 : it->second;
+  };
+  for (const ParamSpec& sp : kSpecs) {
+    Param p;
+    p.value = value.at(sp.name);
+    const double db = shift_of(sp.name);
+    p.ci95[0] = p.value - std::hypot(p.value - Percentile(boot.at(sp.name), 0.025), db);
+    p.ci95[1] = p.value + std::hypot(Percentile(boot.at(sp.name), 0.975) - p.value, db);
+    if (std::string(sp.name) == "motor_time_constant_s") {
+      // A profiled value is known only to within its grid cell: the interval reaches half-way to
+      // the neighbouring grid values.
+      const double* g0 = std::begin(kTauGrid_s);
+      const double* g1 = std::end(kTauGrid_s);
+      const double* lo = std::lower_bound(g0, g1, p.ci95[0] - 1e-12);
+      const double* hi = std::lower_bound(g0, g1, p.ci95[1] - 1e-12);
+      if (lo != g0 && lo != g1) p.ci95[0] = 0.5 * (*(lo - 1) + *lo);
+      if (hi != g1 && hi + 1 != g1) p.ci95[1] = 0.5 * (*hi + *(hi + 1));
+      p.ci95[0] = std::max(p.ci95[0], *g0);  // nothing outside the profiled grid was tried
+      p.ci95[1] = std::min(p.ci95[1], *(g1 - 1));
+    }
+    p.unit = sp.unit;
+    p.note = sp.note;
+    const plausibility::PhysicalRange* pr = plausibility::FindRange(sp.range);
+    double per = 1.0;  // the table states some ranges per weight or per cell
+    if (std::string(sp.name) == "thrust_full_output_mps2") {
+      per = kGravity_mps2 / static_cast<double>(s.motors);
+    } else if (std::string(sp.name) == "battery_ocv_V") {
+      per = std::isfinite(p.value) ? std::max(1.0, std::round(p.value / 3.8)) : 1.0;
+    }
+    p.range[0] = pr ? pr->lo * per : -INFINITY;
+    p.range[1] = pr ? pr->hi * per : INFINITY;
+    p.range_reason = pr ? pr->reason : "no stated range";
+    if (!std::isfinite(p.value) || !p.plausible()) p.source = "model mismatch";
+    p.applied = p.source == "fitted" && p.ci95[0] >= p.range[0] && p.ci95[1] <= p.range[1];
+    res.params[sp.name] = p;
+    res.param_order.emplace_back(sp.name);
+  }
+}
+
+// Parameters the log did not determine (no usable battery data, no usable velocity): the base's.
+void KeepBaseWhereUndetermined(const FlightSamples& s, const vehicle::VehicleParams& base, IdentifyResult* out) {
+  IdentifyResult& res = *out;
+  if (s.batt_V.size() < 3) {
+    // The base battery's values: V_oc at its initial charge, R, and dV_oc/dQ over its first 10 %.
+    const vehicle::BatteryParams& bb = base.battery;
+    const double soc0 = bb.initial_soc, ocv0 = bb.OpenCircuitVoltage_V(soc0);
+    const std::map<std::string, double> base_batt = {
+        {"battery_ocv_V", ocv0},
+        {"battery_resistance_ohm", bb.internal_resistance_ohm},
+        {"battery_charge_slope_V_per_Ah", (ocv0 - bb.OpenCircuitVoltage_V(soc0 - 0.1)) / (0.1 * bb.capacity_Ah)}};
+    for (const auto& [k, v] : base_batt) {
+      res.params[k].value = res.params[k].ci95[0] = res.params[k].ci95[1] = v;
+      res.params[k].source = "base";
+      res.params[k].applied = false;
+      res.params[k].note += " (no usable voltage and current in flight: not identified)";
+    }
+  }
+  if (!s.velocity_ok) {
+    const double m_base = base.mass_kg + base.payload.mass_kg;
+    const std::map<std::string, double> base_drag = {{"vertical_drag_per_mass_1ps", base.drag.linear_Nspm.z() / m_base},
+                                                     {"linear_drag_per_mass_1ps", base.drag.linear_Nspm.x() / m_base},
+                                                     {"quadratic_drag_per_mass_1pm", base.drag.quadratic_Ns2pm2.x() / m_base}};
+    for (const auto& [k, v] : base_drag) {
+      res.params[k].value = res.params[k].ci95[0] = res.params[k].ci95[1] = v;
+      res.params[k].source = "base";
+      res.params[k].applied = false;
+      res.params[k].note += " (not identified: the logged velocity is not usable)";
+    }
+    res.notes.push_back(s.velocity_why + "; drag not identified, thrust fitted without the velocity terms");
+  }
+}
+
+// What the log cannot determine at all: kept from the base.
+void AppendBaseOnlyParams(const vehicle::VehicleParams& base, IdentifyResult* out) {
+  IdentifyResult& res = *out;
+  const double m_kg = base.mass_kg + base.payload.mass_kg;
+  auto base_param = [&](const std::string& k, double v, const char* unit, const char* note) {
+    Param p;
+    p.value = v;
+    p.ci95[0] = p.ci95[1] = v;
+    p.unit = unit;
+    p.source = "base";
+    p.range[0] = p.range[1] = v;
+    p.note = note;
+    res.params[k] = p;
+    res.param_order.push_back(k);
+  };
+  base_param("mass_kg", m_kg, "kg", "the log measures forces per unit mass only");
+  base_param("inertia_xx_kgm2", base.inertia_kgm2(0, 0), "kg*m^2", "not separable from the torque coefficients");
+  base_param("inertia_yy_kgm2", base.inertia_kgm2(1, 1), "kg*m^2", "");
+  base_param("inertia_zz_kgm2", base.inertia_kgm2(2, 2), "kg*m^2", "");
+  base_param("motor_kv_rpm_per_V", base.motor.kv_rpm_per_V, "rpm/V", "rotor speed is not logged");
+
+}
+
 }  // namespace
 
 std::string IdentifyOptions::IsValid() const {
@@ -427,42 +640,8 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
   const double expo = ExpoOf(log, &res.thrust_expo_source);
   res.thrust_expo = expo;
 
-  // Per-block statistics.
   const size_t G = static_cast<size_t>(std::max(4, options.blocks));
-  BlockStats st;
-  const int pv = ExpoFixed(expo) ? 2 : 4;
-  st.vertical.assign(kTauCount, std::vector<Normal>(G, Normal(pv)));
-  st.yaw.assign(kTauCount, std::vector<Normal>(G, Normal(4)));
-  st.lateral.assign(G, Normal(4));
-  st.battery.assign(G, Normal(3));
-  st.gyro2.assign(G, Eigen::Vector3d::Zero());
-  st.accel2.assign(G, Eigen::Vector3d::Zero());
-  st.dn.assign(G, 0.0);
-  Eigen::VectorXd zx(4), lx(4), bx(3);
-  for (size_t k = 0; k < s.t_s.size(); ++k) {
-    const size_t b = static_cast<size_t>(s.block[k]);
-    for (size_t g = 0; g < kTauCount; ++g) {
-      st.vertical[g][b].Add(VerticalX(s, k, g, expo), -s.f_B[k].z());
-      zx << s.sums[k].Z1[g], s.sums[k].Z2[g], s.w_B[k].z(), 1.0;
-      st.yaw[g][b].Add(zx, s.r_dot[k]);
-    }
-    for (int a = 0; a < 2; ++a) {
-      const double v = s.v_B[k](a);
-      lx << v, std::fabs(v) * v, a == 0 ? 1.0 : 0.0, a == 1 ? 1.0 : 0.0;
-      st.lateral[b].Add(lx, s.f_B[k](a));
-    }
-  }
-  for (size_t k = 0; k < s.batt_V.size(); ++k) {
-    bx << 1.0, -s.batt_I[k], -s.batt_Q_Ah[k];
-    st.battery[static_cast<size_t>(s.batt_block[k])].Add(bx, s.batt_V[k]);
-  }
-  for (size_t k = 0; k < s.d_gyro.size(); ++k) {
-    const size_t b = static_cast<size_t>(s.d_block[k]);
-    st.gyro2[b] += s.d_gyro[k].cwiseAbs2();
-    st.accel2[b] += s.d_accel[k].cwiseAbs2();
-    st.dn[b] += 1;
-  }
-
+  const internal::BlockStats st = AccumulateBlockStats(s, G, expo);
   std::vector<int> fit = options.fit_blocks;
   if (fit.empty()) {
     for (size_t b = 0; b < G; ++b) fit.push_back(static_cast<int>(b));
@@ -481,146 +660,10 @@ Result<IdentifyResult> Identify(const logs::FlightLog& log, const vehicle::Vehic
     for (size_t i = 0; i < fit.size(); ++i) w[static_cast<size_t>(fit[pick(rng)])] += 1.0;
     for (const auto& [k, v] : Derive(FitWeighted(st, w, expo), s, base, expo)) boot[k].push_back(v);
   }
-  // Model-error terms, each added to every interval in quadrature (the largest change of the point
-  // fit over the alternatives): (1) the accelerometer's constant bias cannot be told from thrust in
-  // hover: the vertical specific force shifted by ±1.96·σ_b (σ_b from the base vehicle's
-  // accelerometer: bias_std and its walk over the flight); (2) the charge drawn is a sum over the
-  // sampled current: the right instead of the left Riemann sum.
-  std::map<std::string, double> bias_shift;
-  auto shift_by = [&](const BlockStats& alt) {
-    for (const auto& [k, v] : Derive(FitWeighted(alt, w_fit, expo), s, base, expo)) {
-      if (std::isfinite(v - value.at(k))) bias_shift[k] = std::max(bias_shift[k], std::fabs(v - value.at(k)));
-    }
-  };
-  const double flight_s = s.t_s.empty() ? 0.0 : s.t_s.back() - s.t_s.front();
-  const double sigma_b = std::hypot(base.sensors.accel.noise.bias_std,
-                                    base.sensors.accel.noise.bias_walk_per_sqrt_s * std::sqrt(flight_s));
-  for (double sign : {-1.0, 1.0}) {
-    BlockStats shifted = st;
-    for (auto& per_tau : shifted.vertical) {
-      for (auto& nb : per_tau) nb.ShiftY(sign * 1.96 * sigma_b);
-    }
-    shift_by(shifted);
-  }
-  {
-    BlockStats right = st;
-    right.battery.assign(G, Normal(3));
-    for (size_t k = 0; k < s.batt_V.size(); ++k) {
-      bx << 1.0, -s.batt_I[k], -s.batt_Q_right_Ah[k];
-      right.battery[static_cast<size_t>(s.batt_block[k])].Add(bx, s.batt_V[k]);
-    }
-    shift_by(right);
-  }
-  // (3) the motor lag is known only within its interval, and the parameters fitted at the profiled lag
-  // move with it (the yaw coefficient, fitted beside the yaw damping, by ~2 % per millisecond: a 10-ms
-  // grid step moved it by 20 %, while the resamples of the bootstrap, on the same grid, mostly kept the
-  // same lag). Each parameter is refitted with the lag at the ends of the lag's own interval (half-way
-  // to the next grid value, as that interval states: the mean of the fits at the two grid values).
-  std::map<std::string, double> lag_shift;
-  {
-    const std::vector<double>& bt = boot["motor_time_constant_s"];
-    const double tau0 = value.at("motor_time_constant_s");
-    const double db = bias_shift["motor_time_constant_s"];
-    const double t_lo = tau0 - std::hypot(tau0 - Percentile(bt, 0.025), db);
-    const double t_hi = tau0 + std::hypot(Percentile(bt, 0.975) - tau0, db);
-    const double* g0 = std::begin(kTauGrid_s);
-    const double* g1 = std::end(kTauGrid_s);
-    const double* lo = std::lower_bound(g0, g1, t_lo - 1e-12);
-    const double* hi = std::lower_bound(g0, g1, t_hi - 1e-12);
-    auto fit_at = [&](const double* g) { return Derive(FitWeighted(st, w_fit, expo, static_cast<int>(g - g0)), s, base, expo); };
-    auto end_shift = [&](const double* a, const double* b) {  // the fit half-way between grid values a and b
-      const auto fa = fit_at(a), fb = fit_at(b);
-      for (const auto& [k, v] : fa) {
-        const double d = 0.5 * (v + fb.at(k)) - value.at(k);
-        if (std::isfinite(d) && k != "motor_time_constant_s") lag_shift[k] = std::max(lag_shift[k], std::fabs(d));
-      }
-    };
-    if (lo != g1) end_shift(lo != g0 ? lo - 1 : lo, lo);
-    if (hi != g1) end_shift(hi, hi + 1 != g1 ? hi + 1 : hi);
-  }
-  for (auto& [k, v] : lag_shift) bias_shift[k] = std::max(bias_shift[k], v);
-  const double m_kg = base.mass_kg + base.payload.mass_kg;
-  for (const ParamSpec& sp : kSpecs) {
-    Param p;
-    p.value = value.at(sp.name);
-    const double db = bias_shift[sp.name];
-    p.ci95[0] = p.value - std::hypot(p.value - Percentile(boot[sp.name], 0.025), db);
-    p.ci95[1] = p.value + std::hypot(Percentile(boot[sp.name], 0.975) - p.value, db);
-    if (std::string(sp.name) == "motor_time_constant_s") {
-      // A profiled value is known only to within its grid cell: the interval reaches half-way to
-      // the neighbouring grid values.
-      const double* g0 = std::begin(kTauGrid_s);
-      const double* g1 = std::end(kTauGrid_s);
-      const double* lo = std::lower_bound(g0, g1, p.ci95[0] - 1e-12);
-      const double* hi = std::lower_bound(g0, g1, p.ci95[1] - 1e-12);
-      if (lo != g0 && lo != g1) p.ci95[0] = 0.5 * (*(lo - 1) + *lo);
-      if (hi != g1 && hi + 1 != g1) p.ci95[1] = 0.5 * (*hi + *(hi + 1));
-      p.ci95[0] = std::max(p.ci95[0], *g0);  // nothing outside the profiled grid was tried
-      p.ci95[1] = std::min(p.ci95[1], *(g1 - 1));
-    }
-    p.unit = sp.unit;
-    p.note = sp.note;
-    const plausibility::PhysicalRange* pr = plausibility::FindRange(sp.range);
-    double per = 1.0;  // the table states some ranges per weight or per cell
-    if (std::string(sp.name) == "thrust_full_output_mps2") {
-      per = kGravity_mps2 / static_cast<double>(s.motors);
-    } else if (std::string(sp.name) == "battery_ocv_V") {
-      per = std::isfinite(p.value) ? std::max(1.0, std::round(p.value / 3.8)) : 1.0;
-    }
-    p.range[0] = pr ? pr->lo * per : -INFINITY;
-    p.range[1] = pr ? pr->hi * per : INFINITY;
-    p.range_reason = pr ? pr->reason : "no stated range";
-    if (!std::isfinite(p.value) || !p.plausible()) p.source = "model mismatch";
-    p.applied = p.source == "fitted" && p.ci95[0] >= p.range[0] && p.ci95[1] <= p.range[1];
-    res.params[sp.name] = p;
-    res.param_order.emplace_back(sp.name);
-  }
-  if (s.batt_V.size() < 3) {
-    // The base battery's values: V_oc at its initial charge, R, and dV_oc/dQ over its first 10 %.
-    const vehicle::BatteryParams& bb = base.battery;
-    const double soc0 = bb.initial_soc, ocv0 = bb.OpenCircuitVoltage_V(soc0);
-    const std::map<std::string, double> base_batt = {
-        {"battery_ocv_V", ocv0},
-        {"battery_resistance_ohm", bb.internal_resistance_ohm},
-        {"battery_charge_slope_V_per_Ah", (ocv0 - bb.OpenCircuitVoltage_V(soc0 - 0.1)) / (0.1 * bb.capacity_Ah)}};
-    for (const auto& [k, v] : base_batt) {
-      res.params[k].value = res.params[k].ci95[0] = res.params[k].ci95[1] = v;
-      res.params[k].source = "base";
-      res.params[k].applied = false;
-      res.params[k].note += " (no usable voltage and current in flight: not identified)";
-    }
-  }
-  if (!s.velocity_ok) {
-    const double m_base = base.mass_kg + base.payload.mass_kg;
-    const std::map<std::string, double> base_drag = {{"vertical_drag_per_mass_1ps", base.drag.linear_Nspm.z() / m_base},
-                                                     {"linear_drag_per_mass_1ps", base.drag.linear_Nspm.x() / m_base},
-                                                     {"quadratic_drag_per_mass_1pm", base.drag.quadratic_Ns2pm2.x() / m_base}};
-    for (const auto& [k, v] : base_drag) {
-      res.params[k].value = res.params[k].ci95[0] = res.params[k].ci95[1] = v;
-      res.params[k].source = "base";
-      res.params[k].applied = false;
-      res.params[k].note += " (not identified: the logged velocity is not usable)";
-    }
-    res.notes.push_back(s.velocity_why + "; drag not identified, thrust fitted without the velocity terms");
-  }
-  // What the log cannot determine: kept from the base.
-  auto base_param = [&](const std::string& k, double v, const char* unit, const char* note) {
-    Param p;
-    p.value = v;
-    p.ci95[0] = p.ci95[1] = v;
-    p.unit = unit;
-    p.source = "base";
-    p.range[0] = p.range[1] = v;
-    p.note = note;
-    res.params[k] = p;
-    res.param_order.push_back(k);
-  };
-  base_param("mass_kg", m_kg, "kg", "the log measures forces per unit mass only");
-  base_param("inertia_xx_kgm2", base.inertia_kgm2(0, 0), "kg*m^2", "not separable from the torque coefficients");
-  base_param("inertia_yy_kgm2", base.inertia_kgm2(1, 1), "kg*m^2", "");
-  base_param("inertia_zz_kgm2", base.inertia_kgm2(2, 2), "kg*m^2", "");
-  base_param("motor_kv_rpm_per_V", base.motor.kv_rpm_per_V, "rpm/V", "rotor speed is not logged");
-
+  const std::map<std::string, double> bias_shift = ModelErrorShifts(st, s, base, expo, w_fit, value, boot);
+  FillParams(value, boot, bias_shift, s, &res);
+  KeepBaseWhereUndetermined(s, base, &res);
+  AppendBaseOnlyParams(base, &res);
   HeldoutAndTraces(s, st, expo, fit, &res);
   // Steady hover samples: level, slow, thrust ≈ weight (for the plot and the hover check).
   for (size_t k = 0; k < s.t_s.size(); ++k) {
