@@ -149,8 +149,11 @@ double WaldP(const Eigen::VectorXd& beta, const Eigen::MatrixXd& cov, const std:
   if (!(tr > 0) || !b.allFinite()) return 1.0;
   Eigen::LDLT<Eigen::MatrixXd> ldlt(V + Eigen::MatrixXd::Identity(q, q) * (1e-9 * tr / q));
   if (ldlt.info() != Eigen::Success) return 1.0;
+  // The cluster-robust covariance is a sum over G blocks: its rank is at most G − 1, so q ≥ G
+  // parameters cannot be tested at all (the small ridge above would make any t² huge: p = 0 for an
+  // effect the data cannot show). Not testable: p = 1.
+  if (G - q < 1) return 1.0;
   const double t2 = b.dot(ldlt.solve(b));
-  if (G - q < 1) return ChiSquareSf(t2, q);
   const double f = t2 * static_cast<double>(G - q) / (static_cast<double>(q) * (G - 1));
   return FSf(f, q, G - q);
 }

@@ -58,7 +58,8 @@ struct Evaluated {
 // `cov` where a leave-one-out fit fails.
 Eigen::MatrixXd JackknifeCov(const Evaluated& e);
 
-// Cluster-robust Wald test that the parameters `idx` are zero.
+// Cluster-robust Wald test that the parameters `idx` are zero: F(q, G − q) with the small-sample
+// factor (G − q)/(q·(G − 1)); 1 (not testable) where q ≥ G, the covariance's rank being below q.
 double WaldP(const Eigen::VectorXd& beta, const Eigen::MatrixXd& cov, const std::vector<int>& idx, int G);
 std::vector<int> Range(int a, int b);
 // Stacks two candidates' regressors side by side.
