@@ -7,6 +7,7 @@
 #include <Eigen/LU>
 #include <fmt/format.h>
 
+#include "hexsim/bridge/sim_messages.h"
 #include "hexsim/common/rotation.h"
 #include "hexsim/vehicle/powertrain.h"
 
@@ -31,7 +32,6 @@ double WrapDeg(double a) {
 // PX4's magnetometers in SITL (simulator_mavlink/SimulatorMavlink.hpp: PX4Magnetometer{197388},
 // {197644}; HIL_SENSOR id 0 and 1).
 constexpr int kPx4SimMagIds[2] = {197388, 197644};
-constexpr double kGaussPerUt = 0.01;
 
 }  // namespace
 

@@ -13,7 +13,6 @@
 namespace hexsim::nav {
 namespace {
 
-constexpr double kMaxImuDt_s = 0.05;
 // The compass step never integrates a longer gap than this (a first sample after a dropout).
 constexpr double kMaxMagDt_s = 0.2;
 // The accelerometer tilt correction is used only while |f| is within this fraction of g.
@@ -46,7 +45,7 @@ class Complementary final : public Estimator, private internal::Filter {
 
   void PredictImu(const ImuSample& s) override {
     if (!front_.AdmitImu(s, prm_.align_time_s, this)) return;
-    const double dt = std::min(s.t_s - front_.time(), kMaxImuDt_s);
+    const double dt = std::min(s.t_s - front_.time(), internal::kMaxImuDt_s);
     const Eigen::Matrix3d R = q_.toRotationMatrix();
     // Tilt error in N: φ = d_meas × d_ref with d_meas = R·f/|f| and d_ref the direction of the
     // specific force expected from the kinematic acceleration, f_ref = a_ref − g (a_ref from GPS;

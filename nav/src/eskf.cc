@@ -21,8 +21,6 @@ using Row15 = Eigen::Matrix<double, 1, 15>;
 
 // Error-state indices.
 constexpr int kTh = 0, kV = 3, kP = 6, kBg = 9, kBa = 12;
-// A larger IMU gap than this is integrated as this (a dropped-sample burst must not blow up F·dt).
-constexpr double kMaxImuDt_s = 0.05;
 // Sine of the pitch beyond which the heading is undefined and the compass is not fused.
 constexpr double kMaxHeadingCosPitch2 = 1e-4;
 // 3-axis compass fusion is linearised about the current attitude: until the yaw is known to this
@@ -74,7 +72,7 @@ class Eskf final : public Estimator, private internal::Filter {
 
   void PredictImu(const ImuSample& s) override {
     if (!front_.AdmitImu(s, prm_.align_time_s, this)) return;
-    const double dt = std::min(s.t_s - front_.time(), kMaxImuDt_s);
+    const double dt = std::min(s.t_s - front_.time(), internal::kMaxImuDt_s);
     const Eigen::Vector3d w = s.gyro_B_radps - bg_;
     const Eigen::Vector3d f_B = s.accel_B_mps2 - ba_;
     const Eigen::Matrix3d R = q_.toRotationMatrix();

@@ -21,6 +21,10 @@
 
 namespace hexsim::nav::internal {
 
+// A larger IMU gap than this is integrated as this by both filters (a dropped-sample burst must not
+// blow up F·dt).
+constexpr double kMaxImuDt_s = 0.05;
+
 // What the front end asks of the filter it fronts.
 class Filter {
  public:
