@@ -92,6 +92,16 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& baseline
 // the misalignment's magnitude, interval and parameters divided by it.
 void DescaleMisalignment(double field_scale, CandidateResult* r);
 
+// Does `extra` hold a part the reported model leaves? Significant over the model by its
+// cluster-robust Wald test at alpha, and material: it removes at least the materiality share of the
+// noise floor's power (in sample). gain: that share of the noise floor's power.
+bool LeavesPart(const Analyzer& an, const Evaluated& model, const Candidate& extra, double noise_var, const DiagnoseOptions& o,
+                double* gain);
+// What a compass model leaves, described (leftover.cc; empty: nothing). A cross-axis coupling of
+// the sensor: symmetric off-diagonal gains, which no library family spans.
+std::string CouplingFinding(const ChannelData& ch, const Analyzer& an, const Evaluated& model, double noise_var,
+                            const DiagnoseOptions& o);
+
 // The rule of compass channels (verdict.cc).
 ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
                              const DiagnoseOptions& o, const CompassTiming& timing, RngStream* rng);
