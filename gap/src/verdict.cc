@@ -10,6 +10,7 @@
 
 #include "detection.h"
 #include "hexsim/common/plausibility.h"
+#include "replay_util.h"
 
 namespace hexsim::gap::internal {
 namespace {
@@ -332,6 +333,14 @@ void NameVerdict(const NuisanceReport& nu, const Structure& st, const std::strin
   }
 }
 
+// current_lag's free member: its exponent inside its physical range too (kLagExponentLo..Hi).
+void LagExponentRange(CandidateResult* r) {
+  const auto ex = r->params.find("exponent");
+  if (r->effect != "current_lag" || ex == r->params.end()) return;
+  r->plausible = r->plausible && ex->second >= kLagExponentLo && ex->second <= kLagExponentHi;
+  r->physical_range += fmt::format(", exponent {:g}..{:g}", kLagExponentLo, kLagExponentHi);
+}
+
 }  // namespace
 
 ChannelResult AnalyzeCompass(const ChannelData& ch_in, const logs::FlightLog& log, const std::vector<std::string>& phases,
@@ -361,6 +370,7 @@ ChannelResult AnalyzeCompass(const ChannelData& ch_in, const logs::FlightLog& lo
     ScaleSpread(&r);
     r.plausible = plausibility::IsPlausible(r.effect, r.magnitude);
     r.physical_range = plausibility::RangeText(r.effect);
+    LagExponentRange(&r);
   }
   double flex_p = 1.0, flex_gain_ms = 0.0;
   LibraryFreeTest(ch, an, &flex_p, &flex_gain_ms);

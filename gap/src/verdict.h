@@ -32,10 +32,6 @@ struct FoldDiff {
 FoldDiff Diff(const std::vector<double>& a, const std::vector<double>& b);
 // Does a's column space (over the samples) hold b's?
 bool Nests(const Candidate& a, const Candidate& b);
-// Fitted quantities of a candidate for the parsimony rules: its linear parameters, plus one for a
-// nonlinear parameter profiled over a grid (a throttle exponent other than the linear default, a
-// lag τ): choosing the best of several grid values is a fit too.
-int Dof(const Candidate& c);
 // Families that may enter a model: plausible and significant (family-corrected p ≤ alpha).
 std::vector<bool> Eligible(const Attribution& at, const DiagnoseOptions& o);
 // The first effect: the one-standard-error rule over the CV folds among the eligible families (F: none).
