@@ -119,6 +119,12 @@ Fit SolveNested(const std::vector<Block>& blocks, const std::vector<double>& w, 
   return SolveNormal(A, g, base_sums.s, base_sums.n, p);
 }
 
+int Dof(const Candidate& c) {
+  const bool exponent = (c.grid_name == "exponent" && c.grid_value != 1.0) || (c.grid2_name == "exponent" && c.grid2_value != 1.0);
+  const bool lag = c.grid_name == "tau_s" && c.grid_value != 0.0;
+  return c.p() + (exponent ? 1 : 0) + (lag ? 1 : 0);
+}
+
 Candidate Join(const Candidate& a, const Candidate& b) {
   Candidate j = a;
   j.effect = a.effect + "+" + b.effect;
@@ -328,7 +334,40 @@ double MagnitudeOf(const Evaluated& e) {
   return pm == 1 ? v[0] : v.norm();
 }
 
-void Describe(const Evaluated& e, const std::vector<double>& grid_boot, const std::vector<double>& grid, CandidateResult* r) {
+namespace {
+
+// The 95 % interval of a profiled parameter at `value`: the 2.5–97.5 % range of its bootstrap
+// picks, widened to the grid cells it spans. A profiled parameter is resolved to its grid only: a
+// value between two grid points goes to one of them, so the interval holds the cells of the grid
+// points it spans (half-way to the neighbouring grid value; at the grid's ends half a step beyond).
+// A bootstrap that always picks one grid point would otherwise give an interval of zero width.
+// `cells` false: a member choice (current_aligned), not a continuous parameter.
+Interval GridInterval(double value, std::vector<double> picks, std::vector<double> grid, bool cells) {
+  std::sort(picks.begin(), picks.end());
+  Interval iv{value, value};
+  if (!picks.empty()) {
+    iv.lo = std::min(iv.lo, picks[static_cast<size_t>(0.025 * static_cast<double>(picks.size() - 1))]);
+    iv.hi = std::max(iv.hi, picks[static_cast<size_t>(std::ceil(0.975 * static_cast<double>(picks.size() - 1)))]);
+  }
+  std::sort(grid.begin(), grid.end());
+  grid.erase(std::unique(grid.begin(), grid.end()), grid.end());
+  if (!cells || grid.size() < 2) return iv;
+  const auto cell_lo = [&](double x) {
+    const auto it = std::lower_bound(grid.begin(), grid.end(), x);
+    if (it == grid.begin()) return x - 0.5 * (grid[1] - grid[0]);
+    return 0.5 * (x + *(it - 1));
+  };
+  const auto cell_hi = [&](double x) {
+    const auto it = std::upper_bound(grid.begin(), grid.end(), x);
+    if (it == grid.end()) return x + 0.5 * (grid[grid.size() - 1] - grid[grid.size() - 2]);
+    return 0.5 * (x + *it);
+  };
+  return {cell_lo(iv.lo), cell_hi(iv.hi)};
+}
+
+}  // namespace
+
+void Describe(const Evaluated& e, const GridPicks& picks, CandidateResult* r) {
   const Candidate& c = *e.cand;
   const double t975 = StudentT975(static_cast<double>(e.blocks.size() - 1));
   const int p = c.p();
@@ -340,44 +379,19 @@ void Describe(const Evaluated& e, const std::vector<double>& grid_boot, const st
     r->params[c.names[j]] = v;
     r->ci95[c.names[j]] = {v - t975 * sd, v + t975 * sd};
   }
+  if (!c.grid2_name.empty()) {
+    r->params[c.grid2_name] = c.grid2_value;
+    r->ci95[c.grid2_name] = GridInterval(c.grid2_value, picks.boot2, picks.grid2, true);
+  }
   if (!c.grid_name.empty()) {
     r->params[c.grid_name] = c.grid_value;
-    std::vector<double> g = grid_boot;
-    std::sort(g.begin(), g.end());
-    double lo = c.grid_value, hi = c.grid_value;
-    if (!g.empty()) {
-      lo = std::min(lo, g[static_cast<size_t>(0.025 * static_cast<double>(g.size() - 1))]);
-      hi = std::max(hi, g[static_cast<size_t>(std::ceil(0.975 * static_cast<double>(g.size() - 1)))]);
-    }
-    // A profiled parameter is resolved to its grid only: a value between two grid points goes to
-    // one of them, so the interval holds the cells of the grid points it spans (half-way to the
-    // neighbouring grid value; at the grid's ends half a step beyond). A bootstrap that always
-    // picks one grid point would otherwise give an interval of zero width. The member choice
-    // current_aligned is not a continuous parameter.
-    if (c.grid_name != "current_aligned") {
-      std::vector<double> gv = grid;
-      std::sort(gv.begin(), gv.end());
-      gv.erase(std::unique(gv.begin(), gv.end()), gv.end());
-      if (gv.size() >= 2) {
-        const auto cell_lo = [&](double x) {
-          const auto it = std::lower_bound(gv.begin(), gv.end(), x);
-          if (it == gv.begin()) return x - 0.5 * (gv[1] - gv[0]);
-          return 0.5 * (x + *(it - 1));
-        };
-        const auto cell_hi = [&](double x) {
-          const auto it = std::upper_bound(gv.begin(), gv.end(), x);
-          if (it == gv.end()) return x + 0.5 * (gv[gv.size() - 1] - gv[gv.size() - 2]);
-          return 0.5 * (x + *it);
-        };
-        lo = cell_lo(lo);
-        hi = cell_hi(hi);
-      }
-    }
-    r->ci95[c.grid_name] = {lo, hi};
+    Interval iv = GridInterval(c.grid_value, picks.boot, picks.grid, c.grid_name != "current_aligned");
+    if (c.grid_name == "tau_s") iv.lo = std::max(0.0, iv.lo);  // a lag is never negative
+    r->ci95[c.grid_name] = iv;
     if (c.grid_name == "tau_s") {  // the lag is the magnitude of current_lag
       r->magnitude = c.grid_value;
-      r->magnitude_ci95[0] = lo;
-      r->magnitude_ci95[1] = hi;
+      r->magnitude_ci95[0] = iv.lo;
+      r->magnitude_ci95[1] = iv.hi;
       r->magnitude_unit = "s";
       return;
     }
@@ -420,13 +434,18 @@ Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseO
     for (size_t m : members) {
       if (at.all[m].full.sse < at.all[best].full.sse) best = m;
     }
-    // A profiled exponent stays at its linear default unless another value beats it on held-out
-    // blocks by more than one standard error (the one-standard-error rule within the family).
+    // The one-standard-error rule within the family: a profiled parameter stays at its default (an
+    // exponent at the linear 1, a lag at 0) unless a member away from it beats it on held-out blocks
+    // by more than one standard error. Among the members with fewer fitted quantities (Dof) that the
+    // in-sample best does not beat so, the simplest (then the lowest held-out SSE) is the family's.
+    const size_t fit_best = best;
     for (size_t m : members) {
-      const Candidate& c = *at.all[m].cand;
-      if (c.grid_name != "exponent" || c.grid_value != 1.0 || m == best) continue;
-      const std::vector<double>& a = at.all[best].fold_sse;
-      const std::vector<double>& b = at.all[m].fold_sse;
+      const Evaluated& em = at.all[m];
+      const int dof = Dof(*em.cand), dof_best = Dof(*at.all[best].cand);
+      if (m == fit_best || dof >= Dof(*at.all[fit_best].cand)) continue;
+      if (dof > dof_best || (dof == dof_best && em.cv_sse >= at.all[best].cv_sse)) continue;
+      const std::vector<double>& a = at.all[fit_best].fold_sse;
+      const std::vector<double>& b = em.fold_sse;
       double sum = 0, sq = 0;
       const size_t F = std::min(a.size(), b.size());
       for (size_t f = 0; f < F; ++f) {
@@ -444,7 +463,7 @@ Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseO
   // alone competes as "nothing").
   const int G = an.G();
   std::vector<double> wins(F, 0.0);
-  std::map<std::string, std::vector<double>> grid_boot;
+  std::vector<GridPicks> picks(F);
   const int p0 = an.nested() ? an.baseline().p() : 0;
   for (int b = 0; b < o.bootstrap_samples; ++b) {
     std::vector<double> w(G, 0.0);
@@ -462,19 +481,25 @@ Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseO
     double best_bic = n_w * std::log(std::max(base, 1e-300) / n_w);
     int winner = -1;
     for (size_t f = 0; f < F; ++f) {
-      double fam_bic = 1e300;
-      double fam_grid = 0;
+      // The family's best member wins its family; the profiled parameters' picks come from the
+      // members of the reported member's form (the same second grid parameter, or none).
+      const Candidate& reported = *at.all[at.fam_best[f]].cand;
+      double fam_bic = 1e300, form_bic = 1e300;
+      const Candidate* pick = nullptr;
       for (size_t m : at.family[at.fam_names[f]]) {
-        const int pc = at.all[m].cand->p();
+        const Candidate& c = *at.all[m].cand;
+        const int pc = c.p();
         const Fit fit = an.nested() ? SolveNested(at.all[m].blocks, w, p0 + pc, base_sums) : Solve(at.all[m].blocks, w, p0 + pc);
         if (!fit.ok) continue;
         const double bic = n_w * std::log(std::max(fit.sse, 1e-300) / n_w) + pc * std::log(n_w);
-        if (bic < fam_bic) {
-          fam_bic = bic;
-          fam_grid = at.all[m].cand->grid_value;
+        fam_bic = std::min(fam_bic, bic);
+        if (c.grid2_name == reported.grid2_name && bic < form_bic) {
+          form_bic = bic;
+          pick = &c;
         }
       }
-      if (!at.all[at.fam_best[f]].cand->grid_name.empty()) grid_boot[at.fam_names[f]].push_back(fam_grid);
+      if (pick != nullptr && !reported.grid_name.empty()) picks[f].boot.push_back(pick->grid_value);
+      if (pick != nullptr && !reported.grid2_name.empty()) picks[f].boot2.push_back(pick->grid2_value);
       if (fam_bic < best_bic) {
         best_bic = fam_bic;
         winner = static_cast<int>(f);
@@ -493,9 +518,13 @@ Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseO
     r.p_value = std::min(1.0, e.p_value);
     r.bic = e.bic;
     r.parameters = e.cand->p();
-    std::vector<double> grid;
-    for (size_t m : at.family[at.fam_names[f]]) grid.push_back(at.all[m].cand->grid_value);
-    Describe(e, grid_boot[at.fam_names[f]], grid, &r);
+    for (size_t m : at.family[at.fam_names[f]]) {
+      const Candidate& c = *at.all[m].cand;
+      if (c.grid2_name != e.cand->grid2_name) continue;  // the grids of the reported member's form
+      picks[f].grid.push_back(c.grid_value);
+      if (!c.grid2_name.empty()) picks[f].grid2.push_back(c.grid2_value);
+    }
+    Describe(e, picks[f], &r);
     at.results.push_back(std::move(r));
   }
   at.order.resize(F);

@@ -62,6 +62,10 @@ Eigen::MatrixXd JackknifeCov(const Evaluated& e);
 // factor (G − q)/(q·(G − 1)); 1 (not testable) where q ≥ G, the covariance's rank being below q.
 double WaldP(const Eigen::VectorXd& beta, const Eigen::MatrixXd& cov, const std::vector<int>& idx, int G);
 std::vector<int> Range(int a, int b);
+// Fitted quantities of a candidate for the parsimony rules: its linear parameters, plus one for each
+// nonlinear parameter profiled over a grid away from its default (an exponent other than the linear
+// 1, a lag τ other than 0): choosing the best of several grid values is a fit too.
+int Dof(const Candidate& c);
 // Stacks two candidates' regressors side by side.
 Candidate Join(const Candidate& a, const Candidate& b);
 
@@ -121,10 +125,13 @@ Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseO
 // The reported magnitude of a candidate fit (Describe's): a profiled lag τ, else the scaled
 // parameter or the norm of the magnitude's parameters.
 double MagnitudeOf(const Evaluated& e);
-// Fills the reported parameters, intervals and magnitude of a candidate fit; grid_boot: the profiled
-// parameter's bootstrap picks, grid: its family's grid values.
-void Describe(const Evaluated& e, const std::vector<double>& grid_boot, const std::vector<double>& grid,
-              CandidateResult* r);
+// The bootstrap picks of a family's profiled parameters (grid, grid2) and the grid values of its
+// members (Describe's intervals).
+struct GridPicks {
+  std::vector<double> boot, boot2, grid, grid2;
+};
+// Fills the reported parameters, intervals and magnitude of a candidate fit.
+void Describe(const Evaluated& e, const GridPicks& picks, CandidateResult* r);
 
 double Shrink(double after_sse, double before_sse);
 // (MS_baseline − MS_after) / (MS_baseline − MS_noise) on held-out blocks: the share of the residual

@@ -28,6 +28,8 @@ struct Candidate {
   std::vector<double> regressor;  // scalar regressor per sample for the plot (may be empty)
   double grid_value = 0.0;        // profiled nonlinear parameter (lag τ), else 0
   std::string grid_name;          // e.g. "tau_s"
+  double grid2_value = 0.0;       // a second profiled parameter (the lagged current's exponent), else 0
+  std::string grid2_name;         // e.g. "exponent"; empty: none
   std::string magnitude_unit;
   int magnitude_params = -1;  // the magnitude uses the first this many parameters (-1: all)
   int p() const { return static_cast<int>(names.size()); }
@@ -122,6 +124,14 @@ struct CompassReplayOptions {
   bool library_free = true;     // build the library-free set (detection)
   bool calibrated_log = false;  // the autopilot calibrated the logged values: no configured hard/soft iron
 };
+
+// current_lag's free member: a field the vehicle file does not model that follows the current
+// through a first-order lag and may grow faster than linearly,
+//   r = d·(lp_τ(I)/I_ref)^p,  d a free direction and size (µT at I_ref, the flight's median current),
+// I the prediction's aligned current, τ in {0} ∪ kLagGrid_s and p in kLagExponents, both profiled
+// (the unlagged members τ = 0 are the family's no-lag reference: a lag is resolved only where a
+// lagged member beats them, see Attribute). Physical range of the exponent: kLagExponentLo..Hi.
+void AddLaggedCurrentField(ChannelData* ch);
 
 // Builds every channel the log and the vehicle support; the rest go to not_diagnosed.
 struct ReplayResult {

@@ -173,6 +173,13 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
       for (const Candidate& cand : ch.candidates) {
         if (cand.effect != k.effect) continue;
         const bool profiled = cand.grid_name == "tau_s";
+        // A lag is profiled again within the reported member's form (current_lag's free member at
+        // its exponent, or the configured-wiring member).
+        if (profiled && !(cand.grid2_name.empty() ? k.params.count("exponent") == 0
+                                                  : k.params.count(cand.grid2_name) > 0 &&
+                                                        k.params.at(cand.grid2_name) == cand.grid2_value)) {
+          continue;
+        }
         if (!profiled && !cand.grid_name.empty() &&
             !(k.params.count(cand.grid_name) > 0 && k.params.at(cand.grid_name) == cand.grid_value)) {
           continue;

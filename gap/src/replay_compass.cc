@@ -156,7 +156,7 @@ void AddCurrentLag(const CompassSampler& sampler, const CompassRows& rows, Chann
     }
   }
   if (!(n > 0 && std::sqrt(wiring_energy / static_cast<double>(n)) > 0.05)) {
-    ch->not_available.emplace_back("current_lag (configured wiring field at this compass too small to show a lag)");
+    ch->not_available.emplace_back("current_lag's configured-wiring member (the wiring field here is too small to show a lag)");
     return;
   }
   const bool linear = wiring.exponent == 1.0;
@@ -317,6 +317,7 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
   if (has_current) {
     AddCurrentIron(rows, o, &ch);
     AddCurrentLag(sampler, rows, &ch);
+    AddLaggedCurrentField(&ch);
   } else {
     ch.not_available.emplace_back("current_hard_iron, current_soft_iron, current_lag (no current_A column)");
   }

@@ -16,6 +16,13 @@ namespace hexsim::gap::internal {
 inline constexpr double kThrottleFullScale = 1000.0;  // control_u units per full throttle
 // Lag grid for the current_lag candidate (s): ESC/current filtering to slow magnetisation.
 inline constexpr double kLagGrid_s[] = {0.01, 0.02, 0.03, 0.05, 0.07, 0.1, 0.14, 0.2, 0.28, 0.4, 0.56, 0.8, 1.1, 1.6, 2.2};
+// The exponent of a lagged current field (current_lag's free member), B ∝ I^p. Physical range
+// 1..2: a conductor's field is linear in its current (p = 1); a soft-iron part magnetised by the
+// current's own field follows Rayleigh's law, μ = μ_i + ν·H, so its field holds I and I² terms
+// (1 < p < 2); no mechanism near a compass grows faster. The grid's last point lies beyond the range,
+// so a field that grows faster fits there and is refused as a model mismatch.
+inline constexpr double kLagExponentLo = 1.0, kLagExponentHi = 2.0;
+inline constexpr double kLagExponents[] = {1.0, 1.25, 1.5, 1.75, 2.0, 2.5};
 
 inline const std::vector<double>* Col(const logs::FlightLog& log, const std::string& name) {
   return log.Has(name) ? &log.Column(name) : nullptr;

@@ -429,6 +429,9 @@ void JudgeForm(const std::string& name, const LogInjection& li, const ChannelRes
     if (cand.effect != "current_lag" || name != "current_power_lag") continue;
     (*out)["lag_fit"] = {{"tau_s", cand.magnitude}, {"ci95", {cand.magnitude_ci95[0], cand.magnitude_ci95[1]}},
                          {"selected", cand.selected}, {"plausible", cand.plausible}};
+    // Recovered: named current_lag, its lag's interval holding the truth.
+    (*out)["lag_named"] = r.verdict == "current_lag";
+    (*out)["lag_covered"] = cand.magnitude_ci95[0] <= li.form_truth.lag_s && li.form_truth.lag_s <= cand.magnitude_ci95[1];
   }
 }
 

@@ -25,6 +25,8 @@ struct ClassStats {
   std::map<std::string, Counts> per_effect_coverage;  // effect → (covered, n)
   std::map<std::string, Counts> per_form_named;       // form → (named right, n)
   std::map<std::string, Counts> per_form_right;       // form → (judged right, n)
+  std::map<std::string, Counts> per_form_lag_named;   // lagged form → (named current_lag, n)
+  std::map<std::string, Counts> per_form_lag_covered; // lagged form → (its lag's interval holds the truth, n)
   std::map<std::string, int> verdicts;                // verdict → count
   double Rate(int k) const { return n > 0 ? static_cast<double>(k) / n : 0.0; }
   static double Median(std::vector<double> s) {
@@ -87,6 +89,12 @@ void AddTrial(const std::string& c, const Json& out, ClassStats* st_ptr) {
       st.per_form_right[family].second += 1;
       st.per_form_named[family].first += Flag(out, "named_right");
       st.per_form_named[family].second += 1;
+      if (out.contains("lag_named")) {
+        st.per_form_lag_named[family].first += Flag(out, "lag_named");
+        st.per_form_lag_named[family].second += 1;
+        st.per_form_lag_covered[family].first += Flag(out, "lag_covered");
+        st.per_form_lag_covered[family].second += 1;
+      }
     }
   }
 }
@@ -220,6 +228,8 @@ Json ClassJson(const SelftestPlan& p, const std::string& cname, const ClassStats
       for (const auto& [e, v] : s.per_effect) pf[e] = {{"not_confident", v.first}, {"trials", v.second}};
       for (const auto& [e, v] : s.per_form_right) pf[e]["judged_right"] = v.first;
       for (const auto& [e, v] : s.per_form_named) pf[e]["named_right"] = v.first;
+      for (const auto& [e, v] : s.per_form_lag_named) pf[e]["named_current_lag"] = v.first;
+      for (const auto& [e, v] : s.per_form_lag_covered) pf[e]["lag_covered"] = v.first;
       cj["per_family"] = pf;
     }
     // Not a confident wrong answer: unexplained, ambiguous, partial, or its leftover reported; a form
@@ -280,6 +290,11 @@ std::string FormLines(const ClassStats& s, bool named) {
   for (const auto& [e, v] : s.per_form_right) {
     t += fmt::format("      {:<20} right {}/{}", e, v.first, v.second);
     if (named) t += fmt::format(" (named right {}, not confident {})", s.per_form_named.at(e).first, s.per_effect.at(e).first);
+    const auto lag = s.per_form_lag_named.find(e);
+    if (named && lag != s.per_form_lag_named.end()) {
+      t += fmt::format("; named current_lag {}/{}, its lag's interval holds the truth {}/{}", lag->second.first,
+                       lag->second.second, s.per_form_lag_covered.at(e).first, s.per_form_lag_covered.at(e).second);
+    }
     t += "\n";
   }
   return t;

@@ -125,7 +125,7 @@ Result<std::string> UpdatedVehicleYaml(const std::string& text, const vehicle::V
         // E·M = R_SB·scale·dK  →  dK = (R_SB·scale)⁻¹·E·M
         const Eigen::Matrix3d dK = (cp.error.R_SB * cp.error.scale).inverse() * E * M;
         node["soft_iron_per_A"] = Mat(cp.error.soft_iron_per_A + dK);
-      } else if (k.effect == "current_lag") {
+      } else if (k.effect == "current_lag" && p.count("exponent") == 0) {  // the configured wiring's lag
         node["current_lag_tau_s"] = Value(p, "tau_s");
       } else if (k.effect == "current_hard_iron") {
         // A short battery-current segment next to the compass whose field there is d_B per ampere:

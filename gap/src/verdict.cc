@@ -10,6 +10,7 @@
 
 #include "detection.h"
 #include "hexsim/common/plausibility.h"
+#include "replay_util.h"
 
 namespace hexsim::gap::internal {
 namespace {
@@ -27,9 +28,8 @@ std::vector<Vec3> ModelField(const Evaluated& model) {
   return f;
 }
 
-// Does `extra` hold a part the reported model leaves? Significant over the model by its
-// cluster-robust Wald test at alpha, and material: it removes at least the materiality share of the
-// noise floor's power (in sample). gain: that share of the noise floor's power.
+}  // namespace
+
 bool LeavesPart(const Analyzer& an, const Evaluated& model, const Candidate& extra, double noise_var, const DiagnoseOptions& o,
                 double* gain) {
   *gain = 0.0;
@@ -41,6 +41,8 @@ bool LeavesPart(const Analyzer& an, const Evaluated& model, const Candidate& ext
   *gain = std::max(0.0, model.full.sse - ej.full.sse) / an.total_n() / noise_var;
   return p < o.alpha && *gain >= o.materiality;
 }
+
+namespace {
 
 // Ramsey's RESET for the reported model: the model's own fitted field f_k = X_k·β (its candidate
 // part, the baseline excluded) enters once more as f_k·|f_k| / rms|f|, one coefficient. A right
@@ -235,7 +237,8 @@ CandidateResult LatencyTerm(const CompassTiming& timing, const DiagnoseOptions& 
 }
 
 // What the reported model leaves, as a finding (never a veto): a line or drift far above the
-// residual's own spectrum, or a part that grows with the square of what the model predicts.
+// residual's own spectrum, a part that grows with the square of what the model predicts, or a
+// cross-axis coupling of the sensor (CouplingFinding).
 std::string LeftStructure(const ChannelData& ch, const Analyzer& an, const SelectedModel& m, const std::vector<Vec3>& after,
                           double noise_var, const DiagnoseOptions& o) {
   const Structure left = DetectStructure(ch.t, after, m.eval.cv_sse, o.materiality, 1.0, 0.0, o.alpha);
@@ -244,6 +247,8 @@ std::string LeftStructure(const ChannelData& ch, const Analyzer& an, const Selec
   if (!reset.empty()) found += (found.empty() ? "" : "; ") + reset;
   const std::string shape = reset.empty() ? ShapeFinding(ch, an, m.eval, noise_var, o) : std::string();
   if (!shape.empty()) found += (found.empty() ? "" : "; ") + shape;
+  const std::string coupling = CouplingFinding(ch, an, m.eval, noise_var, o);
+  if (!coupling.empty()) found += (found.empty() ? "" : "; ") + coupling;
   return found;
 }
 
@@ -328,6 +333,14 @@ void NameVerdict(const NuisanceReport& nu, const Structure& st, const std::strin
   }
 }
 
+// current_lag's free member: its exponent inside its physical range too (kLagExponentLo..Hi).
+void LagExponentRange(CandidateResult* r) {
+  const auto ex = r->params.find("exponent");
+  if (r->effect != "current_lag" || ex == r->params.end()) return;
+  r->plausible = r->plausible && ex->second >= kLagExponentLo && ex->second <= kLagExponentHi;
+  r->physical_range += fmt::format(", exponent {:g}..{:g}", kLagExponentLo, kLagExponentHi);
+}
+
 }  // namespace
 
 ChannelResult AnalyzeCompass(const ChannelData& ch_in, const logs::FlightLog& log, const std::vector<std::string>& phases,
@@ -357,6 +370,7 @@ ChannelResult AnalyzeCompass(const ChannelData& ch_in, const logs::FlightLog& lo
     ScaleSpread(&r);
     r.plausible = plausibility::IsPlausible(r.effect, r.magnitude);
     r.physical_range = plausibility::RangeText(r.effect);
+    LagExponentRange(&r);
   }
   double flex_p = 1.0, flex_gain_ms = 0.0;
   LibraryFreeTest(ch, an, &flex_p, &flex_gain_ms);

@@ -32,10 +32,6 @@ struct FoldDiff {
 FoldDiff Diff(const std::vector<double>& a, const std::vector<double>& b);
 // Does a's column space (over the samples) hold b's?
 bool Nests(const Candidate& a, const Candidate& b);
-// Fitted quantities of a candidate for the parsimony rules: its linear parameters, plus one for a
-// nonlinear parameter profiled over a grid (a throttle exponent other than the linear default, a
-// lag τ): choosing the best of several grid values is a fit too.
-int Dof(const Candidate& c);
 // Families that may enter a model: plausible and significant (family-corrected p ≤ alpha).
 std::vector<bool> Eligible(const Attribution& at, const DiagnoseOptions& o);
 // The first effect: the one-standard-error rule over the CV folds among the eligible families (F: none).
@@ -91,6 +87,16 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& baseline
 // The angle is the coefficient over the baseline's fitted field scale |B_fit|/|B_WMM| (nuisance.cc):
 // the misalignment's magnitude, interval and parameters divided by it.
 void DescaleMisalignment(double field_scale, CandidateResult* r);
+
+// Does `extra` hold a part the reported model leaves? Significant over the model by its
+// cluster-robust Wald test at alpha, and material: it removes at least the materiality share of the
+// noise floor's power (in sample). gain: that share of the noise floor's power.
+bool LeavesPart(const Analyzer& an, const Evaluated& model, const Candidate& extra, double noise_var, const DiagnoseOptions& o,
+                double* gain);
+// What a compass model leaves, described (leftover.cc; empty: nothing). A cross-axis coupling of
+// the sensor: symmetric off-diagonal gains, which no library family spans.
+std::string CouplingFinding(const ChannelData& ch, const Analyzer& an, const Evaluated& model, double noise_var,
+                            const DiagnoseOptions& o);
 
 // The rule of compass channels (verdict.cc).
 ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,

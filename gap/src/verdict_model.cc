@@ -43,14 +43,15 @@ bool Nests(const Candidate& a, const Candidate& b) {
   return left.trace() < kNestedResidual * tr;
 }
 
-int Dof(const Candidate& c) {
-  const bool profiled = (c.grid_name == "exponent" && c.grid_value != 1.0) || c.grid_name == "tau_s";
-  return c.p() + (profiled ? 1 : 0);
-}
-
 std::vector<bool> Eligible(const Attribution& at, const DiagnoseOptions& o) {
   std::vector<bool> ok(at.results.size(), false);
-  for (size_t f = 0; f < at.results.size(); ++f) ok[f] = at.results[f].plausible && at.results[f].p_value <= o.alpha;
+  for (size_t f = 0; f < at.results.size(); ++f) {
+    ok[f] = at.results[f].plausible && at.results[f].p_value <= o.alpha;
+    // A profiled lag whose interval reaches zero is no lag: the field follows the current without
+    // one, which the current's own families describe (current_lag's unlagged members are its
+    // reference, AddLaggedCurrentField).
+    if (at.all[at.fam_best[f]].cand->grid_name == "tau_s" && !(at.results[f].magnitude_ci95[0] > 0)) ok[f] = false;
+  }
   return ok;
 }
 
@@ -208,8 +209,12 @@ std::vector<CandidateResult> OrderCandidates(const std::vector<EffectShare>& eff
 }
 
 std::string RefusedFinding(const CandidateResult& k, bool beside_a_model) {
-  return fmt::format("{} fits {:.3g} {}, outside its physical range {}: implausible, model mismatch ({})", k.effect, k.magnitude,
-                     k.magnitude_unit, k.physical_range,
+  // A lagged current field's exponent is a fitted quantity with a range of its own.
+  const auto ex = k.params.find("exponent");
+  const std::string at =
+      k.effect == "current_lag" && ex != k.params.end() ? fmt::format(" at exponent {:.3g}", ex->second) : std::string();
+  return fmt::format("{} fits {:.3g} {}{}, outside its physical range {}: implausible, model mismatch ({})", k.effect,
+                     k.magnitude, k.magnitude_unit, at, k.physical_range,
                      beside_a_model ? "refused although it explains more than the reported effects"
                                     : "refused: why no effect is reported");
 }

@@ -1,5 +1,6 @@
 // The selftest's trials are independent: how a runner orders them does not change the result.
 #include <algorithm>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -37,6 +38,15 @@ TEST(GapSelftestRunner, GivenOneTrialPerClass_WhenTheTrialsRunInReverseOrderThro
   for (const auto& c : in_order->json["classes"]) beyond = beyond || (c["class"] == "beyond_library" && c.contains("judged_right_rate"));
   EXPECT_TRUE(beyond);
   EXPECT_TRUE(in_order->json["targets"].contains("beyond_library_judged_right_ge_0.85"));
+  // The lagged power-law form (the class's first trial) is judged by its lag too: named current_lag,
+  // its lag's interval holding the truth.
+  for (const auto& c : in_order->json["classes"]) {
+    if (c["class"] != "beyond_library") continue;
+    ASSERT_TRUE(c["per_family"].contains("current_power_lag")) << c.dump();
+    EXPECT_TRUE(c["per_family"]["current_power_lag"].contains("lag_covered")) << c.dump();
+    EXPECT_TRUE(c["per_family"]["current_power_lag"].contains("named_current_lag")) << c.dump();
+  }
+  EXPECT_NE(in_order->table.find("named current_lag"), std::string::npos) << in_order->table;
 }
 
 }  // namespace

@@ -1,0 +1,44 @@
+// A description of what a reported compass model leaves (verdict.h, LeftStructure): a cross-axis
+// coupling of the sensor.
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "verdict.h"
+
+namespace hexsim::gap::internal {
+namespace {
+
+// The symmetric off-diagonal gains of the sensor, r = S·h with S = Sᵀ, diag S = 0 (h the predicted
+// field in the sensor frame, read from the library-free set's field matrix: its row i holds h in
+// columns 3i..3i+2). No library family spans them: a misalignment is antisymmetric, a per-axis scale
+// diagonal, a current soft iron varies with the current.
+Candidate CrossCoupling(const ChannelData& ch) {
+  Candidate c = MakeCandidate("cross_coupling", {"s_xy", "s_xz", "s_yz"}, {1.0, 1.0, 1.0}, "1");
+  if (ch.flexible.p() < kFlexFieldParams || ch.flexible.X.size() != ch.t.size()) return c;
+  for (const auto& x : ch.flexible.X) {
+    const Vec3 h(x(0, 0), x(0, 1), x(0, 2));
+    Mat3X s = Mat3X::Zero(3, 3);
+    s(0, 0) = h.y(), s(1, 0) = h.x();
+    s(0, 1) = h.z(), s(2, 1) = h.x();
+    s(1, 2) = h.z(), s(2, 2) = h.y();
+    c.X.push_back(s);
+  }
+  return c;
+}
+
+}  // namespace
+
+std::string CouplingFinding(const ChannelData& ch, const Analyzer& an, const Evaluated& model, double noise_var,
+                            const DiagnoseOptions& o) {
+  const Candidate s = CrossCoupling(ch);
+  double gain = 0;
+  if (s.X.empty() || !LeavesPart(an, model, s, noise_var, o, &gain)) return "";
+  return fmt::format("a cross-axis coupling of the sensor (symmetric off-diagonal gains, {:.0f} % of the noise floor's "
+                     "power) that neither a misalignment nor a per-axis scale describes",
+                     100 * gain);
+}
+
+}  // namespace hexsim::gap::internal
