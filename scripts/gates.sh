@@ -9,7 +9,7 @@
 #                   (configure only: it needs compile_commands.json, not objects)     build-gates-tidy/
 #                   Files unchanged since a clean run (same preprocessed input, flags, tool, config:
 #                   .ci/tidy-clean.txt, scripts/tidy_cache.py) are not checked again; HEXSIM_TIDY_FULL=1
-#   4    fuzz       fuzz/fuzz.sh: each libFuzzer target -runs=100000 -max_len=65536, at most 120 s
+#   4    fuzz       fuzz/fuzz.sh: each libFuzzer target -runs=100000 -max_len=65536, at most 240 s
 #                   per target (the CI budget)                                         build-gates-fuzz/
 #   5    determinism  the same runs (truth loop; paper_hex with turntable, fits, adaptive compensator
 #                   and ESKF) with the release binary (build/, -O3, made by scripts/test.sh) and the
@@ -146,8 +146,8 @@ EOF
 }
 
 stage_fuzz() {
-  begin "fuzz: each target -runs=100000 (at most 120 s) -max_len=65536 from the seed corpus"
-  HEXSIM_FUZZ_BUILD_DIR=$root/build-gates-fuzz HEXSIM_FUZZ_JOBS=$jobs bash fuzz/fuzz.sh -runs=100000 -max_total_time=120 || fail fuzz
+  begin "fuzz: each target -runs=100000 (at most 240 s) -max_len=65536 from the seed corpus"
+  HEXSIM_FUZZ_BUILD_DIR=$root/build-gates-fuzz HEXSIM_FUZZ_JOBS=$jobs bash fuzz/fuzz.sh -runs=100000 -max_total_time=240 || fail fuzz
   end fuzz
 }
 
