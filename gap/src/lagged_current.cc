@@ -19,6 +19,7 @@ constexpr double kMinMedianCurrent_A = 0.5;
 
 double MedianPositive(const std::vector<double>& v) {
   std::vector<double> s;
+  s.reserve(v.size());
   for (double x : v) s.push_back(std::isfinite(x) ? std::max(0.0, x) : 0.0);
   if (s.empty()) return 0.0;
   std::nth_element(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(s.size() / 2), s.end());
