@@ -131,6 +131,12 @@ bool IsPlausible(std::string_view name, double value) {
   return r == nullptr || (std::isfinite(value) && value >= r->lo && value <= r->hi);
 }
 
+bool IntervalPlausible(std::string_view name, double ci_lo, double ci_hi) {
+  if (!(std::isfinite(ci_lo) && std::isfinite(ci_hi))) return false;
+  const PhysicalRange* r = FindRange(name);
+  return r == nullptr || (ci_hi >= r->lo && ci_lo <= r->hi);
+}
+
 bool IsNormal(std::string_view name, double value) {
   const PhysicalRange* r = FindRange(name);
   return r == nullptr || (std::isfinite(value) && value >= r->normal_lo && value <= r->normal_hi);

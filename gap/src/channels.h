@@ -141,6 +141,10 @@ struct ReplayResult {
   std::string contaminated;  // compass column prefix fused by the attitude reference, or empty
   std::string field_model;
   Vec3 earth_field_N_uT = Vec3::Zero();
+  // No usable place and date (no GPS fix): each compass is replayed against an Earth field fitted
+  // freely from its own flight (FreeEarthField); field_free_why says why the model was not used.
+  bool field_free = false;
+  std::string field_free_why;
   std::vector<size_t> compasses;  // vehicle compass indices with log columns and a usable field
   LogInputs inputs;
 };

@@ -91,7 +91,8 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
   tm.staleness_s = stale.ok() ? stale.value_s : 0.0;
   if (stale.ok()) {
     tm.report.current_staleness = {true,      stale.value_s,      {stale.ci95_s[0], stale.ci95_s[1]},
-                                   "control_u", !stale.at_grid_edge, plausibility::IsPlausible("current_staleness", stale.value_s),
+                                   "control_u", !stale.at_grid_edge,
+                                   plausibility::IntervalPlausible("current_staleness", stale.ci95_s[0], stale.ci95_s[1]),
                                    std::nan(""), shift_s};
   }
   // Latency grid: −0.1…0.3 s in 10 ms steps; every lag on the same compass samples.
@@ -106,7 +107,7 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
   tm.latency_ci95_s[0] = lat.ci95_s[0];
   tm.latency_ci95_s[1] = lat.ci95_s[1];
   tm.report.latency = {true,           lat.value_s,         {lat.ci95_s[0], lat.ci95_s[1]},
-                       "attitude (q_*)", !lat.at_grid_edge, plausibility::IsPlausible("latency", lat.value_s),
+                       "attitude (q_*)", !lat.at_grid_edge, plausibility::IntervalPlausible("latency", lat.ci95_s[0], lat.ci95_s[1]),
                        std::nan(""),   std::nan("")};
   // Held-out share of the unaligned baseline residual that the alignment removes, and whether the
   // unaligned residual has structure at all.

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/LU>
 
 #include <fmt/format.h>
 
@@ -18,6 +19,7 @@
 #include "compass_terms_fit.h"
 #include "hexsim/common/rng.h"
 #include "hexsim/common/plausibility.h"
+#include "hexsim/magnetics/flight_fit.h"
 #include "hexsim/realdata/compass_flight.h"
 #include "hexsim/realdata/windows.h"
 #include "nuisance.h"
@@ -29,6 +31,8 @@ namespace hexsim::gap {
 using internal::ChannelData;
 
 namespace {
+
+constexpr double kMilliGaussPerMicroTesla = 10.0;  // 1 µT = 10 mG
 
 realdata::FlightWindows Windows(const logs::FlightLog& log, const DiagnoseOptions& o) {
   if (o.from_s < o.to_s) return realdata::WindowsFromRange(log, o.from_s, o.to_s);
@@ -152,6 +156,58 @@ struct CompassChannel {
   ChannelData data;
 };
 
+// The least-squares Earth field of the nuisance baseline alone (offset and NED field, no prior) over
+// the compass's flight samples; NaN when they are too few for the in-flight model's own minimum.
+internal::Vec3 BaselineEarthField(const CompassRun& run, size_t c) {
+  internal::CompassReplayOptions ro;
+  ro.row_kind = &run.fw.row_kind;
+  ro.calibrated_log = !run.sim_truth;
+  ro.share_exponent = run.share_exponent;
+  ro.current_shift_s = run.shift_s;
+  ro.baseline_only = true;
+  const ChannelData ch = internal::ReplayCompass(run.log, run.vehicle, c, run.rr.inputs, internal::Vec3::Zero(), ro);
+  const internal::Vec3 none = internal::Vec3::Constant(std::nan(""));
+  if (static_cast<int>(ch.t.size()) < magnetics::MinFlightFitSamples()) return none;
+  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
+  for (size_t k = 0; k < ch.t.size(); ++k) {
+    A += ch.baseline.X[k].transpose() * ch.baseline.X[k];
+    g += ch.baseline.X[k].transpose() * ch.y[k];
+  }
+  const Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(A);
+  if (lu.rank() < 6) return none;
+  return lu.solve(g).tail<3>();
+}
+
+// The Earth field compass c is replayed against, and where it comes from: the field model's at the
+// log's place and date; without one (no GPS fix) the in-flight model's free fit (the field hexsim
+// calibrate --method flight prints), else the baseline's own least-squares field. A free field
+// outside the Earth's range (plausibility row earth_field_norm) is a model mismatch: nullopt, the
+// reason in *why.
+std::optional<internal::Vec3> CompassEarthField(const CompassRun& run, size_t c, const Result<CompassTerms>& terms,
+                                                std::string* source, std::string* why) {
+  if (!run.rr.field_free) {
+    *source = run.rr.field_model + " at the log's place and date";
+    return run.rr.earth_field_N_uT;
+  }
+  const bool from_model = terms.ok() && terms->field_N_uT.norm() > 0;
+  const internal::Vec3 B = from_model ? terms->field_N_uT : BaselineEarthField(run, c);
+  const char* by = from_model ? "the in-flight model, as hexsim calibrate --method flight" : "the nuisance baseline alone";
+  if (!B.allFinite()) {
+    *why = "no place and date for the field model, and too few flight samples to fit the Earth field freely (" +
+           run.rr.field_free_why + ")";
+    return std::nullopt;
+  }
+  const double k = kMilliGaussPerMicroTesla;
+  *source = fmt::format("fitted freely (no place and date: no GPS fix) by {}: ({:.0f}, {:.0f}, {:.0f}) mG N/E/D, |B| {:.0f} mG",
+                        by, k * B.x(), k * B.y(), k * B.z(), k * B.norm());
+  if (!plausibility::IsPlausible("earth_field_norm", B.norm())) {
+    *why = fmt::format("Earth field {}, outside {}: model mismatch", *source, plausibility::RangeText("earth_field_norm"));
+    return std::nullopt;
+  }
+  return B;
+}
+
 // One compass channel (c: its index): the in-flight model's absolute terms, the timing scan, the
 // replay and its analysis; nullopt, with the reason in *not_diagnosed, when it cannot be diagnosed.
 std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
@@ -172,13 +228,20 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
                                                   options.min_duration_s));
     return std::nullopt;
   }
+  std::string field_source, field_why;
+  const std::optional<internal::Vec3> field = CompassEarthField(run, c, terms, &field_source, &field_why);
+  if (!field) {
+    not_diagnosed->emplace_back(name, field_why);
+    return std::nullopt;
+  }
+  const internal::Vec3& B_N = *field;
   internal::CompassReplayOptions ro;
   ro.row_kind = &run.fw.row_kind;
   ro.calibrated_log = !run.sim_truth;
   ro.share_exponent = run.share_exponent;
   internal::CompassTiming timing;
   if (options.timing_scan) {
-    timing = internal::ScanCompassTiming(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro, stale, shift_s, options);
+    timing = internal::ScanCompassTiming(log, vehicle, c, rr.inputs, B_N, ro, stale, shift_s, options);
   }
   // Align only a resolved latency (its interval clear of zero): a zero-width shift changes nothing.
   const bool align = timing.latency_ok && (timing.latency_ci95_s[0] > 0 || timing.latency_ci95_s[1] < 0);
@@ -186,7 +249,7 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
   ro.current_shift_s = shift_s;
   ro.member_shift_s =
       stale.ok() && plausibility::IsPlausible("current_staleness", stale.value_s) ? stale.value_s : 0.0;
-  ChannelData ch = internal::ReplayCompass(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro);
+  ChannelData ch = internal::ReplayCompass(log, vehicle, c, rr.inputs, B_N, ro);
   if (!terms.ok() && static_cast<int>(ch.t.size()) < options.min_samples) {
     not_diagnosed->emplace_back(name, fmt::format("too few flight samples: {}, needs {}; in-flight model: {}", ch.t.size(),
                                                   options.min_samples, terms.status().message()));
@@ -195,9 +258,13 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
   RngStream rng(options.seed, "gap_bootstrap/" + name);
   ChannelResult r = internal::AnalyzeCompass(ch, log, run.phases, options, timing, &rng);
   if (options.timing_scan) {
-    internal::PropagatePlugIns(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro, timing, stale, options, &r);
+    internal::PropagatePlugIns(log, vehicle, c, rr.inputs, B_N, ro, timing, stale, options, &r);
   }
   r.nuisance.current_split_exponent = run.fitted_share_exponent;
+  r.nuisance.field_source = field_source;
+  if (rr.field_free) {
+    r.findings.push_back("Earth field " + field_source + ": a uniform scale of the compass is not measured against it");
+  }
   for (CandidateResult& k : r.candidates) {
     if (k.effect == "throttle_hard_iron") {
       AddCurrentEquivalent(ch, &k);
@@ -207,7 +274,7 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
   }
   ro.want = realdata::RowKind::kGround;
   ro.baseline_only = true;  // the ground-vs-flight check reads the residual, baseline and current only
-  const ChannelData ground = internal::ReplayCompass(log, vehicle, c, rr.inputs, rr.earth_field_N_uT, ro);
+  const ChannelData ground = internal::ReplayCompass(log, vehicle, c, rr.inputs, B_N, ro);
   r.ground_vs_flight = internal::CompareGroundFlight(ch, ground, r.nuisance);
   if (ro.calibrated_log) {
     r.findings.emplace_back("logged values are the autopilot's calibrated ones: the vehicle file's hard and soft iron are "

@@ -257,20 +257,20 @@ ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& v,
       field = magnetics::EvaluateWmm(where, meta["date_decimal_year"].get<double>(), options.allow_field_extrapolation);
     }
     if (!field.ok()) {
-      for (size_t c : log_compasses) {
-        out.not_diagnosed.emplace_back(MagPrefix(c), "no usable location/date_decimal_year in the meta file for the field model (" +
-                                                         field.status().message() + ")");
-      }
+      // No GPS fix: the Earth field is fitted per compass (diagnose.cc), as calibrate --method flight does.
+      out.field_free = true;
+      out.field_free_why = "no usable location/date_decimal_year in the meta file (" + field.status().message() + ")";
+      out.field_model = "none: Earth field fitted freely per compass (" + out.field_free_why + ")";
     } else {
       out.field_model = field->model;
       out.earth_field_N_uT = field->B_N_uT;
-      for (size_t c : log_compasses) {
-        if (c >= v.compasses.size()) {
-          out.not_diagnosed.emplace_back(MagPrefix(c), fmt::format("the vehicle '{}' configures no compass {}", v.name, c + 1));
-          continue;
-        }
-        out.compasses.push_back(c);
+    }
+    for (size_t c : log_compasses) {
+      if (c >= v.compasses.size()) {
+        out.not_diagnosed.emplace_back(MagPrefix(c), fmt::format("the vehicle '{}' configures no compass {}", v.name, c + 1));
+        continue;
       }
+      out.compasses.push_back(c);
     }
   }
   const auto wanted = [&](const std::string& name) {

@@ -63,6 +63,7 @@ json NuisanceJson(const Nuisance& n) {
             {"field_prior_N_uT", Vec(n.field_prior_N_uT)},
             {"field_correction_N_uT", Vec(n.field_correction_N_uT)},
             {"field_direction_error_uT", n.field_direction_error_uT},
+            {"field_source", n.field_source},
             {"undone_compensation", n.undone_compensation},
             {"ranges", n.ranges}};
   if (std::isfinite(n.current_split_exponent)) j["current_split_exponent"] = n.current_split_exponent;
@@ -209,15 +210,29 @@ std::string EffectSize(const EffectShare& e) {
   return m;
 }
 
+// The in-flight model's absolute term beside a current-driven effect (the number hexsim calibrate
+// prints and writes as COMPASS_MOT / COMPASS_MOTCT 1), so that both commands visibly give one
+// answer; empty for any other effect or where the model fitted no plausible term.
+std::string AbsoluteBeside(const ChannelResult& c, const EffectShare& e) {
+  const bool current_family =
+      e.effect == "current_hard_iron" || e.effect == "per_motor_current_hard_iron" || e.effect == "throttle_hard_iron";
+  if (!current_family || !c.absolute_terms) return "";
+  const CompassTerms& t = *c.absolute_terms;
+  if (!t.term_fitted || !t.term_plausible) return "";
+  const bool throttle = t.form == "throttle";
+  return fmt::format(", absolute {} term {:.1f} [{:.1f}, {:.1f}] {} ({}, as hexsim calibrate)", throttle ? "throttle" : "current",
+                     10 * t.term_norm_uT, 10 * t.term_norm_ci95_uT[0], 10 * t.term_norm_ci95_uT[1],
+                     throttle ? "mG per unit throttle" : "mG/A", throttle ? "COMPASS_MOTCT 1" : "COMPASS_MOT");
+}
+
 std::string LeftText(const ResidualLeft& l) {
   if (!l.present) return "";
   return fmt::format("; left: {:.0f} %, dominant {:.2g} Hz, trend {:.0f} %, in {}", 100 * l.share, l.dominant_freq_Hz,
                      100 * l.trend, l.concentrated.empty() ? "no phase or regime" : l.concentrated);
 }
 
-}  // namespace
-
-std::string Headline(const ChannelResult& c) {
+// The verdict without the field's source.
+std::string HeadlineBody(const ChannelResult& c) {
   if (!c.gap_detected) {
     return fmt::format("{}: no gap: residual at the noise floor (power ratio {:.2f})", c.channel, c.noise_floor_ratio);
   }
@@ -229,12 +244,25 @@ std::string Headline(const ChannelResult& c) {
     return fmt::format("{}: {} {} (a nuisance term outside its normal range): {}", c.channel, c.verdict, EffectSize(top),
                        c.explanation);
   }
-  std::string s = fmt::format("{}: {} {}, explains {:.0f} % of the held-out structure above the noise floor{}", c.channel,
-                              c.verdict, EffectSize(top), 100 * top.explained_share, c.partial ? " (partial)" : "");
+  // The absolute term once, beside the first current-driven effect.
+  std::string absolute = AbsoluteBeside(c, top);
+  std::string s = fmt::format("{}: {} {}{}, explains {:.0f} % of the held-out structure above the noise floor{}", c.channel,
+                              c.verdict, EffectSize(top), absolute, 100 * top.explained_share, c.partial ? " (partial)" : "");
   for (size_t i = 1; i < c.effects.size(); ++i) {
-    s += fmt::format("; also {} {} ({:.0f} %)", c.effects[i].effect, EffectSize(c.effects[i]), 100 * c.effects[i].explained_share);
+    const std::string beside = absolute.empty() ? AbsoluteBeside(c, c.effects[i]) : std::string();
+    absolute += beside;
+    s += fmt::format("; also {} {}{} ({:.0f} %)", c.effects[i].effect, EffectSize(c.effects[i]), beside,
+                     100 * c.effects[i].explained_share);
   }
   return s + LeftText(c.residual_left);
+}
+
+}  // namespace
+
+std::string Headline(const ChannelResult& c) {
+  // A compass diagnosed without the field model (no GPS fix) says so in its verdict.
+  const bool free_field = c.nuisance.field_source.rfind("fitted", 0) == 0;
+  return HeadlineBody(c) + (free_field ? "; Earth field fitted freely (no place and date)" : "");
 }
 
 std::string Summary(const GapReport& r) {
@@ -265,8 +293,10 @@ std::string Summary(const GapReport& r) {
     }
     if (c.nuisance.present) {
       const Eigen::Vector3d& o = c.nuisance.offset_uT;
-      s += fmt::format("  nuisance: offset ({:.0f}, {:.0f}, {:.0f}) mG, field norm {:+.1f} % against WMM (horizontal {:+.1f} %)",
+      const bool free_field = c.nuisance.field_source.rfind("fitted", 0) == 0;
+      s += fmt::format("  nuisance: offset ({:.0f}, {:.0f}, {:.0f}) mG, field norm {:+.1f} % against {} (horizontal {:+.1f} %)",
                        10 * o.x(), 10 * o.y(), 10 * o.z(), 100 * (c.nuisance.field_scale - 1),
+                       free_field ? "the freely fitted field" : "WMM",
                        100 * (c.nuisance.field_scale_horizontal - 1));
       // Without per-motor currents: how the replay split the battery current over the motors.
       if (std::isfinite(c.nuisance.current_split_exponent)) {

@@ -227,12 +227,15 @@ CandidateResult LatencyTerm(const CompassTiming& timing, const DiagnoseOptions& 
   lat.ci95["latency_s"] = {timing.latency_ci95_s[0], timing.latency_ci95_s[1]};
   lat.explained_share = timing.latency_share;
   lat.heldout_shrink = 1.0 - std::sqrt(std::max(0.0, 1.0 - timing.latency_share));
-  lat.plausible = plausibility::IsPlausible("latency", timing.latency_s);
+  // A model mismatch only when its whole interval is outside the range; an effect (printed as a
+  // finding) only when its value is inside it as well.
+  lat.plausible = plausibility::IntervalPlausible("latency", timing.latency_ci95_s[0], timing.latency_ci95_s[1]);
   lat.physical_range = plausibility::RangeText("latency");
   lat.parameters = 1;
   lat.probability = std::nan("");
   const bool differs = timing.latency_ci95_s[0] > o.compass_latency_s || timing.latency_ci95_s[1] < o.compass_latency_s;
-  *material = lat.plausible && differs && timing.latency_share >= o.min_effect_share;
+  *material = lat.plausible && plausibility::IsPlausible("latency", timing.latency_s) && differs &&
+              timing.latency_share >= o.min_effect_share;
   return lat;
 }
 

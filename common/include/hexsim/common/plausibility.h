@@ -27,6 +27,11 @@ const std::vector<PhysicalRange>& PlausibilityTable();
 const PhysicalRange* FindRange(std::string_view name);
 // value inside [lo, hi]; a name without an entry is plausible (nothing is known against it).
 bool IsPlausible(std::string_view name, double value);
+// An estimate with its 95 % interval [ci_lo, ci_hi] is a model mismatch only when the whole
+// interval lies outside [lo, hi]: one that overlaps the range (a latency of −5 ms [−18, 52]) is an
+// estimate the data cannot tell from a physical value. False for a name without an entry only when
+// the interval is not finite.
+bool IntervalPlausible(std::string_view name, double ci_lo, double ci_hi);
 // value inside [normal_lo, normal_hi] (true for a name without an entry).
 bool IsNormal(std::string_view name, double value);
 // "lo..hi unit" for reports.

@@ -172,6 +172,10 @@ struct Nuisance {
   Eigen::Vector3d field_vector_N_uT = Eigen::Vector3d::Zero(), field_prior_N_uT = Eigen::Vector3d::Zero(),
                   field_correction_N_uT = Eigen::Vector3d::Zero();
   double field_direction_error_uT = 0.0;
+  // Where field_prior_N_uT comes from: "WMM..." (the field model at the log's place and date) or
+  // "fitted freely ..." (no place and date: the in-flight model's free Earth field, as hexsim
+  // calibrate --method flight); against a fitted field a uniform scale of the compass is not measured.
+  std::string field_source;
   bool undone_compensation = false;
   std::string ranges;                            // normal | exact
   double current_split_exponent = std::nan("");  // NaN: not fitted (per-motor currents, or no current)
