@@ -166,7 +166,7 @@ internal::Vec3 BaselineEarthField(const CompassRun& run, size_t c) {
   ro.current_shift_s = run.shift_s;
   ro.baseline_only = true;
   const ChannelData ch = internal::ReplayCompass(run.log, run.vehicle, c, run.rr.inputs, internal::Vec3::Zero(), ro);
-  const internal::Vec3 none = internal::Vec3::Constant(std::nan(""));
+  internal::Vec3 none = internal::Vec3::Constant(std::nan(""));
   if (static_cast<int>(ch.t.size()) < magnetics::MinFlightFitSamples()) return none;
   Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
   Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
