@@ -26,6 +26,25 @@ std::vector<int> BlockIndex(size_t n, int G) {
 
 }  // namespace
 
+int BlockCount(const std::vector<double>& t, const DiagnoseOptions& o) {
+  const size_t n = t.size();
+  if (n < 2) return kMinBlocks;
+  // The time the samples cover: each sample's step to the next, a gap (held-out blocks between,
+  // a dropout) counted as one typical step.
+  std::vector<double> dt;
+  dt.reserve(n - 1);
+  for (size_t k = 1; k < n; ++k) dt.push_back(t[k] - t[k - 1]);
+  std::vector<double> sorted = dt;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+  const double step = std::max(0.0, sorted[sorted.size() / 2]);
+  double covered = step;
+  for (double d : dt) covered += (d > 0 && d <= 5.0 * step) ? d : step;
+  const double by_time = std::floor(covered / o.min_block_s);
+  const double by_samples = std::floor(static_cast<double>(n) / o.min_block_samples);
+  const double g = std::min({static_cast<double>(o.blocks), by_time, by_samples});
+  return std::max(kMinBlocks, static_cast<int>(g));
+}
+
 Block SumBlocks(const std::vector<Block>& blocks, const std::vector<double>& w, int p) {
   Block t{Eigen::MatrixXd::Zero(p, p), Eigen::VectorXd::Zero(p), 0, 0};
   for (size_t b = 0; b < blocks.size(); ++b) {
@@ -172,7 +191,7 @@ std::vector<int> Range(int a, int b) {
 
 Analyzer::Analyzer(const ChannelData& ch, const DiagnoseOptions& o) : ch_(ch) {
   n_ = ch.t.size();
-  G_ = std::max(4, std::min(o.blocks, static_cast<int>(n_ / 30)));
+  G_ = BlockCount(ch.t, o);
   block_ = BlockIndex(n_, G_);
   y_raw_ = ch.y;
   if (ch.baseline.p() > 0 && ch.baseline.X.size() == n_) baseline_ = &ch.baseline;

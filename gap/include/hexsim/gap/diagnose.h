@@ -38,6 +38,13 @@ namespace hexsim::gap {
 
 struct DiagnoseOptions {
   int blocks = 20;                 // contiguous time blocks (CV folds = blocks / 2, bootstrap unit)
+  // A block covers at least min_block_s of flight, the in-flight compass model's shortest block
+  // (long against the attitude reference's and the wiring's fast errors), and holds at least
+  // min_block_samples samples: the in-flight model's 30 samples in its 6 blocks. The block count,
+  // not the samples per block, sets the cluster-robust tests' degrees of freedom: a 1-2 Hz compass
+  // cut into 30-sample blocks had 4 blocks and could not show a 3-parameter effect at all.
+  double min_block_s = 2.0;
+  int min_block_samples = 5;
   int bootstrap_samples = 200;     // block bootstrap resamples for attribution probabilities
   double alpha = 0.01;             // family-wise false-alarm level of the gap test
   // The verdict names an effect outright when it removes at least this share of the held-out
