@@ -531,6 +531,7 @@ Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseO
     const Evaluated& e = at.all[at.fam_best[f]];
     CandidateResult r;
     r.effect = at.fam_names[f];
+    r.id = e.cand->id;
     r.probability = o.bootstrap_samples > 0 ? wins[f] / o.bootstrap_samples : 0.0;
     r.heldout_shrink = Shrink(e.cv_sse, cv0);
     r.explained_share = ExplainedShare(cv0, e.cv_sse, noise_sse);

@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 
 #include "hexsim/gap/diagnose.h"
+#include "hexsim/gap/effects.h"
 #include "hexsim/magnetics/current_field.h"
 #include "hexsim/realdata/windows.h"
 
@@ -21,6 +22,7 @@ using Mat3X = Eigen::Matrix<double, 3, Eigen::Dynamic>;
 // physical parameter names[j].
 struct Candidate {
   std::string effect;
+  Effect id = Effect::kNone;  // the registered effect of that name (kNone: an internal fit)
   std::string regressor_name;  // for the "residual vs regressor" plot
   std::vector<std::string> names;
   std::vector<double> scale;
@@ -40,6 +42,7 @@ inline Candidate MakeCandidate(std::string effect, std::vector<std::string> name
                                std::string unit, std::string regressor_name = "") {
   Candidate c;
   c.effect = std::move(effect);
+  c.id = EffectFromName(c.effect);
   c.names = std::move(names);
   c.scale = std::move(scale);
   c.magnitude_unit = std::move(unit);

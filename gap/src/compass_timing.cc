@@ -167,7 +167,7 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
     const NuisanceReport nr = DescribeNuisance(ch, an.baseline(), o);
     for (const CandidateResult& t : nr.terms) m[t.effect] = t.magnitude;
     for (const CandidateResult& k : res->candidates) {
-      if (k.nuisance_term || k.effect == "latency") continue;
+      if (k.nuisance_term || k.id == Effect::kLatency) continue;
       const Candidate* member = nullptr;
       bool profiled_member = false;
       double best_sse = 0, best_magnitude = 0;
@@ -206,6 +206,7 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
       if (!e.full.ok) continue;
       CandidateResult refit;
       refit.effect = k.effect;
+      refit.id = k.id;
       refit.magnitude = MagnitudeOf(e);
       DescaleMisalignment(nr.nuisance.field_scale, &refit);
       m[k.effect] = refit.magnitude;
@@ -224,9 +225,9 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
   }
   for (CandidateResult& k : res->candidates) {
     const auto it = var.find(k.effect);
-    if (it == var.end() || k.effect == "latency") continue;
+    if (it == var.end() || k.id == Effect::kLatency) continue;
     const double lo = k.magnitude - k.magnitude_ci95[0], hi = k.magnitude_ci95[1] - k.magnitude;
-    const bool norm = k.effect != "scale_error";  // every other magnitude is a norm or a lag (>= 0)
+    const bool norm = k.id != Effect::kScaleError;  // every other magnitude is a norm or a lag (>= 0)
     k.magnitude_ci95[0] = k.magnitude - std::sqrt(lo * lo + it->second);
     k.magnitude_ci95[1] = k.magnitude + std::sqrt(hi * hi + it->second);
     if (norm) k.magnitude_ci95[0] = std::max(0.0, k.magnitude_ci95[0]);

@@ -266,11 +266,11 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
     r.findings.push_back("Earth field " + field_source + ": a uniform scale of the compass is not measured against it");
   }
   for (CandidateResult& k : r.candidates) {
-    if (k.effect == "throttle_hard_iron") {
+    if (k.id == Effect::kThrottleHardIron) {
       AddCurrentEquivalent(ch, &k);
       GateCurrentEquivalent(terms, &k, &r.findings);
     }
-    if (k.effect == "per_motor_current_hard_iron") AddPerMotorEquivalent(ch, &k);
+    if (k.id == Effect::kPerMotorCurrentHardIron) AddPerMotorEquivalent(ch, &k);
   }
   ro.want = realdata::RowKind::kGround;
   ro.baseline_only = true;  // the ground-vs-flight check reads the residual, baseline and current only

@@ -40,6 +40,7 @@ double WaldSub(const Eigen::VectorXd& b, const Eigen::MatrixXd& V, int G) {
 CandidateResult Term(const std::string& effect, double value, double sd, double t975, const std::string& unit, bool norm) {
   CandidateResult r;
   r.effect = effect;
+  r.id = EffectFromName(effect);
   r.magnitude = value;
   r.magnitude_ci95[0] = norm ? std::max(0.0, value - t975 * sd) : value - t975 * sd;
   r.magnitude_ci95[1] = value + t975 * sd;
@@ -259,7 +260,7 @@ double FitShareExponent(const logs::FlightLog& log, const LogInputs& in, const v
 }
 
 void DescaleMisalignment(double field_scale, CandidateResult* r) {
-  if (r->effect != "misalignment" || !(field_scale > 0) || !std::isfinite(field_scale)) return;
+  if (r->id != Effect::kMisalignment || !(field_scale > 0) || !std::isfinite(field_scale)) return;
   r->magnitude /= field_scale;
   r->magnitude_ci95[0] /= field_scale;
   r->magnitude_ci95[1] /= field_scale;

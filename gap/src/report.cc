@@ -214,9 +214,7 @@ std::string EffectSize(const EffectShare& e) {
 // prints and writes as COMPASS_MOT / COMPASS_MOTCT 1), so that both commands visibly give one
 // answer; empty for any other effect or where the model fitted no plausible term.
 std::string AbsoluteBeside(const ChannelResult& c, const EffectShare& e) {
-  const bool current_family =
-      e.effect == "current_hard_iron" || e.effect == "per_motor_current_hard_iron" || e.effect == "throttle_hard_iron";
-  if (!current_family || !c.absolute_terms) return "";
+  if (!Info(e.id).compensable || !c.absolute_terms) return "";
   const CompassTerms& t = *c.absolute_terms;
   if (!t.term_fitted || !t.term_plausible) return "";
   const bool throttle = t.form == "throttle";

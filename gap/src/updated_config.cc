@@ -50,18 +50,18 @@ void AddDynamicsEffects(const ChannelResult& ch, const vehicle::VehicleParams& v
   for (const CandidateResult& k : ch.candidates) {
     if (!k.selected) continue;
     const Params& p = k.params;
-    if (k.effect == "rotor_drag") {
+    if (k.id == Effect::kRotorDrag) {
       (*root)["aero"]["rotor_drag_N_per_radps_mps"] =
           v.aero.rotor_drag_N_per_radps_mps + Value(p, "rotor_drag_N_per_radps_mps");
-    } else if (k.effect == "ground_effect") {
+    } else if (k.id == Effect::kGroundEffect) {
       (*root)["aero"]["ground_effect_radius_m"] = Value(p, "radius_m");
-    } else if (k.effect == "battery_sag") {
+    } else if (k.id == Effect::kBatterySag) {
       const double dR = Value(p, "delta_R_ohm");
       (*root)["battery"]["internal_resistance_ohm"] = std::max(0.0, v.battery.internal_resistance_ohm + dR);
       notes->push_back(fmt::format("dynamics: battery_sag {:.4f} ohm added to battery.internal_resistance_ohm (the ESCs "
                                    "see that much less voltage per ampere than the thrust model assumed)",
                                    dR));
-    } else if (k.effect == "motor_time_constant" && !v.rotors.empty()) {
+    } else if (k.id == Effect::kMotorTimeConstant && !v.rotors.empty()) {
       // τ ∝ J at a given rotor speed: scale the motor inertia so hover gains the fitted extra τ.
       const double tau = HoverRotorTimeConstant_s(v);
       if (!(tau > 0)) continue;
@@ -70,7 +70,7 @@ void AddDynamicsEffects(const ChannelResult& ch, const vehicle::VehicleParams& v
       notes->push_back(fmt::format("dynamics: motor_time_constant +{:.3f} s at hover: motor.inertia_kgm2 x {:.3f} (rotors "
                                    "with their own inertia_kgm2 are not changed)",
                                    Value(p, "tau_extra_s"), factor));
-    } else if (k.effect == "thrust_scale") {
+    } else if (k.id == Effect::kThrustScale) {
       const double s = 1.0 + Value(p, "thrust_scale_minus_1");
       if ((*root)["rotor_defaults"] && (*root)["rotor_defaults"]["k_T_Nprps2"]) {
         (*root)["rotor_defaults"]["k_T_Nprps2"] = (*root)["rotor_defaults"]["k_T_Nprps2"].as<double>() * s;
@@ -79,7 +79,7 @@ void AddDynamicsEffects(const ChannelResult& ch, const vehicle::VehicleParams& v
       }
     } else {
       notes->push_back(fmt::format("dynamics: {} fitted ({}) but the vehicle schema has no key for it{}", k.effect,
-                                   ParamsText(p), k.effect == "wind" ? " (it is the world's wind.mean_N_mps)" : ""));
+                                   ParamsText(p), k.id == Effect::kWind ? " (it is the world's wind.mean_N_mps)" : ""));
     }
   }
 }
@@ -107,17 +107,17 @@ Result<std::string> UpdatedVehicleYaml(const std::string& text, const vehicle::V
     for (const CandidateResult& k : ch.candidates) {
       if (!k.selected || ch.verdict == "none") continue;
       const Params& p = k.params;
-      if (k.effect == "hard_iron_offset") {
+      if (k.id == Effect::kHardIronOffset) {
         node["hard_iron_uT"] = Vec(cp.error.hard_iron_uT + ParamVec(p, "b_x_uT", "b_y_uT", "b_z_uT"));
-      } else if (k.effect == "scale_error") {
+      } else if (k.id == Effect::kScaleError) {
         node["scale"] = cp.error.scale * (1.0 + Value(p, "scale_minus_1"));
-      } else if (k.effect == "misalignment") {
+      } else if (k.id == Effect::kMisalignment) {
         const Eigen::Vector3d phi = ParamVec(p, "phi_x_deg", "phi_y_deg", "phi_z_deg") * kDegToRad;
         // R_SB_new = exp([φ]×)·R_SB; orientation_rpy_deg holds the body-to-sensor rotation.
         const Eigen::Matrix3d R = QuatExp(phi).toRotationMatrix() * cp.error.R_SB;
         const Eigen::Vector3d rpy = EulerFromQuat(Eigen::Quaterniond(R.transpose())) * kRadToDeg;
         node["orientation_rpy_deg"] = Vec(rpy);
-      } else if (k.effect == "current_soft_iron") {
+      } else if (k.id == Effect::kCurrentSoftIron) {
         Eigen::Matrix3d E;
         const char* n[9] = {"dK_xx_per_A", "dK_xy_per_A", "dK_xz_per_A", "dK_yx_per_A", "dK_yy_per_A",
                             "dK_yz_per_A", "dK_zx_per_A", "dK_zy_per_A", "dK_zz_per_A"};
@@ -125,9 +125,9 @@ Result<std::string> UpdatedVehicleYaml(const std::string& text, const vehicle::V
         // E·M = R_SB·scale·dK  →  dK = (R_SB·scale)⁻¹·E·M
         const Eigen::Matrix3d dK = (cp.error.R_SB * cp.error.scale).inverse() * E * M;
         node["soft_iron_per_A"] = Mat(cp.error.soft_iron_per_A + dK);
-      } else if (k.effect == "current_lag" && p.count("exponent") == 0) {  // the configured wiring's lag
+      } else if (k.id == Effect::kCurrentLag && p.count("exponent") == 0) {  // the configured wiring's lag
         node["current_lag_tau_s"] = Value(p, "tau_s");
-      } else if (k.effect == "current_hard_iron") {
+      } else if (k.id == Effect::kCurrentHardIron) {
         // A short battery-current segment next to the compass whose field there is d_B per ampere:
         // wire along u ⊥ d̂, compass at ρ·(d̂ × u) from its middle; B = μ0 I/(4πρ)·2L/√(L² + ρ²).
         const Eigen::Vector3d d_s = ParamVec(p, "d_x_uT_per_A", "d_y_uT_per_A", "d_z_uT_per_A");

@@ -149,7 +149,7 @@ Candidate AxisScale(const ChannelData& ch) {
 // the magnitude as the spread max − min of the gains (a single axis reading s large: s); its interval
 // scales with the fitted norm's (the direction is held).
 void ScaleSpread(CandidateResult* r) {
-  if (r->effect != "scale_error" || r->nuisance_term || r->params.count("axis_gain_a") == 0) return;
+  if (r->id != Effect::kScaleError || r->nuisance_term || r->params.count("axis_gain_a") == 0) return;
   const Vec3 s = r->params.at("axis_gain_a") * kAxisU + r->params.at("axis_gain_b") * kAxisV;
   const double norm = s.norm();
   const double spread = s.maxCoeff() - s.minCoeff();
@@ -199,7 +199,7 @@ void FamilyPValues(const Analyzer& an, const Candidate& field_matrix, Attributio
   for (size_t f = 0; f < F; ++f) {
     const Evaluated& e = at->all[at->fam_best[f]];
     double pf = std::min(1.0, e.wald_p * static_cast<double>(at->family[at->fam_names[f]].size()) * static_cast<double>(F));
-    if (at->fam_names[f] == "current_soft_iron" && field_matrix.p() > 0) {
+    if (e.cand->id == Effect::kCurrentSoftIron && field_matrix.p() > 0) {
       const Evaluated ej = an.Evaluate(Join(field_matrix, *e.cand));
       if (ej.full.ok && ej.cov.size() > 0) {
         const double partial = WaldP(ej.full.beta, ej.cov, Range(ej.off + field_matrix.p(), ej.p()), an.G());
@@ -218,6 +218,7 @@ CandidateResult LatencyTerm(const CompassTiming& timing, const DiagnoseOptions& 
   *material = false;
   if (!timing.latency_ok) return lat;
   lat.effect = "latency";
+  lat.id = Effect::kLatency;
   lat.magnitude = timing.latency_s;
   lat.magnitude_ci95[0] = timing.latency_ci95_s[0];
   lat.magnitude_ci95[1] = timing.latency_ci95_s[1];
@@ -276,7 +277,7 @@ std::vector<CandidateResult> NuisanceBeside(const NuisanceReport& nu, const std:
   for (const CandidateResult& t : nu.terms) {
     const bool beyond = std::find(nu.beyond_normal.begin(), nu.beyond_normal.end(), t.effect) != nu.beyond_normal.end();
     const bool listed =
-        std::any_of(effects.begin(), effects.end(), [&](const EffectShare& e) { return e.effect == t.effect; });
+        std::any_of(effects.begin(), effects.end(), [&](const EffectShare& e) { return e.id == t.id && e.effect == t.effect; });
     if (!beyond || listed || !t.plausible) continue;
     out.push_back(t);
     out.back().selected = true;
@@ -339,7 +340,7 @@ void NameVerdict(const NuisanceReport& nu, const Structure& st, const std::strin
 // current_lag's free member: its exponent inside its physical range too (kLagExponentLo..Hi).
 void LagExponentRange(CandidateResult* r) {
   const auto ex = r->params.find("exponent");
-  if (r->effect != "current_lag" || ex == r->params.end()) return;
+  if (r->id != Effect::kCurrentLag || ex == r->params.end()) return;
   r->plausible = r->plausible && ex->second >= kLagExponentLo && ex->second <= kLagExponentHi;
   r->physical_range += fmt::format(", exponent {:g}..{:g}", kLagExponentLo, kLagExponentHi);
 }
@@ -398,8 +399,8 @@ ChannelResult AnalyzeCompass(const ChannelData& ch_in, const logs::FlightLog& lo
   // constant part, not a calibration error of their own.
   size_t soft = F, axis = F;
   for (size_t f = 0; f < F; ++f) {
-    if (at.fam_names[f] == "current_soft_iron") soft = f;
-    if (at.fam_names[f] == "scale_error") axis = f;
+    if (at.results[f].id == Effect::kCurrentSoftIron) soft = f;
+    if (at.results[f].id == Effect::kScaleError) axis = f;
   }
   if (soft < F && axis < F && eligible[soft]) eligible[axis] = false;
   const size_t first = ChooseFirst(at, eligible);
@@ -437,7 +438,7 @@ ChannelResult AnalyzeCompass(const ChannelData& ch_in, const logs::FlightLog& lo
       res.explanation = fmt::format("{} and {} explain the held-out residual equally well ({} and {}): {}", at.fam_names[first],
                                     at.fam_names[rival], Percent(at.results[first].explained_share),
                                     Percent(at.results[rival].explained_share),
-                                    SeparatingManoeuvre(at.fam_names[first], at.fam_names[rival]));
+                                    SeparatingManoeuvre(at.results[first].id, at.results[rival].id));
     }
   }
   SortEffects(&res.effects);

@@ -18,7 +18,7 @@
 namespace hexsim::gap::internal {
 
 // Which manoeuvre separates two collinear candidates.
-std::string SeparatingManoeuvre(const std::string& a, const std::string& b);
+std::string SeparatingManoeuvre(Effect a, Effect b);
 
 // The rule of the gyro, accel and dynamics channels (verdict_inertial.cc).
 ChannelResult AnalyzeInertial(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,

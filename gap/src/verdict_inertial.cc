@@ -18,26 +18,28 @@
 namespace hexsim::gap::internal {
 
 // Which manoeuvre separates two collinear candidates.
-std::string SeparatingManoeuvre(const std::string& a, const std::string& b) {
-  auto is = [&](const char* x, const char* y) { return (a == x && b == y) || (a == y && b == x); };
-  if (is("current_hard_iron", "throttle_hard_iron"))
+std::string SeparatingManoeuvre(Effect a, Effect b) {
+  using E = Effect;
+  auto is = [&](Effect x, Effect y) { return (a == x && b == y) || (a == y && b == x); };
+  if (is(E::kCurrentHardIron, E::kThrottleHardIron))
     return "hold one throttle while the current changes (a long hover as the battery sags, or a payload change): "
            "current-driven field follows the current, throttle-driven does not";
-  if (is("current_hard_iron", "current_soft_iron"))
+  if (is(E::kCurrentHardIron, E::kCurrentSoftIron))
     return "a slow 360 deg yaw turn at constant high current: a soft-iron change varies with heading, a hard iron does not";
-  if (is("hard_iron_offset", "local_anomaly"))
+  if (is(E::kHardIronOffset, E::kLocalAnomaly))
     return "yaw turns and large pitch/roll, or the same pattern at another site: an anomaly is fixed in NED, a hard iron in the body";
-  if (is("battery_sag", "thrust_scale"))
+  if (is(E::kBatterySag, E::kThrustScale))
     return "climbs and descents over a wide throttle range, or a long hover as the battery drains: a voltage sag grows "
            "with current x dT/dV (faster than the thrust), a k_T or mass error stays proportional to the thrust";
-  if (is("wind", "rotor_drag"))
+  if (is(E::kWind, E::kRotorDrag))
     return "hover facing several headings and fly the same legs both ways: wind drag is fixed in NED, rotor drag "
            "follows the air speed and the rotor speed";
-  if (is("latency", "current_lag"))
+  if (is(E::kLatency, E::kCurrentLag))
     return "fast yaw turns at constant throttle (latency shows) against throttle steps at constant attitude (current lag shows)";
-  if (is("misalignment", "local_anomaly") || is("misalignment", "hard_iron_offset") || is("misalignment", "scale_error"))
+  if (is(E::kMisalignment, E::kLocalAnomaly) || is(E::kMisalignment, E::kHardIronOffset) || is(E::kMisalignment, E::kScaleError))
     return "rotate through all attitudes (full yaw turns and large pitch/roll)";
-  return "a manoeuvre that varies the regressor of '" + a + "' while holding that of '" + b + "' fixed";
+  return std::string("a manoeuvre that varies the regressor of '") + Info(a).name + "' while holding that of '" + Info(b).name +
+         "' fixed";
 }
 
 
@@ -106,7 +108,7 @@ void Decide(const Analyzer& an, double noise_var, const DiagnoseOptions& o, Attr
     if (rival < F) {
       res->verdict = "ambiguous";
       res->explanation = fmt::format("{} and {} explain the held-out residual equally well: {}", at->fam_names[first],
-                                     at->fam_names[rival], SeparatingManoeuvre(at->fam_names[first], at->fam_names[rival]));
+                                     at->fam_names[rival], SeparatingManoeuvre(at->results[first].id, at->results[rival].id));
     } else {
       res->verdict = res->effects.front().effect;
       res->partial = res->effects.front().explained_share < o.headline_share;
@@ -139,7 +141,7 @@ ChannelResult AnalyzeInertial(const ChannelData& ch, const logs::FlightLog& log,
   const double noise_sse = noise_var * an.total_n();
   Attribution at = Attribute(ch, an, o, rng, noise_sse);
   for (CandidateResult& r : at.results) {
-    if (r.effect == "latency" && ch.known_hold_max_s > 0) {
+    if (r.id == Effect::kLatency && ch.known_hold_max_s > 0) {
       // Report the total latency: the known sample hold removed in the replay plus the excess.
       r.magnitude += ch.known_hold_s;
       r.magnitude_ci95[0] += ch.known_hold_s;
@@ -148,7 +150,7 @@ ChannelResult AnalyzeInertial(const ChannelData& ch, const logs::FlightLog& log,
       r.ci95["latency_s"] = {r.magnitude_ci95[0], r.magnitude_ci95[1]};
       r.params["known_sample_hold_s"] = ch.known_hold_s;
     }
-    if (r.effect == "ground_effect") {
+    if (r.id == Effect::kGroundEffect) {
       // The linear parameter is a = R²; report the effective radius R (monotone: interval maps).
       const double a = r.params.count("radius_sq_m2") ? r.params.at("radius_sq_m2") : 0.0;
       r.magnitude = std::sqrt(std::max(0.0, a));
@@ -158,7 +160,7 @@ ChannelResult AnalyzeInertial(const ChannelData& ch, const logs::FlightLog& log,
       r.params["radius_m"] = r.magnitude;
       r.ci95["radius_m"] = {r.magnitude_ci95[0], r.magnitude_ci95[1]};
     }
-    if (r.effect == "thrust_scale") {
+    if (r.id == Effect::kThrustScale) {
       // The linear parameter is s − 1; the table's range (0.5..2) is for the scale s itself.
       r.magnitude += 1.0;
       r.magnitude_ci95[0] += 1.0;

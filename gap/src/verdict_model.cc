@@ -140,6 +140,7 @@ size_t AmbiguousRival(const Attribution& at, const SelectedModel& m, const std::
 EffectShare ToEffect(const CandidateResult& k, double share, const std::string& source) {
   EffectShare e;
   e.effect = k.effect;
+  e.id = k.id;
   e.magnitude = k.magnitude;
   e.ci95 = {k.magnitude_ci95[0], k.magnitude_ci95[1]};
   e.unit = k.magnitude_unit;
@@ -199,8 +200,8 @@ std::vector<CandidateResult> OrderCandidates(const std::vector<EffectShare>& eff
   }
   // Library candidates by explained share, then the timing and nuisance terms.
   std::stable_sort(rest.begin(), rest.end(), [&](size_t a, size_t b) {
-    const bool ta = all[a].nuisance_term || all[a].effect == "latency";
-    const bool tb = all[b].nuisance_term || all[b].effect == "latency";
+    const bool ta = all[a].nuisance_term || all[a].id == Effect::kLatency;
+    const bool tb = all[b].nuisance_term || all[b].id == Effect::kLatency;
     if (ta != tb) return tb;
     return !ta && all[a].explained_share > all[b].explained_share;
   });
@@ -212,7 +213,7 @@ std::string RefusedFinding(const CandidateResult& k, bool beside_a_model) {
   // A lagged current field's exponent is a fitted quantity with a range of its own.
   const auto ex = k.params.find("exponent");
   const std::string at =
-      k.effect == "current_lag" && ex != k.params.end() ? fmt::format(" at exponent {:.3g}", ex->second) : std::string();
+      k.id == Effect::kCurrentLag && ex != k.params.end() ? fmt::format(" at exponent {:.3g}", ex->second) : std::string();
   return fmt::format("{} fits {:.3g} {}{}, outside its physical range {}: implausible, model mismatch ({})", k.effect,
                      k.magnitude, k.magnitude_unit, at, k.physical_range,
                      beside_a_model ? "refused although it explains more than the reported effects"

@@ -31,6 +31,7 @@
 
 #include "hexsim/common/status.h"
 #include "hexsim/gap/compass_terms.h"
+#include "hexsim/gap/effects.h"
 #include "hexsim/logs/flight_log.h"
 #include "hexsim/vehicle/vehicle_params.h"
 
@@ -109,6 +110,7 @@ std::string ParamsText(const Params& params);
 
 struct CandidateResult {
   std::string effect;
+  Effect id = Effect::kNone;         // the registered effect (effects.h); kNone for a joint "a+b"
   double probability = 0.0;          // block-bootstrap attribution probability (NaN: not bootstrapped)
   double heldout_shrink = 0.0;       // 1 − RMS_after/RMS_before on held-out blocks, alone
   double p_value = 1.0;              // cluster-robust Wald test against no effect (family-corrected)
@@ -131,6 +133,7 @@ struct CandidateResult {
 // order of its explained share.
 struct EffectShare {
   std::string effect;
+  Effect id = Effect::kNone;
   double magnitude = 0.0;
   Interval ci95;
   std::string unit;                  // the magnitude's physical unit (µT/A, s, 1, …)
