@@ -212,8 +212,10 @@ nlohmann::json ExternalOf(const ULogTopic* sm, const nlohmann::json& cal, std::s
     return sm->Get(0, "is_external") != 0;
   }
   if (!cal.is_null() && cal.contains("rotation") && cal["rotation"].is_number()) {
-    *source = fmt::format("CAL_MAG{}_ROT (-1: internal)", cal["index"].get<int>());
-    return cal["rotation"].get<double>() >= 0;
+    const double rot = cal["rotation"].get<double>();
+    *source = fmt::format("CAL_MAG{}_ROT = {:g} (PX4: -1 internal, else an external sensor's rotation)",
+                          cal["index"].get<int>(), rot);
+    return rot >= 0;
   }
   *source = "not in the log";
   return nullptr;
