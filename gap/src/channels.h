@@ -166,6 +166,21 @@ bool ReplayGyroStream(const logs::FlightLog& log, const vehicle::VehicleParams& 
                       const std::vector<realdata::RowKind>& row_kind, ReplayResult* out);
 bool ReplayAccelStream(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle,
                        const std::vector<realdata::RowKind>& row_kind, ReplayResult* out);
+// The fewest samples gap's analysis of compass channel `ch` can use (CompassMinimum::samples), from
+// what that analysis fits, not from a logging rate: its largest model is the nuisance baseline plus
+// the channel's largest candidate (`unknowns` parameters); it is fitted on blocked-CV training sets
+// that leave out two of its time blocks, and the analysis takes at least kMinAnalysisBlocks = 4
+// blocks (Analyzer, attribution.cc), so a training set holds half the samples at that floor. Each
+// sample gives kEquationsPerSample = 3 equations, and the fit asks kEquationsPerUnknown = 10 per
+// unknown, the in-flight model's rule (magnetics/flight_fit.h): 2·10·unknowns/3 samples.
+inline constexpr int kMinAnalysisBlocks = 4;
+struct CompassMinimum {
+  int samples = 0;
+  int unknowns = 0;
+  std::string why;  // the derivation in one line, for not_diagnosed
+};
+CompassMinimum CompassMinSamples(const ChannelData& ch);
+
 // One compass (index c of the vehicle's compasses) on the given timing and rows.
 ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
                           const Vec3& B_N_uT, const CompassReplayOptions& options);

@@ -19,8 +19,6 @@ namespace {
 
 using Eigen::Vector3d;
 
-constexpr double kMilligaussPerMicrotesla = 10.0;
-
 nlohmann::json Vec(const Vector3d& v) { return {v(0), v(1), v(2)}; }
 
 // The vehicle file's field per ampere of battery current at compass c (body frame), the motors
@@ -127,7 +125,7 @@ std::string CurrentEquivalentRefusal(const Result<CompassTerms>& terms, double e
   if (terms->form != "current") return "the current is unusable (" + terms->current_note + ")";
   if (!terms->term_fitted) return "the in-flight model fitted no current term (" + terms->term_note + ")";
   if (v < terms->term_norm_ci95_uT[0] || v > terms->term_norm_ci95_uT[1]) {
-    const double k = kMilligaussPerMicrotesla;
+    const double k = kMilliGaussPerMicroTesla;
     return fmt::format("its current equivalent {:.1f} mG/A lies outside the in-flight model's current term {:.1f} [{:.1f}, "
                        "{:.1f}] mG/A on the same log: the field follows the throttle, not the current",
                        k * v, k * terms->term_norm_uT, k * terms->term_norm_ci95_uT[0], k * terms->term_norm_ci95_uT[1]);
@@ -136,7 +134,7 @@ std::string CurrentEquivalentRefusal(const Result<CompassTerms>& terms, double e
 }
 
 nlohmann::json CompassTermsJson(const CompassTerms& t) {
-  const double k = kMilligaussPerMicrotesla;
+  const double k = kMilliGaussPerMicroTesla;
   nlohmann::json j = {{"model", "in-flight compass model (magnetics/flight_fit.h), as hexsim calibrate --method flight"},
                       {"form", t.form},
                       {"current_note", t.current_note},
@@ -203,7 +201,7 @@ nlohmann::json CompassTermsJson(const CompassTerms& t) {
 }
 
 std::string CompassTermsText(const CompassTerms& t) {
-  const double k = kMilligaussPerMicrotesla;
+  const double k = kMilliGaussPerMicroTesla;
   const bool throttle = t.form == "throttle";
   const char* what = throttle ? "throttle field" : "current field";
   std::string s = "  absolute (in-flight model, as hexsim calibrate; every flight block): ";

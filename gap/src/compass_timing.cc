@@ -162,7 +162,7 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
     std::map<std::string, double> m;
     ro.library_free = false;  // not a reported effect
     const ChannelData ch = ReplayCompass(log, v, c, in, B_N_uT, ro);
-    if (static_cast<int>(ch.t.size()) < o.min_samples) return m;
+    if (static_cast<int>(ch.t.size()) < CompassMinSamples(ch).samples) return m;
     const Analyzer an(ch, o);
     const NuisanceReport nr = DescribeNuisance(ch, an.baseline(), o);
     for (const CandidateResult& t : nr.terms) m[t.effect] = t.magnitude;

@@ -16,6 +16,7 @@
 #include <fmt/format.h>
 
 #include "channels.h"
+#include "compass_map.h"
 #include "compass_terms_fit.h"
 #include "hexsim/common/rng.h"
 #include "hexsim/common/plausibility.h"
@@ -31,8 +32,6 @@ namespace hexsim::gap {
 using internal::ChannelData;
 
 namespace {
-
-constexpr double kMilliGaussPerMicroTesla = 10.0;  // 1 µT = 10 mG
 
 realdata::FlightWindows Windows(const logs::FlightLog& log, const DiagnoseOptions& o) {
   if (o.from_s < o.to_s) return realdata::WindowsFromRange(log, o.from_s, o.to_s);
@@ -250,9 +249,10 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
   ro.member_shift_s =
       stale.ok() && plausibility::IsPlausible("current_staleness", stale.value_s) ? stale.value_s : 0.0;
   ChannelData ch = internal::ReplayCompass(log, vehicle, c, rr.inputs, B_N, ro);
-  if (!terms.ok() && static_cast<int>(ch.t.size()) < options.min_samples) {
-    not_diagnosed->emplace_back(name, fmt::format("too few flight samples: {}, needs {}; in-flight model: {}", ch.t.size(),
-                                                  options.min_samples, terms.status().message()));
+  const internal::CompassMinimum least = internal::CompassMinSamples(ch);
+  if (!terms.ok() && static_cast<int>(ch.t.size()) < least.samples) {
+    not_diagnosed->emplace_back(name, fmt::format("too few flight samples: {}, needs {} ({}); in-flight model: {}",
+                                                  ch.t.size(), least.samples, least.why, terms.status().message()));
     return std::nullopt;
   }
   RngStream rng(options.seed, "gap_bootstrap/" + name);
@@ -290,7 +290,7 @@ std::vector<std::string> ClassifyPhases(const logs::FlightLog& log) {
   return realdata::PhaseLabels(log, realdata::FindFlightWindows(log));
 }
 
-Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle,
+Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle_file,
                            const DiagnoseOptions& options) {
   if (log.rows() == 0) return Status::BadInput("log: no rows");
   if (!log.Has("t_s")) return Status::BadInput("log: t_s: column missing");
@@ -299,6 +299,9 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
   }
   GapReport rep;
   rep.log_name = log.meta.value("source", std::string("log"));
+  // Compass c of `vehicle` is the one log compass c is compared with (compass_map.h).
+  rep.compass_mapping = internal::MapCompasses(log, vehicle_file);
+  const vehicle::VehicleParams vehicle = internal::WithCompassesInLogOrder(vehicle_file, rep.compass_mapping);
   const auto& t = log.Column("t_s");
   const double duration = t.back() - t.front();
   const realdata::FlightWindows fw = Windows(log, options);
@@ -349,7 +352,11 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
                        share_exponent, fitted_share_exponent, flight_s, sim_truth};
   for (size_t c : rr.compasses) {
     std::optional<CompassChannel> cc = DiagnoseCompass(run, c, &rep.not_diagnosed);
-    if (cc) finish(std::move(cc->result), cc->data);
+    if (!cc) continue;
+    for (const CompassPair& p : rep.compass_mapping.pairs) {
+      if (p.channel == cc->result.channel) cc->result.vehicle_compass = p.vehicle_compass;
+    }
+    finish(std::move(cc->result), cc->data);
   }
   for (const ChannelData& ch : rr.channels) {
     if (!(duration >= options.min_duration_s)) {

@@ -26,8 +26,6 @@
 namespace hexsim::gap::internal {
 namespace {
 
-constexpr double kMilliGaussPerMicroTesla = 10.0;
-
 double WaldSub(const Eigen::VectorXd& b, const Eigen::MatrixXd& V, int G) {
   const int q = static_cast<int>(b.size());
   const double tr = V.trace();
@@ -69,7 +67,7 @@ void JudgeExact(const Vec3& b, const Eigen::Matrix3d& Vb, const Vec3& d, const E
   double p_best = a;
   if (p_off < a) nr.beyond_normal.emplace_back("hard_iron_offset");
   if (p_perp < a) nr.beyond_normal.emplace_back("local_anomaly");
-  if (p_perp >= a && p_scale < a) nr.beyond_normal.emplace_back("scale_error");
+  if (p_perp >= a && p_scale < a) nr.beyond_normal.emplace_back("field_scale");
   if (p_off < p_best) {
     p_best = p_off;
     nr.out_of_range = "hard_iron_offset";
@@ -78,7 +76,7 @@ void JudgeExact(const Vec3& b, const Eigen::Matrix3d& Vb, const Vec3& d, const E
     p_best = p_perp;
     nr.out_of_range = "local_anomaly";
   }
-  if (p_perp >= a && p_scale < p_best) nr.out_of_range = "scale_error";
+  if (p_perp >= a && p_scale < p_best) nr.out_of_range = "field_scale";
 }
 
 }  // namespace
@@ -142,8 +140,14 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
   nr.terms.back().params["anomaly_N_uT"] = d.x();
   nr.terms.back().params["anomaly_E_uT"] = d.y();
   nr.terms.back().params["anomaly_D_uT"] = d.z();
-  nr.terms.push_back(Term("scale_error", s_along, s_ci_sd, t975, "1", false));
+  nr.terms.push_back(Term("field_scale", s_along, s_ci_sd, t975, "1", false));
   nr.terms.back().parameters = 1;
+  {
+    // The term reports scale − 1; its physical range is the field_scale row's ratio range less one.
+    const plausibility::PhysicalRange* fs = plausibility::FindRange("field_scale");
+    nr.terms.back().plausible = 1.0 + s_along >= fs->lo && 1.0 + s_along <= fs->hi;
+    nr.terms.back().physical_range = fmt::format("{:.2g}..{:.2g} 1 (field scale − 1)", fs->lo - 1.0, fs->hi - 1.0);
+  }
   nr.terms.back().params["scale_minus_1"] = s_along;
   // Which term is out of its range.
   if (o.nuisance_ranges == "exact") {
@@ -173,8 +177,8 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
                                         ch.name, 100 * std::fabs(s_along), s_along < 0 ? "below" : "above",
                                         100 * (scale - 1), plausibility::RangeText("field_scale")));
     } else if (scale_h < sc->normal_lo || scale_h > sc->normal_hi) {
-      if (nr.out_of_range.empty() && !anomaly_out) nr.out_of_range = "scale_error";
-      if (!anomaly_out) nr.beyond_normal.emplace_back("scale_error");
+      if (nr.out_of_range.empty() && !anomaly_out) nr.out_of_range = "field_scale";
+      if (!anomaly_out) nr.beyond_normal.emplace_back("field_scale");
       nr.findings.push_back(fmt::format("{}: fitted field {:.1f} % {} the WMM field (horizontal part; norm {:+.1f} %): "
                                         "recalibrate (scale) or check for a local anomaly",
                                         ch.name, 100 * std::fabs(s_along), s_along < 0 ? "below" : "above",

@@ -22,9 +22,33 @@
 #include "compass_sampler.h"
 #include "hexsim/common/rotation.h"
 #include "hexsim/magnetics/compass_model.h"
+#include "hexsim/magnetics/flight_fit.h"
 #include "replay_util.h"
 
 namespace hexsim::gap::internal {
+
+CompassMinimum CompassMinSamples(const ChannelData& ch) {
+  int largest = 0;
+  std::string which = "none";
+  for (const Candidate& k : ch.candidates) {
+    if (k.p() > largest) {
+      largest = k.p();
+      which = k.effect;
+    }
+  }
+  CompassMinimum m;
+  m.unknowns = ch.baseline.p() + largest;
+  // Training share at the block floor: (G − 2)/G of the samples.
+  constexpr int kTrainingBlocks = kMinAnalysisBlocks - 2;
+  const int equations = magnetics::kEquationsPerUnknown * m.unknowns * kMinAnalysisBlocks;
+  const int per_sample = magnetics::kEquationsPerSample * kTrainingBlocks;
+  m.samples = (equations + per_sample - 1) / per_sample;
+  m.why = fmt::format("{} unknowns (baseline {} + {} {}), {} equations each, {} per sample, in the CV training set's "
+                      "{} of {} blocks",
+                      m.unknowns, ch.baseline.p(), which, largest, magnetics::kEquationsPerUnknown,
+                      magnetics::kEquationsPerSample, kTrainingBlocks, kMinAnalysisBlocks);
+  return m;
+}
 namespace {
 
 // ArduPilot's per-motor compensation scales each motor's field by output^exp (COMPASS_PMOT_EXP,

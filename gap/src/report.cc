@@ -116,6 +116,14 @@ json EffectsJson(const std::vector<EffectShare>& effects) {
   return a;
 }
 
+json CompassMappingJson(const CompassMapping& m) {
+  json pairs = json::array();
+  for (const CompassPair& p : m.pairs) {
+    pairs.push_back({{"channel", p.channel}, {"vehicle_compass", p.vehicle_compass}, {"external", p.external}});
+  }
+  return {{"method", m.method}, {"why", m.why}, {"pairs", pairs}};
+}
+
 json CandidateJson(const CandidateResult& k) {
   return {{"effect", k.effect},
           {"probability", k.probability},
@@ -149,10 +157,12 @@ nlohmann::json ToJson(const GapReport& r) {
   j["field_model"] = r.field_model;
   j["earth_field_N_uT"] = Vec(r.earth_field_N_uT);
   j["headline_share"] = r.headline_share;
+  j["compass_mapping"] = CompassMappingJson(r.compass_mapping);
   j["channels"] = json::array();
   for (const auto& c : r.channels) {
     json cj;
     cj["channel"] = c.channel;
+    if (c.vehicle_compass > 0) cj["vehicle_compass"] = c.vehicle_compass;
     cj["unit"] = c.unit;
     cj["samples"] = c.samples;
     cj["rms_before"] = c.rms_before;
@@ -200,8 +210,10 @@ namespace {
 // term, also for a throttle or per-motor form through its battery-current equivalent).
 std::string EffectSize(const EffectShare& e) {
   if (e.unit == "s") return fmt::format("{:.0f} [{:.0f}, {:.0f}] ms", 1000 * e.magnitude, 1000 * e.ci95.lo, 1000 * e.ci95.hi);
-  if (e.unit == "uT/A") return fmt::format("{:.1f} [{:.1f}, {:.1f}] mG/A", 10 * e.magnitude, 10 * e.ci95.lo, 10 * e.ci95.hi);
-  if (e.unit == "uT" && e.autopilot_unit == "mG") return fmt::format("{:.1f} [{:.1f}, {:.1f}] mG", 10 * e.magnitude, 10 * e.ci95.lo, 10 * e.ci95.hi);
+  if (e.unit == "uT/A") return fmt::format("{:.1f} [{:.1f}, {:.1f}] mG/A", kMilliGaussPerMicroTesla * e.magnitude, kMilliGaussPerMicroTesla * e.ci95.lo,
+                                                    kMilliGaussPerMicroTesla * e.ci95.hi);
+  if (e.unit == "uT" && e.autopilot_unit == "mG") return fmt::format("{:.1f} [{:.1f}, {:.1f}] mG", kMilliGaussPerMicroTesla * e.magnitude,
+                                                                    kMilliGaussPerMicroTesla * e.ci95.lo, kMilliGaussPerMicroTesla * e.ci95.hi);
   std::string m = fmt::format("{:.3g} [{:.3g}, {:.3g}] {}", e.magnitude, e.ci95.lo, e.ci95.hi, e.unit);
   if (e.autopilot_unit == "mG/A") {
     m += fmt::format(" (= {:.1f} [{:.1f}, {:.1f}] mG/A in battery-current terms)", e.autopilot_factor * e.magnitude,
@@ -219,7 +231,7 @@ std::string AbsoluteBeside(const ChannelResult& c, const EffectShare& e) {
   if (!t.term_fitted || !t.term_plausible) return "";
   const bool throttle = t.form == "throttle";
   return fmt::format(", absolute {} term {:.1f} [{:.1f}, {:.1f}] {} ({}, as hexsim calibrate)", throttle ? "throttle" : "current",
-                     10 * t.term_norm_uT, 10 * t.term_norm_ci95_uT[0], 10 * t.term_norm_ci95_uT[1],
+                     kMilliGaussPerMicroTesla * t.term_norm_uT, kMilliGaussPerMicroTesla * t.term_norm_ci95_uT[0], kMilliGaussPerMicroTesla * t.term_norm_ci95_uT[1],
                      throttle ? "mG per unit throttle" : "mG/A", throttle ? "COMPASS_MOTCT 1" : "COMPASS_MOT");
 }
 
@@ -255,6 +267,16 @@ std::string HeadlineBody(const ChannelResult& c) {
   return s + LeftText(c.residual_left);
 }
 
+std::string CompassMappingText(const CompassMapping& m) {
+  if (m.pairs.empty()) return "";
+  std::string s = "compasses compared with the vehicle file's";
+  for (const CompassPair& p : m.pairs) {
+    s += fmt::format("{} {} → compass {} ({})", &p == m.pairs.data() ? ":" : ",", p.channel, p.vehicle_compass,
+                     p.external ? "external" : "internal");
+  }
+  return s + fmt::format("; by {} ({})\n", m.method == "external_flag" ? "the external flag" : "index", m.why);
+}
+
 }  // namespace
 
 std::string Headline(const ChannelResult& c) {
@@ -264,7 +286,7 @@ std::string Headline(const ChannelResult& c) {
 }
 
 std::string Summary(const GapReport& r) {
-  std::string s;
+  std::string s = CompassMappingText(r.compass_mapping);
   if (!r.windows.empty()) {
     s += "windows (" + r.windows_source + "):";
     for (const auto& w : r.windows) s += fmt::format(" {} {:.1f}-{:.1f} s;", w.kind, w.start_s, w.end_s);
@@ -272,7 +294,7 @@ std::string Summary(const GapReport& r) {
   }
   for (const auto& c : r.channels) {
     const bool mag = c.unit == "uT";
-    const double k = mag ? 10.0 : 1.0;  // µT → mG
+    const double k = mag ? kMilliGaussPerMicroTesla : 1.0;
     const std::string unit = mag ? "mG" : c.unit;
     s += fmt::format("{}: residual {:.3g} {} RMS (noise {:.2g})", c.channel, c.rms_before * k, unit, c.noise_rms * k);
     if (c.reference_contaminated) s += " [reference-contaminated]";
@@ -293,7 +315,7 @@ std::string Summary(const GapReport& r) {
       const Eigen::Vector3d& o = c.nuisance.offset_uT;
       const bool free_field = c.nuisance.field_source.rfind("fitted", 0) == 0;
       s += fmt::format("  nuisance: offset ({:.0f}, {:.0f}, {:.0f}) mG, field norm {:+.1f} % against {} (horizontal {:+.1f} %)",
-                       10 * o.x(), 10 * o.y(), 10 * o.z(), 100 * (c.nuisance.field_scale - 1),
+                       kMilliGaussPerMicroTesla * o.x(), kMilliGaussPerMicroTesla * o.y(), kMilliGaussPerMicroTesla * o.z(), 100 * (c.nuisance.field_scale - 1),
                        free_field ? "the freely fitted field" : "WMM",
                        100 * (c.nuisance.field_scale_horizontal - 1));
       // Without per-motor currents: how the replay split the battery current over the motors.

@@ -74,7 +74,7 @@ const std::vector<EffectRange>& InjectableDynamicsEffects() {
 const std::vector<EffectRange>& InjectableEffects() {
   static const std::vector<EffectRange> kEffects = {
       {"current_hard_iron", 0.1, 0.6, false},  {"current_soft_iron", 0.002, 0.006, false},
-      {"misalignment", 1.5, 5.0, false},       {"scale_error", 0.02, 0.06, true},
+      {"misalignment", 1.5, 5.0, false},       {"field_scale", 0.02, 0.06, true},
       {"local_anomaly", 1.0, 4.0, false},      {"current_lag", 0.1, 0.5, false},
       {"hard_iron_offset", 1.0, 5.0, false},   {"throttle_hard_iron", 15.0, 40.0, false},
       {"temperature_drift", 0.05, 0.2, false},
@@ -87,7 +87,7 @@ const std::vector<EffectRange>& RealInjectableEffects() {
   // anomaly > 3 µT, scale > 5 %), since inside them they are not findings on a real log.
   static const std::vector<EffectRange> kEffects = {
       {"current_hard_iron", 0.2, 0.8, false},  {"current_soft_iron", 0.002, 0.006, false},
-      {"misalignment", 3.0, 8.0, false},       {"scale_error", 0.08, 0.15, true},
+      {"misalignment", 3.0, 8.0, false},       {"field_scale", 0.08, 0.15, true},
       {"local_anomaly", 6.0, 12.0, false},     {"current_lag", 0.1, 0.5, false},
       {"hard_iron_offset", 10.0, 20.0, false}, {"throttle_hard_iron", 15.0, 40.0, false},
       {"temperature_drift", 0.05, 0.2, false},
@@ -143,7 +143,7 @@ Result<Trial> MakeTrial(const SelftestOptions& o, uint64_t seed, const std::vect
     } else if (inj.effect == "misalignment") {
       const Eigen::Vector3d phi = RandomUnit(rng) * inj.magnitude * kDegToRad;
       cp.error.R_SB = QuatExp(phi).toRotationMatrix() * cp.error.R_SB;
-    } else if (inj.effect == "scale_error") {
+    } else if (inj.effect == "field_scale") {
       cp.error.scale *= 1.0 + inj.magnitude;
     } else if (inj.effect == "axis_scale_error") {
       // One sensor axis' gain: K = diag(1 + s on that axis)·K. The reported spread of the gains is s.
@@ -291,7 +291,7 @@ Status CorrectTruth(const internal::RealLogTruth& lt, Trial* trial) {
     double& tm = trial->true_magnitude[i];
     if (e == "hard_iron_offset") {
       tm = ((1 + lt.scale) * (ct.hard_iron_uT - cc.hard_iron_uT) + lt.scale * cc.hard_iron_uT + lt.offset_uT).norm();
-    } else if (e == "scale_error") {
+    } else if (e == "field_scale") {
       tm = (1 + trial->injections[i].magnitude) * (1 + lt.scale) - 1;
     } else if (e == "local_anomaly") {
       // The fitted field's difference from WMM: (1 + s)·(B + a) − B.
@@ -405,7 +405,7 @@ void ReportTruth(const std::vector<Injection>& inj, const Trial& trial, const Ch
   for (const auto& cand : r.candidates) {
     // The reported candidate of the injected form (the nuisance term for a uniform scale).
     if (cand.effect != label || (inj[0].effect == "axis_scale_error" && cand.nuisance_term) ||
-        (inj[0].effect == "scale_error" && !cand.nuisance_term)) {
+        (inj[0].effect == "field_scale" && !cand.nuisance_term)) {
       continue;
     }
     // The per-axis family reports the spread of the gains (≥ 0); every other form its signed size.

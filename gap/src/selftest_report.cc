@@ -344,7 +344,7 @@ std::string Table(const SelftestPlan& p, const Metrics& m) {
   }
   const double th = m.threshold.value;
   t += "  current_hard_iron detection threshold: ";
-  t += std::isfinite(th) ? fmt::format("{:.3g} uT/A ({:.3g} mG/A)", th, 10 * th) : std::string("not reached");
+  t += std::isfinite(th) ? fmt::format("{:.3g} uT/A ({:.3g} mG/A)", th, kMilliGaussPerMicroTesla * th) : std::string("not reached");
   t += " (target <= 0.1 uT/A); flagged:";
   for (size_t i = 0; i < p.threshold_grid.size(); ++i) {
     t += fmt::format(" {}:{:.0f}%", p.threshold_grid[i], 100 * m.threshold.flagged_rate[i]);

@@ -99,7 +99,8 @@ Result<std::string> UpdatedVehicleYaml(const std::string& text, const vehicle::V
       AddDynamicsEffects(ch, v, &root, &notes);
       continue;
     }
-    const int c = CompassIndex(ch.channel);
+    // The vehicle file's compass the channel was compared with (compass_map.h), else by its prefix.
+    const int c = ch.vehicle_compass > 0 ? ch.vehicle_compass - 1 : CompassIndex(ch.channel);
     if (c < 0 || c >= static_cast<int>(v.compasses.size()) || !root["compasses"] || !root["compasses"][c]) continue;
     YAML::Node node = root["compasses"][c];
     const vehicle::CompassParams& cp = v.compasses[c];
@@ -109,7 +110,7 @@ Result<std::string> UpdatedVehicleYaml(const std::string& text, const vehicle::V
       const Params& p = k.params;
       if (k.id == Effect::kHardIronOffset) {
         node["hard_iron_uT"] = Vec(cp.error.hard_iron_uT + ParamVec(p, "b_x_uT", "b_y_uT", "b_z_uT"));
-      } else if (k.id == Effect::kScaleError) {
+      } else if (k.id == Effect::kScaleError || k.id == Effect::kFieldScale) {
         node["scale"] = cp.error.scale * (1.0 + Value(p, "scale_minus_1"));
       } else if (k.id == Effect::kMisalignment) {
         const Eigen::Vector3d phi = ParamVec(p, "phi_x_deg", "phi_y_deg", "phi_z_deg") * kDegToRad;

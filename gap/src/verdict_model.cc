@@ -152,13 +152,13 @@ EffectShare ToEffect(const CandidateResult& k, double share, const std::string& 
   const auto eq_ci = k.ci95.find("current_equivalent_uT_per_A");
   if (k.magnitude_unit == "uT/A") {
     e.autopilot_unit = "mG/A";
-    e.autopilot_factor = 10.0;
+    e.autopilot_factor = kMilliGaussPerMicroTesla;
   } else if (eq != k.params.end() && eq_ci != k.ci95.end() && k.magnitude != 0) {
     e.autopilot_unit = "mG/A";
-    e.autopilot_factor = 10.0 * eq->second / k.magnitude;
+    e.autopilot_factor = kMilliGaussPerMicroTesla * eq->second / k.magnitude;
   } else if (k.magnitude_unit == "uT") {
     e.autopilot_unit = "mG";
-    e.autopilot_factor = 10.0;
+    e.autopilot_factor = kMilliGaussPerMicroTesla;
   } else if (k.magnitude_unit == "s") {
     e.autopilot_unit = "ms";
     e.autopilot_factor = 1000.0;

@@ -132,7 +132,7 @@ TEST_P(SingleEffect, GivenOneWithheldCompassEffectWhenDiagnosedThenItIsAttribute
 INSTANTIATE_TEST_SUITE_P(
     CompassEffects, SingleEffect,
     ::testing::Values(EffectCase{"current_hard_iron", 0.3, 301}, EffectCase{"current_soft_iron", 0.004, 302},
-                      EffectCase{"misalignment", 3.0, 303}, EffectCase{"scale_error", 0.04, 304},
+                      EffectCase{"misalignment", 3.0, 303}, EffectCase{"field_scale", 0.04, 304},
                       EffectCase{"local_anomaly", 2.5, 305}, EffectCase{"current_lag", 0.3, 306},
                       EffectCase{"hard_iron_offset", 3.0, 307}, EffectCase{"throttle_hard_iron", 25.0, 308},
                       EffectCase{"temperature_drift", 0.1, 309}),

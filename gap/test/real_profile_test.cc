@@ -71,7 +71,7 @@ TEST(GapRealProfile, GivenAScaleErrorOnALogWithoutPerMotorCurrents_WhenDiagnosed
   constexpr int kTrials = 6;
   for (int k = 0; k < kTrials; ++k) {
     const uint64_t seed = 1001 + static_cast<uint64_t>(k);
-    gaptest::Flown f = gaptest::FlyInjected({{"scale_error", 0.1}}, seed, "real_profile_scale", "selftest_flight");
+    gaptest::Flown f = gaptest::FlyInjected({{"field_scale", 0.1}}, seed, "real_profile_scale", "selftest_flight");
     RngStream rng(seed, "real_profile_scale/degrade");
     internal::RealLogTruth lt;
     auto log = internal::DegradeToRealLog(f.log, f.trial.configured, &rng, &lt);
@@ -85,7 +85,7 @@ TEST(GapRealProfile, GivenAScaleErrorOnALogWithoutPerMotorCurrents_WhenDiagnosed
     // The uniform gain is the baseline's nuisance term (the per-axis family holds the axes' differences).
     const CandidateResult* sc = nullptr;
     for (const CandidateResult& k : mag2->candidates) {
-      if (k.effect == "scale_error" && k.nuisance_term && sc == nullptr) sc = &k;
+      if (k.effect == "field_scale" && k.nuisance_term && sc == nullptr) sc = &k;
     }
     ASSERT_NE(sc, nullptr) << Summary(*rep);
     const double truth = (1 + 0.1) * (1 + lt.scale) - 1;
@@ -93,7 +93,7 @@ TEST(GapRealProfile, GivenAScaleErrorOnALogWithoutPerMotorCurrents_WhenDiagnosed
     const double norm = mag2->nuisance.field_scale - 1;
     norm_further += std::fabs(norm - truth) > std::fabs(sc->magnitude - truth);
     EXPECT_NEAR(mag2->nuisance.field_scale_horizontal, 1 + sc->magnitude, 1e-12);
-    named += mag2->verdict == "scale_error";
+    named += mag2->verdict == "field_scale";
   }
   // 95 % intervals: one miss in six is allowed (measured: 10 of 10 held, the norm further in 10).
   EXPECT_GE(covered, kTrials - 1);
@@ -104,7 +104,7 @@ TEST(GapRealProfile, GivenAScaleErrorOnALogWithoutPerMotorCurrents_WhenDiagnosed
 // A field read 35 % below WMM is beyond what a compass reads of the Earth field (field_scale's
 // physical range 0.7-1.3): "model mismatch", never "recalibrate", and never the verdict.
 TEST(GapRealProfile, GivenAFieldReadFarBelowWmm_WhenDiagnosed_ThenTheScaleIsAModelMismatchNotAFinding) {
-  gaptest::Flown f = gaptest::FlyInjected({{"scale_error", -0.35}}, 1101, "real_profile_mismatch");
+  gaptest::Flown f = gaptest::FlyInjected({{"field_scale", -0.35}}, 1101, "real_profile_mismatch");
   auto rep = Diagnose(f.log, f.trial.configured);
   ASSERT_TRUE(rep.ok()) << rep.status().message();
   const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
@@ -116,7 +116,7 @@ TEST(GapRealProfile, GivenAFieldReadFarBelowWmm_WhenDiagnosed_ThenTheScaleIsAMod
   }
   EXPECT_TRUE(mismatch) << Summary(*rep);
   EXPECT_FALSE(recalibrate) << Summary(*rep);
-  EXPECT_NE(mag2->verdict, "scale_error") << Summary(*rep);
+  EXPECT_NE(mag2->verdict, "field_scale") << Summary(*rep);
 }
 
 }  // namespace

@@ -139,55 +139,6 @@ Channel Attitude(const ULogTopic* att) {
   return c;
 }
 
-// The magnetometers: sensor_mag instances (raw from PX4 1.11 on, driver-calibrated before), else
-// vehicle_magnetometer instances, else old sensor_combined magnetometer_ga (both calibrated).
-void Magnetometers(const ULog& u, const std::string& name, std::vector<Channel>* channels, nlohmann::json* compasses,
-                   std::vector<std::string>* warnings) {
-  const char* prefixes[3] = {"mag", "mag2", "mag3"};
-  auto add = [&](const ULogTopic* m, int k, const std::array<std::string, 3>& fields, MagFrame frame) {
-    Channel c{m, prefixes[k], {}, nullptr};
-    Vec3(&c, prefixes[k], "_uT", fields, kMicroteslaPerGauss);
-    channels->push_back(std::move(c));
-    const double device_id = m->Has("device_id") ? m->Get(0, "device_id") : 0.0;
-    nlohmann::json j = {{"column", prefixes[k]},
-                        {"instance", k},
-                        {"source", m->name},
-                        {"calibrated", frame != MagFrame::kRaw},
-                        {"frame", frame == MagFrame::kRaw               ? "raw"
-                                  : frame == MagFrame::kDriverCalibrated ? "driver-calibrated"
-                                                                          : "calibrated"}};
-    if (device_id > 0) j["device_id"] = device_id;
-    const nlohmann::json cal = internal::Px4MagCalibration(u, device_id, k, frame);
-    if (!cal.is_null()) j["px4_calibration"] = cal;
-    if (frame != MagFrame::kRaw) {
-      const bool rebuilt = !cal.is_null() && cal["rotation_known"].get<bool>();
-      warnings->push_back(fmt::format(
-          "{}: {}: {} holds the field PX4 has already calibrated{}", name, prefixes[k], m->name,
-          rebuilt ? fmt::format(": calibrate rebuilds the raw field from CAL_MAG{}_* (matched by {})",
-                                cal["index"].get<int>(), cal["matched_by"].get<std::string>())
-                  : " and the log lacks what undoes it: a calibration from it is relative to the one in force"));
-    }
-    compasses->push_back(std::move(j));
-  };
-  bool any = false;
-  for (int k = 0; k < 3; ++k) {
-    const ULogTopic* m = u.Find("sensor_mag", k);
-    if (m == nullptr || !m->Has("x") || m->records.empty()) continue;
-    any = true;
-    add(m, k, {"x", "y", "z"}, m->Has("x_raw") || m->Has("scaling") ? MagFrame::kDriverCalibrated : MagFrame::kRaw);
-  }
-  for (int k = 0; k < 3 && !any; ++k) {
-    const ULogTopic* vm = u.Find("vehicle_magnetometer", k);
-    if (vm == nullptr || !vm->Has("magnetometer_ga[0]") || vm->records.empty()) continue;
-    add(vm, k, {"magnetometer_ga[0]", "magnetometer_ga[1]", "magnetometer_ga[2]"}, MagFrame::kCalibrated);
-  }
-  if (!compasses->empty()) return;
-  const ULogTopic* old = u.Find("sensor_combined");
-  if (old != nullptr && old->Has("magnetometer_ga[0]") && !old->records.empty()) {
-    add(old, 0, {"magnetometer_ga[0]", "magnetometer_ga[1]", "magnetometer_ga[2]"}, MagFrame::kCalibrated);
-  }
-}
-
 // The armed state over time, from actuator_armed.armed (the outputs' own state), else vehicle_status
 // arming_state (2 = ARMED in every PX4 release; older releases' 3, ARMED_ERROR, is rare and taken as
 // disarmed). Before the first record the state is the first record's: PX4's logger writes each
@@ -220,6 +171,123 @@ ArmedState ArmedOf(const ULog& u) {
     s.armed.push_back(use_aa ? (v != 0 ? 1.0 : 0.0) : (v == kArmingStateArmed ? 1.0 : 0.0));
   }
   return s;
+}
+
+// Records of `t` in the flight: while armed where the log tells the armed state, else all of them.
+size_t FlightRecords(const ULogTopic& t, const ArmedState& armed) {
+  size_t n = 0;
+  for (size_t i = 0; i < t.records.size(); ++i) {
+    const double ti = t.TimeS(i);
+    if (std::isfinite(ti) && (armed.t_s.empty() || armed.At(ti) > 0.5)) ++n;
+  }
+  return n;
+}
+
+const ULogTopic* MagTopic(const ULog& u, const char* topic, int k, const char* field) {
+  const ULogTopic* m = u.Find(topic, k);
+  return m != nullptr && m->Has(field) && !m->records.empty() ? m : nullptr;
+}
+
+double DeviceId(const ULogTopic* m) { return m != nullptr && m->Has("device_id") ? m->Get(0, "device_id") : 0.0; }
+
+// The vehicle_magnetometer instance of the same sensor as sensor_mag `sm` (instance k): the one
+// with the same device_id where both log one, else instance k.
+const ULogTopic* CalibratedTwin(const ULog& u, const ULogTopic* sm, int k) {
+  constexpr int kMaxInstances = 4;  // PX4's MAG_COUNT_MAX
+  const double id = DeviceId(sm);
+  for (int i = 0; i < kMaxInstances && id > 0; ++i) {
+    const ULogTopic* vm = MagTopic(u, "vehicle_magnetometer", i, "magnetometer_ga[0]");
+    if (vm != nullptr && DeviceId(vm) == id) return vm;
+  }
+  const ULogTopic* vm = MagTopic(u, "vehicle_magnetometer", k, "magnetometer_ga[0]");
+  return vm != nullptr && (id <= 0 || DeviceId(vm) <= 0) ? vm : nullptr;
+}
+
+// Whether a compass is external: sensor_mag's own is_external (PX4 1.10/1.11), else its calibration
+// slot's CAL_MAGn_ROT (PX4 forces −1 on an internal sensor; ≥ 0 is an external one's rotation);
+// null when neither is in the log.
+nlohmann::json ExternalOf(const ULogTopic* sm, const nlohmann::json& cal, std::string* source) {
+  if (sm != nullptr && sm->Has("is_external")) {
+    *source = "sensor_mag.is_external";
+    return sm->Get(0, "is_external") != 0;
+  }
+  if (!cal.is_null() && cal.contains("rotation") && cal["rotation"].is_number()) {
+    const double rot = cal["rotation"].get<double>();
+    *source = fmt::format("CAL_MAG{}_ROT = {:g} (PX4: -1 internal, else an external sensor's rotation)",
+                          cal["index"].get<int>(), rot);
+    return rot >= 0;
+  }
+  *source = "not in the log";
+  return nullptr;
+}
+
+// The magnetometers. Per compass two topics may hold it: sensor_mag (raw from PX4 1.11 on,
+// driver-calibrated before) and vehicle_magnetometer (calibrated by PX4's sensors module: the field
+// in the FRD body frame, msg/VehicleMagnetometer.msg). The logger may log them at different rates
+// (SDLOG_PROFILE; 1 Hz sensor_mag beside 2 Hz vehicle_magnetometer in one public log), so each
+// compass takes the topic with more records in the flight (while armed, where the log tells it),
+// the calibrated one at equal counts; the meta's `source` and `source_choice` say which and why.
+// Old logs: sensor_combined magnetometer_ga (calibrated).
+void Magnetometers(const ULog& u, const std::string& name, const ArmedState& armed, std::vector<Channel>* channels,
+                   nlohmann::json* compasses, std::vector<std::string>* warnings) {
+  const char* prefixes[3] = {"mag", "mag2", "mag3"};
+  auto add = [&](const ULogTopic* m, const ULogTopic* sm, int k, const std::array<std::string, 3>& fields,
+                 MagFrame frame, const std::string& choice) {
+    Channel c{m, prefixes[k], {}, nullptr};
+    Vec3(&c, prefixes[k], "_uT", fields, kMicroteslaPerGauss);
+    channels->push_back(std::move(c));
+    const double device_id = DeviceId(m);
+    nlohmann::json j = {{"column", prefixes[k]},
+                        {"instance", k},
+                        {"source", m->name},
+                        {"source_choice", choice},
+                        {"calibrated", frame != MagFrame::kRaw},
+                        {"frame", frame == MagFrame::kRaw               ? "raw"
+                                  : frame == MagFrame::kDriverCalibrated ? "driver-calibrated"
+                                                                          : "calibrated"}};
+    if (device_id > 0) j["device_id"] = device_id;
+    const nlohmann::json cal = internal::Px4MagCalibration(u, device_id, k, frame);
+    if (!cal.is_null()) j["px4_calibration"] = cal;
+    std::string external_source;
+    j["external"] = ExternalOf(sm, cal, &external_source);
+    j["external_source"] = external_source;
+    if (frame != MagFrame::kRaw) {
+      const bool rebuilt = !cal.is_null() && cal["rotation_known"].get<bool>();
+      warnings->push_back(fmt::format(
+          "{}: {}: {} holds the field PX4 has already calibrated{}", name, prefixes[k], m->name,
+          rebuilt ? fmt::format(": calibrate rebuilds the raw field from CAL_MAG{}_* (matched by {})",
+                                cal["index"].get<int>(), cal["matched_by"].get<std::string>())
+                  : " and the log lacks what undoes it: a calibration from it is relative to the one in force"));
+    }
+    compasses->push_back(std::move(j));
+  };
+  const char* span = armed.t_s.empty() ? "in the log (no armed state)" : "while armed";
+  for (int k = 0; k < 3; ++k) {
+    const ULogTopic* sm = MagTopic(u, "sensor_mag", k, "x");
+    const ULogTopic* vm = sm != nullptr ? CalibratedTwin(u, sm, k) : MagTopic(u, "vehicle_magnetometer", k, "magnetometer_ga[0]");
+    if (sm == nullptr && vm == nullptr) continue;
+    const size_t n_sm = sm != nullptr ? FlightRecords(*sm, armed) : 0, n_vm = vm != nullptr ? FlightRecords(*vm, armed) : 0;
+    const bool use_vm = vm != nullptr && (sm == nullptr || n_vm >= n_sm);
+    const std::string choice =
+        sm == nullptr || vm == nullptr
+            ? fmt::format("{}: the only topic of this compass ({} records {})", use_vm ? vm->name : sm->name,
+                          use_vm ? n_vm : n_sm, span)
+            : fmt::format("{}: {} records {} against {}'s {}{}", use_vm ? vm->name : sm->name, use_vm ? n_vm : n_sm,
+                          span, use_vm ? sm->name : vm->name, use_vm ? n_sm : n_vm,
+                          n_sm == n_vm ? " (equal: the calibrated topic)" : "");
+    if (use_vm) {
+      add(vm, sm, k, {"magnetometer_ga[0]", "magnetometer_ga[1]", "magnetometer_ga[2]"}, MagFrame::kCalibrated, choice);
+    } else {
+      add(sm, sm, k, {"x", "y", "z"},
+          sm->Has("x_raw") || sm->Has("scaling") ? MagFrame::kDriverCalibrated : MagFrame::kRaw, choice);
+    }
+  }
+  if (!compasses->empty()) return;
+  const ULogTopic* old = MagTopic(u, "sensor_combined", 0, "magnetometer_ga[0]");
+  if (old != nullptr) {
+    add(old, nullptr, 0, {"magnetometer_ga[0]", "magnetometer_ga[1]", "magnetometer_ga[2]"}, MagFrame::kCalibrated,
+        "sensor_combined: the log's only magnetometer topic");
+  }
 }
 
 // PX4's power signal P of the magnetometer power compensation (CAL_MAG_COMP_TYP; VehicleMagnetometer
@@ -292,8 +360,8 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
     Vec3(&c, "accel", "_mps2", {"accelerometer_m_s2[0]", "accelerometer_m_s2[1]", "accelerometer_m_s2[2]"}, 1.0);
     channels.push_back(std::move(c));
   }
-  Magnetometers(u, name, &channels, &compasses, &out.warnings);
   const ArmedState armed = ArmedOf(u);
+  Magnetometers(u, name, armed, &channels, &compasses, &out.warnings);
   // The power signal of PX4's magnetometer power compensation, when one is in force (ulog_mag_cal.h).
   const auto comp_it = u.params.find("CAL_MAG_COMP_TYP");
   const int comp_type = comp_it != u.params.end() ? static_cast<int>(comp_it->second) : 0;

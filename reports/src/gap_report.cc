@@ -41,7 +41,7 @@ Status Png(const render::Plot2D& p, const std::string& path) {
 
 // Field quantities are shown in mG (1 mG = 0.1 µT), every other in the channel's own unit.
 bool IsCompass(const gap::ChannelResult& c) { return c.unit == "uT"; }
-double Shown(const gap::ChannelResult& c, double v) { return IsCompass(c) ? 10.0 * v : v; }
+double Shown(const gap::ChannelResult& c, double v) { return IsCompass(c) ? gap::kMilliGaussPerMicroTesla * v : v; }
 std::string ShownUnit(const gap::ChannelResult& c) { return IsCompass(c) ? "mG" : c.unit; }
 
 std::string LagRow(const char* what, const gap::LagReport& l) {
@@ -66,16 +66,17 @@ std::string TimingHtml(const gap::Timing& t) {
 std::string NuisanceHtml(const gap::ChannelResult& c) {
   const gap::Nuisance& n = c.nuisance;
   if (!n.present) return "";
+  constexpr double kMg = gap::kMilliGaussPerMicroTesla;
   std::string h = "<h3>Nuisance baseline</h3><p>Fitted under every candidate; its terms are findings only when outside their normal ranges.</p><table>";
   h += fmt::format("<tr><td>residual offset (x, y, z)</td><td>({:.1f}, {:.1f}, {:.1f}) mG; |offset| [{:.1f}, {:.1f}] mG</td></tr>",
-                   10 * n.offset_uT.x(), 10 * n.offset_uT.y(), 10 * n.offset_uT.z(), 10 * n.offset_ci95_uT.lo,
-                   10 * n.offset_ci95_uT.hi);
+                   kMg * n.offset_uT.x(), kMg * n.offset_uT.y(), kMg * n.offset_uT.z(), kMg * n.offset_ci95_uT.lo,
+                   kMg * n.offset_ci95_uT.hi);
   h += fmt::format("<tr><td>field norm against the field model</td><td>{:+.1f} % (horizontal part {:+.1f} %)</td></tr>",
                    100 * (n.field_scale - 1), 100 * (n.field_scale_horizontal - 1));
   h += fmt::format("<tr><td>fitted field (N, E, D)</td><td>({:.0f}, {:.0f}, {:.0f}) mG against ({:.0f}, {:.0f}, {:.0f}) mG</td></tr>",
-                   10 * n.field_vector_N_uT.x(), 10 * n.field_vector_N_uT.y(), 10 * n.field_vector_N_uT.z(),
-                   10 * n.field_prior_N_uT.x(), 10 * n.field_prior_N_uT.y(), 10 * n.field_prior_N_uT.z());
-  h += fmt::format("<tr><td>field direction error</td><td>{:.1f} mG</td></tr>", 10 * n.field_direction_error_uT);
+                   kMg * n.field_vector_N_uT.x(), kMg * n.field_vector_N_uT.y(), kMg * n.field_vector_N_uT.z(),
+                   kMg * n.field_prior_N_uT.x(), kMg * n.field_prior_N_uT.y(), kMg * n.field_prior_N_uT.z());
+  h += fmt::format("<tr><td>field direction error</td><td>{:.1f} mG</td></tr>", kMg * n.field_direction_error_uT);
   if (std::isfinite(n.current_split_exponent)) {
     h += fmt::format("<tr><td>motor current split</td><td>battery current shared as output<sup>{:.2f}</sup></td></tr>",
                      n.current_split_exponent);

@@ -19,6 +19,10 @@
 
 namespace hexsim::gap {
 
+// Field units: hexsim computes in µT; reports and autopilots (COMPASS_OFS, COMPASS_MOT) use mG.
+// 1 G = 100 µT = 1000 mG, so 1 µT = 10 mG.
+inline constexpr double kMilliGaussPerMicroTesla = 10.0;
+
 struct CompassTerms {
   std::string channel;          // mag, mag2, ...
   std::string form;             // "current" (uT/A) or "throttle" (uT per unit throttle)

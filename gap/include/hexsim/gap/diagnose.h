@@ -53,7 +53,11 @@ struct DiagnoseOptions {
   // the largest cause. A material effect below it is the headline marked partial (CONTRACTS.md).
   double headline_share = 0.5;
   double min_duration_s = 20.0;    // shorter logs are not diagnosed
-  int min_samples = 400;           // per channel
+  // Gyro, accel and dynamics channels: the fewest samples per channel. Compass channels derive
+  // theirs from what their analysis fits (gap/src/channels.h CompassMinSamples: 2·10·unknowns/3,
+  // 120 for the 6-term baseline with a quad's 12-term per-motor candidate) unless the in-flight
+  // model fits them (its own minimum).
+  int min_samples = 400;
   uint64_t seed = 1;               // bootstrap resampling
   bool allow_field_extrapolation = true;  // dates outside 2015–2030 use the nearest WMM epoch
   // The compass the attitude reference fused (column prefix, e.g. "mag"); empty: decided from the
@@ -217,6 +221,7 @@ struct GroundVsFlight {
 
 struct ChannelResult {
   std::string channel;  // FlightLog column prefix: mag, mag2, gyro, accel
+  int vehicle_compass = 0;  // compass channels: the vehicle file's compass compared with (1-based; 0: none)
   std::string unit;
   int samples = 0;
   double rms_before = 0.0;
@@ -258,8 +263,22 @@ struct PhaseSpan {
   std::string phase;
 };
 
+// Which compass of the vehicle file a log compass is compared with (the vehicle's compass
+// `vehicle_compass`, 1-based, in the file's order).
+struct CompassPair {
+  std::string channel;      // the log's column prefix: mag, mag2, …
+  int vehicle_compass = 0;  // 1-based index in the vehicle file's compasses
+  bool external = false;    // the vehicle file's flag of that compass
+};
+struct CompassMapping {
+  std::string method = "index";  // external_flag | index
+  std::string why;
+  std::vector<CompassPair> pairs;
+};
+
 struct GapReport {
   std::string log_name;
+  CompassMapping compass_mapping;
   std::string attitude_source;
   std::string field_model;
   Eigen::Vector3d earth_field_N_uT = Eigen::Vector3d::Zero();

@@ -21,7 +21,7 @@ namespace hexsim::gap {
 inline constexpr size_t kSelftestCompass = 1;
 
 // One withheld effect. `magnitude` is in the unit the diagnosis reports for that effect
-// (current_hard_iron µT/A, current_soft_iron 1/A Frobenius, misalignment deg, scale_error 1,
+// (current_hard_iron µT/A, current_soft_iron 1/A Frobenius, misalignment deg, field_scale 1,
 // local_anomaly µT, current_lag s, hard_iron_offset µT, throttle_hard_iron µT/throttle,
 // temperature_drift µT/°C); out-of-library: current_exponent (exponent − 1), thermal_ramp (µT).
 struct Injection {
