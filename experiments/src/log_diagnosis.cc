@@ -24,6 +24,15 @@ Status ChooseVehicle(const LogDiagnosisOptions& o, logs::FlightLog* log, LogDiag
     return Status::Ok();
   }
   d->lines.push_back("frame " + base->frame + " (" + base->frame_source + "): base " + base->params.name);
+  // The base's wiring is hexsim's airframe's, not this one's: each compass is compared with no
+  // modelled current field, so its gap is the log's whole current field (= the absolute term).
+  HEXSIM_RETURN_IF_ERROR(identify::DropWiring(&base->params, &base->yaml));
+  d->vehicle = base->params;
+  d->vehicle_yaml = base->yaml;
+  d->vehicle_source["wiring"] = "none: the base's wiring layout is not this airframe's; the compasses are compared "
+                                "with no modelled current field";
+  d->lines.push_back("no --sim: " + base->params.name + "'s wiring is not this airframe's: the compasses are compared "
+                     "with no modelled current field (the log's current field is reported whole)");
   identify::IdentifyOptions io;
   for (int b = 0; b < io.blocks; b += 2) io.fit_blocks.push_back(b);
   auto r = identify::Identify(*log, base->params, io);

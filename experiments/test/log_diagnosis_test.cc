@@ -66,6 +66,33 @@ TEST(DiagnoseLog, GivenNoVehicleAndALogTooShortToIdentifyThenTheBaseVehicleIsUse
   EXPECT_NE(d->lines.back().find("could not be identified"), std::string::npos);
 }
 
+// Without --sim the shipped base's wiring is hexsim's airframe's, not the log's: the compasses are
+// compared with no modelled current field (so a compass's gap is its whole current field, the
+// in-flight model's absolute term), the vehicle file written beside the diagnosis says so, and the
+// output says so. With --sim the user's vehicle keeps its wiring.
+TEST(DiagnoseLog, GivenNoVehicleThenTheBasesWiringIsNotModelledAndSaidSo) {
+  LogDiagnosisOptions o;
+  o.log_name = "flight.csv";
+  logs::FlightLog log = FramelessLog();
+  log.meta["params"] = {{"FRAME", 1}};
+  log.meta["motor_count"] = 4;
+  auto d = DiagnoseLog(log, o);
+  ASSERT_TRUE(d.ok()) << d.status().message();
+  EXPECT_TRUE(d->vehicle.wiring.segments.empty());
+  EXPECT_TRUE(d->vehicle.wiring.dipoles.empty());
+  EXPECT_EQ(d->vehicle_yaml.find("\nwiring:"), std::string::npos) << d->vehicle_yaml.substr(0, 400);
+  EXPECT_NE(d->vehicle_yaml.find("# wiring: removed"), std::string::npos);
+  EXPECT_TRUE(d->vehicle_source.contains("wiring")) << d->vehicle_source.dump();
+  bool said = false;
+  for (const auto& l : d->lines) said = said || l.find("no modelled current field") != std::string::npos;
+  EXPECT_TRUE(said);
+
+  o.vehicle = "quad_x";
+  auto given = DiagnoseLog(log, o);
+  ASSERT_TRUE(given.ok()) << given.status().message();
+  EXPECT_FALSE(given->vehicle.wiring.segments.empty());
+}
+
 TEST(DiagnoseLog, GivenAVehicleThatDoesNotExistThenItIsBadInputNamingIt) {
   LogDiagnosisOptions o;
   o.vehicle = "no_such_vehicle";

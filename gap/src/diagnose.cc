@@ -277,8 +277,10 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
   const ChannelData ground = internal::ReplayCompass(log, vehicle, c, rr.inputs, B_N, ro);
   r.ground_vs_flight = internal::CompareGroundFlight(ch, ground, r.nuisance);
   if (ro.calibrated_log) {
-    r.findings.emplace_back("logged values are the autopilot's calibrated ones: the vehicle file's hard and soft iron are "
-                            "not applied to them; its wiring (current) field still is");
+    const bool wiring = !vehicle.wiring.segments.empty() || !vehicle.wiring.dipoles.empty();
+    r.findings.emplace_back(std::string("logged values are the autopilot's calibrated ones: the vehicle file's hard and soft "
+                                        "iron are not applied to them") +
+                            (wiring ? "; its wiring (current) field still is" : ""));
   }
   AttachAbsoluteTerms(std::move(terms), log, &run.model_log != &log, &r);
   return CompassChannel{std::move(r), std::move(ch)};

@@ -217,6 +217,24 @@ Result<std::string> IdentifiedVehicleYaml(const std::string& base_yaml_text, con
   return head + e.c_str() + "\n";
 }
 
+Status DropWiring(vehicle::VehicleParams* v, std::string* yaml_text) {
+  YAML::Node doc;
+  try {
+    doc = YAML::Load(*yaml_text);
+  } catch (const YAML::Exception& e) {
+    return Status::BadInput(std::string("base vehicle: YAML: ") + e.what());
+  }
+  if (!doc.IsMap()) return Status::BadInput("base vehicle: YAML: not a mapping");
+  doc.remove("wiring");
+  v->wiring = magnetics::CurrentFieldParams{};
+  YAML::Emitter e;
+  e << doc;
+  *yaml_text = "# wiring: removed (the base vehicle's wiring layout is not this airframe's; a log's current field\n"
+               "# at its compasses is measured by gap diagnose and added to the updated vehicle)\n" +
+               std::string(e.c_str()) + "\n";
+  return Status::Ok();
+}
+
 Status WriteIdentifiedVehicle(const std::string& path, const BaseVehicle& base, const IdentifyResult& result,
                               std::string* outcome) {
   if (result.improves_on_base) {

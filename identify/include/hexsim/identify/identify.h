@@ -159,6 +159,11 @@ Result<std::string> IdentifiedVehicleYaml(const std::string& base_yaml_text, con
 // gets "written", "not written" or "not written (the file an earlier run left there removed)".
 Status WriteIdentifiedVehicle(const std::string& path, const BaseVehicle& base, const IdentifyResult& result,
                               std::string* outcome = nullptr);
+// The vehicle without its current wiring (segments and dipoles of wiring:): a shipped base's wiring
+// is hexsim's airframe's layout, not the log's, so `gap diagnose` without --sim compares each
+// compass with no modelled current field (the log's field is then reported whole, and the updated
+// vehicle adds it). `yaml_text` loses the wiring key and gains a comment saying so.
+Status DropWiring(vehicle::VehicleParams* v, std::string* yaml_text);
 // The base vehicle with the identified values applied (what the YAML describes).
 vehicle::VehicleParams ApplyIdentified(const vehicle::VehicleParams& base, const IdentifyResult& result);
 
