@@ -32,6 +32,15 @@ std::vector<RunPoint> Points(int n) {
   return out;
 }
 
+// `jobs` workers running into `dir`, without progress lines.
+PoolOptions Quiet(const std::string& dir, int jobs) {
+  PoolOptions opt;
+  opt.jobs = jobs;
+  opt.out_dir = dir;
+  opt.progress_stream = nullptr;
+  return opt;
+}
+
 // A stand-in for a mission: a summary that depends only on the point; seed 3 aborts (a crash),
 // seed 4 reports an error, seed 5 diverges.
 Result<json> FakeRun(const RunPoint& p) {
@@ -55,10 +64,7 @@ std::vector<std::string> RunWithJobs(int jobs, const std::string& name, PoolStat
   const std::string dir = testing::TempDir(name);
   auto db = ResultsDb::Open(dir + "/results.sqlite", true);
   EXPECT_TRUE(db.ok());
-  PoolOptions opt;
-  opt.jobs = jobs;
-  opt.out_dir = dir;
-  opt.progress_stream = nullptr;
+  PoolOptions opt = Quiet(dir, jobs);
   auto stats = RunPool(Points(8), FakeRun, opt, &*db);
   EXPECT_TRUE(stats.ok()) << stats.status().message();
   if (stats.ok()) *stats_out = *stats;
@@ -69,10 +75,7 @@ TEST(RunPool, GivenRunsThatCrashFailAndDivergeWhenPooledThenEachIsRecordedWithIt
   const std::string dir = testing::TempDir("pool_failures");
   auto db = ResultsDb::Open(dir + "/results.sqlite", true);
   ASSERT_TRUE(db.ok());
-  PoolOptions opt;
-  opt.jobs = 2;
-  opt.out_dir = dir;
-  opt.progress_stream = nullptr;
+  PoolOptions opt = Quiet(dir, 2);
   auto stats = RunPool(Points(8), FakeRun, opt, &*db);
   ASSERT_TRUE(stats.ok()) << stats.status().message();
   EXPECT_EQ(stats->finished, 8u);
@@ -120,11 +123,8 @@ TEST(RunPool, GivenARunThatHangsWhenATimeoutIsSetThenItIsKilledAndRecordedAsTime
   const std::string dir = testing::TempDir("pool_timeout");
   auto db = ResultsDb::Open(dir + "/results.sqlite", true);
   ASSERT_TRUE(db.ok());
-  PoolOptions opt;
-  opt.jobs = 2;
-  opt.out_dir = dir;
+  PoolOptions opt = Quiet(dir, 2);
   opt.run_timeout_s = 0.3;
-  opt.progress_stream = nullptr;
   auto hang = [](const RunPoint& p) -> Result<json> {
     if (p.seed == 1) std::this_thread::sleep_for(std::chrono::seconds(30));
     sim::RunSummary done;
@@ -146,10 +146,7 @@ TEST(RunPool, GivenARunThatHangsWhenATimeoutIsSetThenItIsKilledAndRecordedAsTime
 // used to turn it into JSON and straight back into a struct); none for a run that left none.
 TEST(RunPool, GivenFinishedAndCrashedRunsWhenRecordedThenEachFinishedRunsSummaryArrivesTyped) {
   const std::string dir = testing::TempDir("pool_typed");
-  PoolOptions opt;
-  opt.jobs = 2;
-  opt.out_dir = dir;
-  opt.progress_stream = nullptr;
+  PoolOptions opt = Quiet(dir, 2);
   std::map<uint64_t, double> energy;
   std::set<uint64_t> without;
   auto stats = RunPool(Points(4), FakeRun, opt, [&](const RunRow& row, RunResult* r) {
@@ -192,10 +189,7 @@ logs::FlightLog FakeFlight(uint64_t seed) {
 // is a crashed run, not one with an empty flight.
 TEST(RunPool, GivenRunsAskedForTheirFlightWhenRecordedThenEachArrivesTypedAsTheWorkerFlewIt) {
   const std::string dir = testing::TempDir("pool_flight");
-  PoolOptions opt;
-  opt.jobs = 2;
-  opt.out_dir = dir;
-  opt.progress_stream = nullptr;
+  PoolOptions opt = Quiet(dir, 2);
   opt.return_log = [](const RunPoint& p) { return p.seed != 3; };
   std::filesystem::create_directories(dir + "/runs/" + Points(2)[1].RunId());
   ASSERT_TRUE(logs::WriteFlightLog(FakeFlight(99), dir + "/runs/" + Points(2)[1].RunId() + "/log.csv").ok());
@@ -268,10 +262,7 @@ struct InterruptiblePool {
   InterruptiblePool(const std::string& name, int n, const RunFn& run) : dir(testing::TempDir(name)), points(Points(n)) {
     auto db = ResultsDb::Open(dir + "/results.sqlite", true);
     if (!db.ok()) return;
-    PoolOptions opt;
-    opt.jobs = 2;
-    opt.out_dir = dir;
-    opt.progress_stream = nullptr;
+    PoolOptions opt = Quiet(dir, 2);
     opt.stop = &g_test_interrupts;
     stats = RunPool(points, run, opt, &*db);
     auto read = db->ReadAll();
