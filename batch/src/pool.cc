@@ -62,8 +62,21 @@ struct Running {
   bool timed_out = false;
 };
 
-// The row for a reaped worker, and the summary it left (none when it left none).
-RunRow Collect(const Running& r, int wait_status, double wall_s, std::optional<sim::RunSummary>* summary) {
+// The summary.json a worker left, typed, or why it is unreadable.
+Result<sim::RunSummary> ReadSummary(const std::string& dir) {
+  const std::string path = dir + "/summary.json";
+  auto text = ReadFile(path);
+  if (!text.ok()) return text.status();
+  try {
+    return sim::RunSummaryFromJson(json::parse(*text), path);
+  } catch (const json::exception& e) {
+    return Status::BadInput(path + ": " + e.what());
+  }
+}
+
+// The row for a reaped worker, and the result it left (none when it left none): its summary, and
+// its log when `want_log`.
+RunRow Collect(const Running& r, int wait_status, double wall_s, bool want_log, std::optional<RunResult>* result) {
   const std::string& dir = r.dir;
   if (r.timed_out) return FailedRow(r.point, "timeout", fmt::format("killed after {:.1f} s wall time", wall_s), wall_s);
   if (WIFSIGNALED(wait_status)) {
@@ -71,20 +84,17 @@ RunRow Collect(const Running& r, int wait_status, double wall_s, std::optional<s
     return FailedRow(r.point, "crashed", fmt::format("worker killed by signal {} ({})", sig, strsignal(sig)), wall_s);
   }
   const int code = WIFEXITED(wait_status) ? WEXITSTATUS(wait_status) : -1;
-  if (code == kExitResultWritten) {
-    auto text = ReadFile(dir + "/summary.json");
-    if (text.ok()) {
-      try {
-        auto typed = sim::RunSummaryFromJson(json::parse(*text), dir + "/summary.json");
-        if (!typed.ok()) {
-          return FailedRow(r.point, "crashed", "unreadable summary.json: " + typed.status().message(), wall_s);
-        }
-        *summary = std::move(*typed);
-        return RowFromSummary(r.point, **summary, wall_s);
-      } catch (const json::exception& e) {
-        return FailedRow(r.point, "crashed", std::string("unreadable summary.json: ") + e.what(), wall_s);
-      }
+  if (code == kExitResultWritten && std::filesystem::exists(dir + "/summary.json")) {
+    auto summary = ReadSummary(dir);
+    if (!summary.ok()) return FailedRow(r.point, "crashed", "unreadable summary.json: " + summary.status().message(), wall_s);
+    RunResult out{std::move(*summary), std::nullopt};
+    if (want_log) {
+      auto log = logs::ReadFlightLog(dir + "/log.csv");
+      if (!log.ok()) return FailedRow(r.point, "crashed", "unreadable log.csv: " + log.status().message(), wall_s);
+      out.log = std::move(*log);
     }
+    *result = std::move(out);
+    return RowFromSummary(r.point, (*result)->summary, wall_s);
   }
   if (code == kExitErrorWritten) {
     auto text = ReadFile(dir + "/error.txt");
@@ -97,7 +107,7 @@ RunRow Collect(const Running& r, int wait_status, double wall_s, std::optional<s
 
 Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, const PoolOptions& options,
                           ResultsDb* db) {
-  return RunPool(runs, fn, options, [db](const RunRow& row, const sim::RunSummary* /*summary*/) { return db->Insert(row); });
+  return RunPool(runs, fn, options, [db](const RunRow& row, RunResult* /*result*/) { return db->Insert(row); });
 }
 
 Status ForkEach(size_t n, int jobs, double timeout_s, const std::function<Status(size_t)>& before_fork,
@@ -205,13 +215,18 @@ Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, co
     std::filesystem::create_directories(dir, ec);
     std::filesystem::remove(dir + "/summary.json", ec);  // a result left by a killed earlier attempt
     std::filesystem::remove(dir + "/error.txt", ec);
+    if (options.return_log && options.return_log(runs[i])) {  // nor a log left by one
+      std::filesystem::remove(dir + "/log.csv", ec);
+      std::filesystem::remove(dir + "/log.meta.json", ec);
+    }
     return Status::Ok();
   };
   auto child = [&](size_t i) { return WorkerMain(runs[i], fn, dirs[i]); };
   auto reaped = [&](size_t i, int wait_status, double wall_s, bool timed_out) {
-    std::optional<sim::RunSummary> summary;
-    const RunRow row = Collect(Running{runs[i], dirs[i], 0.0, timed_out}, wait_status, wall_s, &summary);
-    Status s = record(row, summary ? &*summary : nullptr);
+    const bool want_log = options.return_log && options.return_log(runs[i]);
+    std::optional<RunResult> result;
+    const RunRow row = Collect(Running{runs[i], dirs[i], 0.0, timed_out}, wait_status, wall_s, want_log, &result);
+    Status s = record(row, result ? &*result : nullptr);
     ++stats.finished;
     if (IsFailure(row.status)) ++stats.failed;
     progress.RunFinished(row, VariedText(runs[i], varied));

@@ -7,6 +7,7 @@
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <cmath>
 #include <cstdlib>
 #include <map>
 #include <set>
@@ -29,6 +30,15 @@ std::vector<RunPoint> Points(int n) {
     out.push_back(p);
   }
   return out;
+}
+
+// `jobs` workers running into `dir`, without progress lines.
+PoolOptions Quiet(const std::string& dir, int jobs) {
+  PoolOptions opt;
+  opt.jobs = jobs;
+  opt.out_dir = dir;
+  opt.progress_stream = nullptr;
+  return opt;
 }
 
 // A stand-in for a mission: a summary that depends only on the point; seed 3 aborts (a crash),
@@ -54,10 +64,7 @@ std::vector<std::string> RunWithJobs(int jobs, const std::string& name, PoolStat
   const std::string dir = testing::TempDir(name);
   auto db = ResultsDb::Open(dir + "/results.sqlite", true);
   EXPECT_TRUE(db.ok());
-  PoolOptions opt;
-  opt.jobs = jobs;
-  opt.out_dir = dir;
-  opt.progress_stream = nullptr;
+  PoolOptions opt = Quiet(dir, jobs);
   auto stats = RunPool(Points(8), FakeRun, opt, &*db);
   EXPECT_TRUE(stats.ok()) << stats.status().message();
   if (stats.ok()) *stats_out = *stats;
@@ -68,10 +75,7 @@ TEST(RunPool, GivenRunsThatCrashFailAndDivergeWhenPooledThenEachIsRecordedWithIt
   const std::string dir = testing::TempDir("pool_failures");
   auto db = ResultsDb::Open(dir + "/results.sqlite", true);
   ASSERT_TRUE(db.ok());
-  PoolOptions opt;
-  opt.jobs = 2;
-  opt.out_dir = dir;
-  opt.progress_stream = nullptr;
+  PoolOptions opt = Quiet(dir, 2);
   auto stats = RunPool(Points(8), FakeRun, opt, &*db);
   ASSERT_TRUE(stats.ok()) << stats.status().message();
   EXPECT_EQ(stats->finished, 8u);
@@ -119,11 +123,8 @@ TEST(RunPool, GivenARunThatHangsWhenATimeoutIsSetThenItIsKilledAndRecordedAsTime
   const std::string dir = testing::TempDir("pool_timeout");
   auto db = ResultsDb::Open(dir + "/results.sqlite", true);
   ASSERT_TRUE(db.ok());
-  PoolOptions opt;
-  opt.jobs = 2;
-  opt.out_dir = dir;
+  PoolOptions opt = Quiet(dir, 2);
   opt.run_timeout_s = 0.3;
-  opt.progress_stream = nullptr;
   auto hang = [](const RunPoint& p) -> Result<json> {
     if (p.seed == 1) std::this_thread::sleep_for(std::chrono::seconds(30));
     sim::RunSummary done;
@@ -145,17 +146,15 @@ TEST(RunPool, GivenARunThatHangsWhenATimeoutIsSetThenItIsKilledAndRecordedAsTime
 // used to turn it into JSON and straight back into a struct); none for a run that left none.
 TEST(RunPool, GivenFinishedAndCrashedRunsWhenRecordedThenEachFinishedRunsSummaryArrivesTyped) {
   const std::string dir = testing::TempDir("pool_typed");
-  PoolOptions opt;
-  opt.jobs = 2;
-  opt.out_dir = dir;
-  opt.progress_stream = nullptr;
+  PoolOptions opt = Quiet(dir, 2);
   std::map<uint64_t, double> energy;
   std::set<uint64_t> without;
-  auto stats = RunPool(Points(4), FakeRun, opt, [&](const RunRow& row, const sim::RunSummary* s) {
-    if (s == nullptr) {
+  auto stats = RunPool(Points(4), FakeRun, opt, [&](const RunRow& row, RunResult* r) {
+    if (r == nullptr) {
       without.insert(row.seed);
     } else {
-      energy[row.seed] = s->energy_Wh;
+      energy[row.seed] = r->summary.energy_Wh;
+      EXPECT_FALSE(r->log.has_value());  // nobody asked for it
     }
     return Status::Ok();
   });
@@ -164,6 +163,70 @@ TEST(RunPool, GivenFinishedAndCrashedRunsWhenRecordedThenEachFinishedRunsSummary
   ASSERT_EQ(energy.size(), 2u);
   EXPECT_DOUBLE_EQ(energy[1], 2.5);
   EXPECT_DOUBLE_EQ(energy[2], 3.5);
+}
+
+// A flight whose values need every digit (thirds, a subnormal, a negative zero, NaN): what a worker
+// of seed s flies in memory, and leaves as its run's log.csv when seed s is not 2.
+logs::FlightLog FakeFlight(uint64_t seed) {
+  logs::FlightLog log;
+  log.meta = {{"source", "pool_test"}, {"seed", seed}};
+  const double s = static_cast<double>(seed);
+  const std::vector<std::vector<double>> rows = {{0.0, s / 3.0, 1e300 * s},
+                                                 {0.1, -0.0, -2.0 / 7.0},
+                                                 {0.2, 4.9406564584124654e-324, 0.1 + 0.2},
+                                                 {1.0 / 3.0, logs::kMissing, std::nextafter(1.0, 2.0)}};
+  for (const auto& row : rows) {
+    log.AppendRow();
+    log.Set("t_s", row[0]);
+    log.Set("pos_N_m", row[1]);
+    log.Set("yaw_rad", row[2]);
+  }
+  return log;
+}
+
+// The parent gets back, typed, the flights it asked for (compare draws its figures from them; it
+// used to read log.csv itself after the pool) and no other; a run asked for a log it did not leave
+// is a crashed run, not one with an empty flight.
+TEST(RunPool, GivenRunsAskedForTheirFlightWhenRecordedThenEachArrivesTypedAsTheWorkerFlewIt) {
+  const std::string dir = testing::TempDir("pool_flight");
+  PoolOptions opt = Quiet(dir, 2);
+  opt.return_log = [](const RunPoint& p) { return p.seed != 3; };
+  std::filesystem::create_directories(dir + "/runs/" + Points(2)[1].RunId());
+  ASSERT_TRUE(logs::WriteFlightLog(FakeFlight(99), dir + "/runs/" + Points(2)[1].RunId() + "/log.csv").ok());
+  const RunFn run = [&opt](const RunPoint& p) -> Result<json> {
+    if (p.seed != 2) HEXSIM_RETURN_IF_ERROR(logs::WriteFlightLog(FakeFlight(p.seed), opt.out_dir + "/runs/" + p.RunId() + "/log.csv"));
+    sim::RunSummary sum;
+    sum.status = sim::RunStatus::kCompleted;
+    return sim::ToJson(sum);
+  };
+  std::map<uint64_t, logs::FlightLog> flights;
+  std::map<uint64_t, std::string> status;
+  auto stats = RunPool(Points(3), run, opt, [&](const RunRow& row, RunResult* r) {
+    status[row.seed] = row.status + (row.reason.empty() ? "" : ": " + row.reason);
+    if (r != nullptr && r->log) flights[row.seed] = std::move(*r->log);
+    return Status::Ok();
+  });
+  ASSERT_TRUE(stats.ok());
+  ASSERT_EQ(flights.size(), 1u);  // seed 3 was not asked; seed 2 left none (nor the stale one before it)
+  const logs::FlightLog want = FakeFlight(1);
+  const logs::FlightLog& got = flights[1];
+  EXPECT_EQ(got.meta, want.meta);
+  ASSERT_EQ(got.columns(), want.columns());
+  ASSERT_EQ(got.rows(), want.rows());
+  for (size_t c = 0; c < want.columns().size(); ++c) {
+    for (size_t i = 0; i < want.rows(); ++i) {
+      const double a = got.At(i, c), b = want.At(i, c);
+      if (std::isnan(b)) {
+        EXPECT_TRUE(std::isnan(a)) << want.columns()[c] << " row " << i;
+      } else {
+        EXPECT_TRUE(a == b && std::signbit(a) == std::signbit(b))  // every digit, and the sign of a zero
+            << want.columns()[c] << " row " << i << ": " << a << " vs " << b;
+      }
+    }
+  }
+  EXPECT_EQ(status[1], "completed");
+  EXPECT_EQ(status[3], "completed");
+  EXPECT_EQ(status[2].rfind("crashed: unreadable log.csv: ", 0), 0u) << status[2];
 }
 
 // Interruption (CONTRACTS: exit 130). The handler counts signals as apps/cmd_batch.cc's does; a worker
@@ -199,10 +262,7 @@ struct InterruptiblePool {
   InterruptiblePool(const std::string& name, int n, const RunFn& run) : dir(testing::TempDir(name)), points(Points(n)) {
     auto db = ResultsDb::Open(dir + "/results.sqlite", true);
     if (!db.ok()) return;
-    PoolOptions opt;
-    opt.jobs = 2;
-    opt.out_dir = dir;
-    opt.progress_stream = nullptr;
+    PoolOptions opt = Quiet(dir, 2);
     opt.stop = &g_test_interrupts;
     stats = RunPool(points, run, opt, &*db);
     auto read = db->ReadAll();

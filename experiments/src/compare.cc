@@ -94,8 +94,8 @@ Result<CompareResult> RunComparison(const CompareOptions& o, const std::string& 
     return out_dir + "/" + RunDir(name_of.at(p.calibration), p.seed);
   };
   // Each flight runs in a forked worker (batch/pool.h: a crash or a runaway stays in its process):
-  // the summary comes back through the pool's JSON channel and reaches `record` typed again, and
-  // the flight itself stays on disk, where the evidence below reads the first seed's log.
+  // the pool hands its summary back typed and, for the figures, each calibration's first-seed flight.
+  pool.return_log = [&o](const batch::RunPoint& p) { return o.evidence && p.seed == o.request.seed; };
   const batch::RunFn fly = [&o, &pool](const batch::RunPoint& p) -> Result<json> {
     sim::RunRequest req = o.request;
     req.seed = p.seed;
@@ -109,20 +109,23 @@ Result<CompareResult> RunComparison(const CompareOptions& o, const std::string& 
   // Keyed by run id: a row's calibration is the summary's name for it (a calib.yaml path becomes
   // its stem), not necessarily the point's.
   std::map<std::string, sim::RunSummary> summaries;
+  std::map<std::string, logs::FlightLog> flights;
   std::vector<std::string> failures;
-  const batch::RecordFn record = [&](const batch::RunRow& row, const sim::RunSummary* s) {
+  const batch::RecordFn record = [&](const batch::RunRow& row, batch::RunResult* r) {
     if (batch::IsFailure(row.status) && row.status != "diverged") {
       failures.push_back(fmt::format("{} seed {}: {}: {}", row.calibration, row.seed, row.status, row.reason));
       return Status::Ok();
     }
-    if (s == nullptr) {
+    if (r == nullptr) {
       failures.push_back(fmt::format("{} seed {}: no summary", row.calibration, row.seed));
       return Status::Ok();
     }
+    const sim::RunSummary& s = r->summary;
     std::fprintf(stderr, "compare: %-17s seed %-4llu %-13s yaw max %6.2f deg  cross-track rms %5.2f m\n",
-                 row.calibration.c_str(), static_cast<unsigned long long>(row.seed), sim::RunStatusName(s->status),
-                 s->yaw_error_deg.max, s->cross_track_m.rms);
-    summaries[row.run_id] = *s;
+                 row.calibration.c_str(), static_cast<unsigned long long>(row.seed), sim::RunStatusName(s.status),
+                 s.yaw_error_deg.max, s.cross_track_m.rms);
+    summaries[row.run_id] = s;
+    if (r->log) flights[row.run_id] = std::move(*r->log);
     return Status::Ok();
   };
   auto stats = batch::RunPool(points, fly, pool, record);
@@ -162,11 +165,11 @@ Result<CompareResult> RunComparison(const CompareOptions& o, const std::string& 
   if (!fits.ok()) return fits.status().WithContext("report");
   ev.ground_fits = std::move(*fits);
   ev.heading = std::move(table1->curves);
-  // The parent never held these flights (forked workers flew them): their log.csv is the copy.
-  for (const auto& c : o.calibrations) {
-    auto log = logs::ReadFlightLog(out_dir + "/" + RunDir(name_of.at(c), o.request.seed) + "/log.csv");
-    if (!log.ok()) return log.status();
-    ev.first_flights.push_back({name_of.at(c), o.request.seed, std::move(*log)});
+  for (size_t k = 0; k < o.calibrations.size(); ++k) {
+    const batch::RunPoint& first = points[k * static_cast<size_t>(o.seeds)];
+    const auto it = flights.find(first.RunId());
+    if (it == flights.end()) return Status::Numerical(fmt::format("compare: {} seed {}: no flight", first.calibration, first.seed));
+    ev.first_flights.push_back({name_of.at(first.calibration), first.seed, std::move(it->second)});
   }
   if (!ev.first_flights.empty()) ev.planned_path_N_m = PlannedPath(*base, ev.first_flights.front().log);
   return out;

@@ -1,8 +1,16 @@
 #include "hexsim/experiments/comparison.h"
 
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <string>
+
 #include <gtest/gtest.h>
 
+#include "hexsim/experiments/compare.h"
 #include "hexsim/experiments/ground_calibration.h"
+#include "hexsim/experiments/point_runner.h"
 
 namespace hexsim::experiments {
 namespace {
@@ -66,6 +74,48 @@ TEST(ComparisonToJson, GivenOneSeedThenTheContractKeysAreWrittenAndTheIntervalCo
   const std::string table = ComparisonTable(c);
   EXPECT_NE(table.find("uncorrected"), std::string::npos);
   EXPECT_NE(table.find("3.00 ± 0.00"), std::string::npos);
+}
+
+// compare's typed path end to end: the first flight and the summary that reach the parent from the
+// pool's forked worker are the ones flown in-process, value for value (the wall time aside).
+TEST(RunComparison, GivenOneSeedWhenComparedThenTheFlightAndSummaryFromTheWorkerAreTheInProcessOnes) {
+  CompareOptions o;
+  o.request.duration_s = 20.0;
+  o.request.seed = 3;
+  o.calibrations = {"adaptive"};
+  o.seeds = 1;
+  const std::string dir =
+      (std::filesystem::temp_directory_path() / ("hexsim_compare_typed_" + std::to_string(getpid()))).string();
+  std::filesystem::remove_all(dir);
+  auto got = RunComparison(o, dir);
+  ASSERT_TRUE(got.ok()) << got.status().message();
+  auto setup = sim::LoadRunSetup(o.request);
+  ASSERT_TRUE(setup.ok()) << setup.status().message();
+  auto want = FlyPoint(std::move(*setup), "adaptive");
+  ASSERT_TRUE(want.ok()) << want.status().message();
+  std::filesystem::remove_all(dir);
+
+  ASSERT_EQ(got->comparison.runs.size(), 1u);
+  nlohmann::json got_summary = sim::ToJson(got->comparison.runs[0].summary);
+  nlohmann::json want_summary = sim::ToJson(want->summary);
+  got_summary.erase("wall_s");
+  want_summary.erase("wall_s");
+  EXPECT_EQ(got_summary, want_summary);
+  ASSERT_EQ(got->evidence.first_flights.size(), 1u);
+  const logs::FlightLog& flight = got->evidence.first_flights[0].log;
+  const logs::FlightLog& flown = want->log;
+  EXPECT_EQ(flight.meta, flown.meta);
+  ASSERT_EQ(flight.columns(), flown.columns());
+  ASSERT_EQ(flight.rows(), flown.rows());
+  ASSERT_GT(flown.rows(), 100u);
+  size_t differing = 0;
+  for (size_t c = 0; c < flown.columns().size(); ++c) {
+    for (size_t i = 0; i < flown.rows(); ++i) {
+      const double a = flight.At(i, c), b = flown.At(i, c);
+      if (std::isnan(b) ? !std::isnan(a) : a != b) ++differing;
+    }
+  }
+  EXPECT_EQ(differing, 0u);
 }
 
 }  // namespace

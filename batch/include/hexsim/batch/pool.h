@@ -6,6 +6,7 @@
 #include <csignal>
 #include <cstdio>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,7 @@
 #include "hexsim/batch/batch_spec.h"
 #include "hexsim/batch/results_db.h"
 #include "hexsim/common/status.h"
+#include "hexsim/logs/flight_log.h"
 
 namespace hexsim::batch {
 
@@ -31,6 +33,9 @@ struct PoolOptions {
   // group) and die with the parent. At 1 no further run starts and the running ones finish and are
   // recorded; at 2 they are killed, not recorded, and their folders removed.
   const volatile std::sig_atomic_t* stop = nullptr;
+  // The runs whose flight the parent gets back (empty: none): their RunFn leaves it in the run's
+  // folder as log.csv (logs::WriteFlightLog), which the pool reads back typed for `record`.
+  std::function<bool(const RunPoint&)> return_log;
 };
 
 // Runs inside the worker process: the run's summary (hexsim.summary/1), or why there is none.
@@ -44,9 +49,17 @@ struct PoolStats {
   double wall_s = 0.0;
 };
 
-// Runs in the parent as each run ends: its row, and the summary it left, read back typed (null when
-// it left none). An error stops new runs from starting; the running ones are still collected.
-using RecordFn = std::function<Status(const RunRow& row, const sim::RunSummary* summary)>;
+// What a finished run hands the parent, typed: the summary.json its worker wrote, and its log.csv
+// when PoolOptions::return_log asked for it. Each crosses the process boundary once, as that file.
+struct RunResult {
+  sim::RunSummary summary;
+  std::optional<logs::FlightLog> log;
+};
+
+// Runs in the parent as each run ends: its row, and its result (null when it left none; a run asked
+// for its log that left none unreadable is "crashed"). `record` may move from the result. An error
+// stops new runs from starting; the running ones are still collected.
+using RecordFn = std::function<Status(const RunRow& row, RunResult* result)>;
 
 // Runs every point, at most options.jobs at a time, each in a forked worker, and records each as it ends.
 Result<PoolStats> RunPool(const std::vector<RunPoint>& runs, const RunFn& fn, const PoolOptions& options,

@@ -28,7 +28,7 @@ struct CompareOptions {
   Status IsValid() const;
 };
 
-// A calibration's first-seed flight, read back from the log its worker wrote.
+// A calibration's first-seed flight, as its worker flew it (batch::RunResult::log).
 struct FlownRun {
   std::string calibration;
   uint64_t seed = 0;
