@@ -81,6 +81,11 @@ void JudgeExact(const Vec3& b, const Eigen::Matrix3d& Vb, const Vec3& d, const E
 
 }  // namespace
 
+Interval JudgedInterval(double value, double sd_sandwich, double sd_jackknife, double t975) {
+  const double half = t975 * std::max(sd_sandwich, sd_jackknife);
+  return {value - half, value + half};
+}
+
 NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, const DiagnoseOptions& o) {
   NuisanceReport nr;
   if (base.p() < 6 || !base.full.ok) return nr;
@@ -89,7 +94,7 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
   const Vec3 b = base.full.beta.head<3>();
   const Vec3 d = base.full.beta.segment<3>(3);
   const Eigen::Matrix3d Vb = base.cov.block<3, 3>(0, 0), Vd = base.cov.block<3, 3>(3, 3);
-  // The reported intervals' (JackknifeCov); the range tests keep the sandwich.
+  // The reported intervals' (JackknifeCov); the range tests take the wider of it and the sandwich.
   const Eigen::MatrixXd Vjk = JackknifeCov(base);
   const Eigen::Matrix3d Jb = Vjk.block<3, 3>(0, 0), Jd = Vjk.block<3, 3>(3, 3);
   const Vec3 B = ch.field_N_uT;
@@ -156,7 +161,9 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
     const plausibility::PhysicalRange* off = plausibility::FindRange("hard_iron_offset");
     const plausibility::PhysicalRange* an = plausibility::FindRange("local_anomaly");
     const plausibility::PhysicalRange* sc = plausibility::FindRange("field_scale");
-    if (b_norm - t975 * b_sd > off->normal_hi) {
+    // Each term is judged by JudgedInterval: beyond a range only where the interval it is printed
+    // with says so too.
+    if (JudgedInterval(b_norm, b_sd, b_ci_sd, t975).lo > off->normal_hi) {
       nr.out_of_range = "hard_iron_offset";
       nr.beyond_normal.emplace_back("hard_iron_offset");
       nr.findings.push_back(fmt::format("{}: residual offset ({:.0f}, {:.0f}, {:.0f}) mG, beyond the normal {:.0f} mG: "
@@ -167,16 +174,20 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
     // A field correction across the WMM direction beyond its normal range is an anomaly (or a
     // heading error), which a sensor scale cannot produce; the anomaly explains the norm change along
     // the field as well, so it is named before the scale (one cause for both parts).
-    const bool anomaly_out = perp_norm - t975 * perp_sd > an->normal_hi;
-    const double scale_h = 1.0 + s_along;  // the scale term's (horizontal field)
-    if (scale_h < sc->lo || scale_h > sc->hi) {
+    const bool anomaly_out = JudgedInterval(perp_norm, perp_sd, d_ci_sd, t975).lo > an->normal_hi;
+    // The scale term (horizontal field) is judged by its interval, as the offset and the anomaly are:
+    // a point beyond a range whose interval still reaches into it is not resolved beyond it.
+    const double scale_h = 1.0 + s_along;
+    const Interval scale_ci = JudgedInterval(scale_h, s_sd, s_ci_sd, t975);
+    const double scale_lo = scale_ci.lo, scale_hi = scale_ci.hi;
+    if (scale_hi < sc->lo || scale_lo > sc->hi) {
       // Beyond what a compass reads of the Earth field: never a finding to act on.
       nr.findings.push_back(fmt::format("{}: fitted field {:.1f} % {} the WMM field (horizontal part; norm {:+.1f} %), "
                                         "outside the physical range {}: implausible, model mismatch (the field "
                                         "model's place or date, or the log's compass units)",
                                         ch.name, 100 * std::fabs(s_along), s_along < 0 ? "below" : "above",
                                         100 * (scale - 1), plausibility::RangeText("field_scale")));
-    } else if (scale_h < sc->normal_lo || scale_h > sc->normal_hi) {
+    } else if (scale_hi < sc->normal_lo || scale_lo > sc->normal_hi) {
       if (nr.out_of_range.empty() && !anomaly_out) nr.out_of_range = "field_scale";
       if (!anomaly_out) nr.beyond_normal.emplace_back("field_scale");
       nr.findings.push_back(fmt::format("{}: fitted field {:.1f} % {} the WMM field (horizontal part; norm {:+.1f} %): "

@@ -82,6 +82,10 @@ struct NuisanceReport {
   std::vector<std::string> findings;   // plain language
 };
 NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& baseline, const DiagnoseOptions& o);
+// The interval a nuisance term is judged by: value ± t975 times the wider of its two spreads, the
+// cluster sandwich and the block jackknife its printed interval uses (on a real log's slow structure
+// the jackknife can be several times wider: a point beyond a range is then not resolved beyond it).
+Interval JudgedInterval(double value, double sd_sandwich, double sd_jackknife, double t975);
 // A compass misaligned by φ whose readings carry a field-norm error s (a sensor scale, or a field of
 // another size) reads (1 + s)·R(φ)·h: the linear residual φ × h of the prediction h holds (1 + s)·φ.
 // The angle is the coefficient over the baseline's fitted field scale |B_fit|/|B_WMM| (nuisance.cc):

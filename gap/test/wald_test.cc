@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 
 #include "../src/attribution.h"
+#include "../src/verdict.h"
 
 namespace hexsim::gap::internal {
 namespace {
@@ -35,6 +36,20 @@ TEST(WaldTest, GivenEnoughBlocksWhenEffectIsLargeThenSmallP) {
   EXPECT_LT(WaldP(beta, cov, Range(0, q), G), 1e-6);
   Eigen::VectorXd zero = Eigen::VectorXd::Zero(q);
   EXPECT_GT(WaldP(zero, cov, Range(0, q), G), 0.99);
+}
+
+// A nuisance term is judged by the wider of its sandwich and jackknife spreads. Measured on a public
+// PX4 log's 1 Hz internal compass: offset 35.6 uT, sandwich spread small enough that the offset's
+// lower bound stood beyond the normal 5 uT, while the jackknife's printed interval was [0, 77.9] uT,
+// and the verdict named an offset "outside its normal range" printed with an interval reaching 0.
+TEST(GapNuisanceJudgement, GivenAJackknifeWiderThanTheSandwich_ThenTheTermIsJudgedByTheWiderInterval) {
+  const double t975 = 2.26;  // Student-t at 9 degrees of freedom (10 blocks)
+  const Interval narrow = JudgedInterval(35.6, 5.0, 1.0, t975);
+  EXPECT_NEAR(narrow.lo, 35.6 - t975 * 5.0, 1e-12);
+  const Interval wide = JudgedInterval(35.6, 5.0, 17.2, t975);
+  EXPECT_LT(wide.lo, 5.0);  // not beyond the normal 5 uT: not a finding
+  EXPECT_NEAR(wide.hi, 35.6 + t975 * 17.2, 1e-12);
+  EXPECT_GT(JudgedInterval(35.6, 5.0, 4.0, t975).lo, 5.0);  // both narrow: beyond it
 }
 
 }  // namespace
