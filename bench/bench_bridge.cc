@@ -124,7 +124,8 @@ void BM_LoopbackLockstep(benchmark::State& state) {
       const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
       if (n <= 0) break;
       parser.Feed(buf, static_cast<size_t>(n), [&](const Frame& f) {
-        if (f.msgid == kMsgHilSensor && UnpackHilSensor(f).id == 0) t = UnpackHilSensor(f).time_usec;
+        // The newest sample: the server waits on it (paced samples can arrive in a batch).
+        if (f.msgid == kMsgHilSensor && UnpackHilSensor(f).id == 0) t = std::max(t, UnpackHilSensor(f).time_usec);
       });
     }
     out.clear();

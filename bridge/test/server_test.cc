@@ -7,6 +7,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <thread>
@@ -43,15 +44,18 @@ int Connect(int port) {
 
 void SendBytes(int fd, const std::vector<uint8_t>& b) { ASSERT_EQ(::send(fd, b.data(), b.size(), MSG_NOSIGNAL), static_cast<ssize_t>(b.size())); }
 
-// Reads frames until a HIL_SENSOR id 0 arrives; returns its time_usec (0: connection closed).
+// Reads what has arrived until it holds a HIL_SENSOR id 0; returns the newest one's time_usec, the
+// sample the server waits on (0: connection closed). Samples paced before lockstep engaged can wait
+// in the socket in a batch: answering the oldest of a batch would leave the server waiting on the
+// newest, already read, for ever (idle_timeout_s). PX4 stamps its outputs with the newest time too.
 uint64_t NextSensorTime(int fd, FrameParser* p) {
-  uint8_t buf[2048];
+  uint8_t buf[65536];
   uint64_t t = 0;
   while (t == 0) {
     const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
     if (n <= 0) return 0;
     p->Feed(buf, static_cast<size_t>(n), [&](const Frame& f) {
-      if (f.msgid == kMsgHilSensor && UnpackHilSensor(f).id == 0 && t == 0) t = UnpackHilSensor(f).time_usec;
+      if (f.msgid == kMsgHilSensor && UnpackHilSensor(f).id == 0) t = std::max(t, UnpackHilSensor(f).time_usec);
     });
   }
   return t;
@@ -62,13 +66,19 @@ TEST(ServePx4, BadInputIsIgnoredSecondClientRefusedDisconnectEndsTheFlightCleanl
   ServeOptions opt;
   opt.port = 0;
   opt.accept_timeout_s = 30;
-  opt.idle_timeout_s = 30;
+  opt.idle_timeout_s = 5;  // a client that answers a stale sample waits this long, then fails
   opt.log = [&port](const std::string& line) {
     const size_t at = line.find("listening on 127.0.0.1:");
     if (at != std::string::npos) port = std::atoi(line.c_str() + at + 23);
   };
   Result<ServeResult> result = Status::BadInput("not run");
   std::thread server([&] { result = ServePx4(QuadSetup(), opt); });
+  struct JoinOnExit {  // a failed ASSERT returns early: the server ends on its idle timeout, no abort
+    std::thread& t;
+    ~JoinOnExit() {
+      if (t.joinable()) t.join();
+    }
+  } join_on_exit{server};
   while (port == 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   const int fd = Connect(port);
   ASSERT_GE(fd, 0);
@@ -80,6 +90,8 @@ TEST(ServePx4, BadInputIsIgnoredSecondClientRefusedDisconnectEndsTheFlightCleanl
   std::vector<uint8_t> good, bad_crc, unknown, signed_frame, garbage = {0xFD, 0x00, 0xFD, 0x51, 0x01, 0x42};
   uint64_t t = NextSensorTime(fd, &parser);
   ASSERT_GT(t, 0u);
+  // PX4 boots on the paced sensor stream: a backlog of ~40 samples is waiting when lockstep engages.
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
   act.time_usec = t;
   EncodeMessage(&enc, kMsgHilActuatorControls, act, &bad_crc);
   bad_crc[20] ^= 0x55;
