@@ -5,6 +5,7 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -44,6 +45,21 @@ int Connect(int port) {
 
 void SendBytes(int fd, const std::vector<uint8_t>& b) { ASSERT_EQ(::send(fd, b.data(), b.size(), MSG_NOSIGNAL), static_cast<ssize_t>(b.size())); }
 
+// Joins the server thread when a test returns, also early from a failed ASSERT (the server then ends
+// on its idle timeout) instead of aborting on a joinable thread.
+class JoinOnExit {
+ public:
+  explicit JoinOnExit(std::thread& t) : t_(t) {}
+  JoinOnExit(const JoinOnExit&) = delete;
+  JoinOnExit& operator=(const JoinOnExit&) = delete;
+  ~JoinOnExit() {
+    if (t_.joinable()) t_.join();
+  }
+
+ private:
+  std::thread& t_;
+};
+
 // Reads what has arrived until it holds a HIL_SENSOR id 0; returns the newest one's time_usec, the
 // sample the server waits on (0: connection closed). Samples paced before lockstep engaged can wait
 // in the socket in a batch: answering the oldest of a batch would leave the server waiting on the
@@ -73,12 +89,7 @@ TEST(ServePx4, BadInputIsIgnoredSecondClientRefusedDisconnectEndsTheFlightCleanl
   };
   Result<ServeResult> result = Status::BadInput("not run");
   std::thread server([&] { result = ServePx4(QuadSetup(), opt); });
-  struct JoinOnExit {  // a failed ASSERT returns early: the server ends on its idle timeout, no abort
-    std::thread& t;
-    ~JoinOnExit() {
-      if (t.joinable()) t.join();
-    }
-  } join_on_exit{server};
+  JoinOnExit join_on_exit(server);
   while (port == 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   const int fd = Connect(port);
   ASSERT_GE(fd, 0);
@@ -131,6 +142,54 @@ TEST(ServePx4, BadInputIsIgnoredSecondClientRefusedDisconnectEndsTheFlightCleanl
   EXPECT_GE(result->run.log.rows(), 40u);  // ~0.5 s at 100 Hz, closed at the disconnect
   EXPECT_EQ(result->run.summary.status, sim::RunStatus::kCompleted);
   EXPECT_NE(result->run.summary.reason.find("client disconnected"), std::string::npos);
+}
+
+TEST(ServePx4, SecondClientIsRefusedWhileTheFirstIsSilentInLockstep) {
+  std::atomic<int> port{0};
+  ServeOptions opt;
+  opt.port = 0;
+  opt.accept_timeout_s = 30;
+  opt.idle_timeout_s = 20;
+  opt.log = [&port](const std::string& line) {
+    const size_t at = line.find("listening on 127.0.0.1:");
+    if (at != std::string::npos) port = std::atoi(line.c_str() + at + 23);
+  };
+  Result<ServeResult> result = Status::BadInput("not run");
+  std::thread server([&] { result = ServePx4(QuadSetup(), opt); });
+  JoinOnExit join_on_exit(server);
+  while (port == 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  const int fd = Connect(port);
+  ASSERT_GE(fd, 0);
+  FrameParser parser;
+  FrameEncoder enc(1, 1);
+  HilActuatorControls act;
+  act.mode = 129;
+  act.controls = {0.3f, 0.3f, 0.3f, 0.3f};
+  std::vector<uint8_t> good;
+  uint64_t t = NextSensorTime(fd, &parser);
+  for (int step = 0; step < 3 && t > 0; ++step) {  // lockstep engaged: the server now waits on us
+    good.clear();
+    act.time_usec = t;
+    EncodeMessage(&enc, kMsgHilActuatorControls, act, &good);
+    SendBytes(fd, good);
+    t = NextSensorTime(fd, &parser);
+  }
+  ASSERT_GT(t, 0u);
+  // Silent now: the server sits in its blocking receive; a second client is still refused.
+  const int second = Connect(port);
+  ASSERT_GE(second, 0);
+  const timeval two_s{2, 0};
+  ::setsockopt(second, SOL_SOCKET, SO_RCVTIMEO, &two_s, sizeof two_s);
+  uint8_t byte = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(::recv(second, &byte, 1, 0), 0) << "the second client must be closed while the first is silent";
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
+  ::close(second);
+  ::close(fd);
+  server.join();
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  EXPECT_EQ(result->stats.refused_clients, 1u);
+  EXPECT_EQ(result->end_reason, "client disconnected");
 }
 
 TEST(ServePx4, NoClientWithinTheTimeoutIsAClearError) {
