@@ -8,6 +8,9 @@
 
 namespace hexsim::app {
 
+// CONTRACTS: interrupted by SIGINT/SIGTERM (batch, serve-px4).
+constexpr int kExitInterrupted = 130;
+
 // Prints "hexsim: <message>" on stderr (one line) and returns the status's exit code.
 inline int Report(const Status& s) {
   if (s.ok()) return 0;

@@ -55,8 +55,6 @@ class InterruptHandlers {
   struct sigaction old_term_ {};
 };
 
-constexpr int kExitInterrupted = 130;
-
 struct BatchArgs {
   std::string batch_file;
   int jobs = 0;  // 0: every core

@@ -25,8 +25,6 @@ extern "C" void OnStopSignal(int sig) {
   g_stop.store(true);
 }
 
-constexpr int kExitInterrupted = 130;  // CONTRACTS: SIGINT/SIGTERM
-
 struct ServeArgs {
   sim::RunRequest request;
   std::string calibration = "none";

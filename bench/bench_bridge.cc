@@ -2,9 +2,12 @@
 //   BM_EncodeDecodeExchange  one lockstep exchange in-process: HIL_ACTUATOR_CONTROLS encoded and
 //                            parsed, HIL_SENSOR built from readings, encoded and parsed (target <= 5 us)
 //   BM_PhysicsImuPeriod      the physics of one IMU period (quad_x hover, 400 Hz IMU on 1 kHz physics:
-//                            2.5 steps) without the bridge
+//                            2.5 steps on average) without the bridge: the same steps as one exchange
+//   BM_LoopbackPingPong      the socket alone: one send/recv round trip between two threads over
+//                            loopback TCP (TCP_NODELAY, blocking recv) with the exchange's sizes,
+//                            no physics, no bridge: the floor of any exchange on this host
 //   BM_LoopbackLockstep      the whole exchange over loopback TCP with a C++ client answering each
-//                            HIL_SENSOR, physics included (target with the peer <= 50 us + physics)
+//                            HIL_SENSOR, physics included (target with the peer <= 50 us)
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -15,6 +18,7 @@
 #include <atomic>
 #include <ctime>
 #include <thread>
+#include <utility>
 
 #include <benchmark/benchmark.h>
 
@@ -74,17 +78,85 @@ void BM_EncodeDecodeExchange(benchmark::State& state) {
 BENCHMARK(BM_EncodeDecodeExchange);
 
 void BM_PhysicsImuPeriod(benchmark::State& state) {
+  uint64_t hooks = 0;
   sim::Plugins plugins;
-  plugins.command_hook = [](double, const control::NavState&, std::vector<double>* c) {
+  plugins.command_hook = [&hooks](double, const control::NavState&, std::vector<double>* c) {
     std::fill(c->begin(), c->end(), 0.345);
+    ++hooks;
   };
   auto sim = sim::Simulation::Create(QuadSetup(3600.0), std::move(plugins)).value();
   for (auto _ : state) {
-    for (int i = 0; i < 5; ++i) sim->Step();  // 5 physics steps = 2 IMU periods
+    // One IMU period, as one lockstep exchange: physics steps up to the next command hook (2 or 3
+    // of the 1 kHz steps per 400 Hz sample).
+    const uint64_t before = hooks;
+    while (hooks == before) sim->Step();
   }
-  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()) * 2);  // items = IMU periods
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));  // items = IMU periods
 }
-BENCHMARK(BM_PhysicsImuPeriod);
+BENCHMARK(BM_PhysicsImuPeriod)->UseRealTime();
+
+// A connected loopback TCP pair (TCP_NODELAY on both ends); {-1, -1} when the host refuses.
+std::pair<int, int> LoopbackPair() {
+  const int lfd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  inet_pton(AF_INET, "127.0.0.1", &a.sin_addr);
+  socklen_t len = sizeof a;
+  int c = -1, s = -1;
+  if (::bind(lfd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0 && ::listen(lfd, 1) == 0 &&
+      ::getsockname(lfd, reinterpret_cast<sockaddr*>(&a), &len) == 0) {
+    c = ::socket(AF_INET, SOCK_STREAM, 0);
+    if (::connect(c, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0) s = ::accept(lfd, nullptr, nullptr);
+  }
+  ::close(lfd);
+  if (s < 0) {
+    if (c >= 0) ::close(c);
+    return {-1, -1};
+  }
+  const int one = 1;
+  ::setsockopt(c, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+  ::setsockopt(s, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+  return {s, c};
+}
+
+// Receives exactly n bytes; false when the peer closed.
+bool RecvAll(int fd, uint8_t* buf, size_t n) {
+  for (size_t at = 0; at < n;) {
+    const ssize_t r = ::recv(fd, buf + at, n - at, 0);
+    if (r <= 0) return false;
+    at += static_cast<size_t>(r);
+  }
+  return true;
+}
+
+void BM_LoopbackPingPong(benchmark::State& state) {
+  constexpr size_t kSensorBytes = 12 + 65;    // HIL_SENSOR id 0 framed (no trailing zeros cut)
+  constexpr size_t kActuatorBytes = 12 + 81;  // HIL_ACTUATOR_CONTROLS framed
+  const auto [s, c] = LoopbackPair();
+  if (s < 0) {
+    state.SkipWithError("no loopback TCP pair");
+    return;
+  }
+  std::thread answerer([c = c] {
+    uint8_t in[kSensorBytes], reply[kActuatorBytes] = {};
+    while (RecvAll(c, in, sizeof in)) {
+      if (::send(c, reply, sizeof reply, MSG_NOSIGNAL) != static_cast<ssize_t>(sizeof reply)) break;
+    }
+  });
+  uint8_t out[kSensorBytes] = {}, in[kActuatorBytes];
+  for (auto _ : state) {
+    if (::send(s, out, sizeof out, MSG_NOSIGNAL) != static_cast<ssize_t>(sizeof out) || !RecvAll(s, in, sizeof in)) {
+      state.SkipWithError("loopback pair closed");
+      break;
+    }
+  }
+  ::shutdown(s, SHUT_RDWR);
+  answerer.join();
+  ::close(s);
+  ::close(c);
+  state.SetItemsProcessed(static_cast<int64_t>(state.iterations()));  // items = round trips
+}
+BENCHMARK(BM_LoopbackPingPong)->UseRealTime();
 
 void BM_LoopbackLockstep(benchmark::State& state) {
   std::atomic<int> port{0};
@@ -124,7 +196,8 @@ void BM_LoopbackLockstep(benchmark::State& state) {
       const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
       if (n <= 0) break;
       parser.Feed(buf, static_cast<size_t>(n), [&](const Frame& f) {
-        if (f.msgid == kMsgHilSensor && UnpackHilSensor(f).id == 0) t = UnpackHilSensor(f).time_usec;
+        // The newest sample: the server waits on it (paced samples can arrive in a batch).
+        if (f.msgid == kMsgHilSensor && UnpackHilSensor(f).id == 0) t = std::max(t, UnpackHilSensor(f).time_usec);
       });
     }
     out.clear();

@@ -5,8 +5,10 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <thread>
@@ -43,44 +45,85 @@ int Connect(int port) {
 
 void SendBytes(int fd, const std::vector<uint8_t>& b) { ASSERT_EQ(::send(fd, b.data(), b.size(), MSG_NOSIGNAL), static_cast<ssize_t>(b.size())); }
 
-// Reads frames until a HIL_SENSOR id 0 arrives; returns its time_usec (0: connection closed).
+// ServePx4 on a free port in a thread. The destructor joins it, also after a failed ASSERT returned
+// early (the server then ends on its idle timeout) instead of aborting on a joinable thread.
+class ServerThread {
+ public:
+  explicit ServerThread(double idle_timeout_s) {
+    opt_.port = 0;
+    opt_.accept_timeout_s = 30;
+    opt_.idle_timeout_s = idle_timeout_s;
+    opt_.log = [this](const std::string& line) {
+      const size_t at = line.find("listening on 127.0.0.1:");
+      if (at != std::string::npos) port_ = std::atoi(line.c_str() + at + 23);
+    };
+    thread_ = std::thread([this] { result_ = ServePx4(QuadSetup(), opt_); });
+    while (port_ == 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ServerThread(const ServerThread&) = delete;
+  ServerThread& operator=(const ServerThread&) = delete;
+  ~ServerThread() { Join(); }
+  int port() const { return port_; }
+  void Join() {
+    if (thread_.joinable()) thread_.join();
+  }
+  // After Join().
+  const Result<ServeResult>& result() const { return result_; }
+
+ private:
+  ServeOptions opt_;
+  std::atomic<int> port_{0};
+  Result<ServeResult> result_ = Status::BadInput("not run");
+  std::thread thread_;
+};
+
+// Reads what has arrived until it holds a HIL_SENSOR id 0; returns the newest one's time_usec, the
+// sample the server waits on (0: connection closed). Samples paced before lockstep engaged can wait
+// in the socket in a batch: answering the oldest of a batch would leave the server waiting on the
+// newest, already read, for ever (idle_timeout_s). PX4 stamps its outputs with the newest time too.
 uint64_t NextSensorTime(int fd, FrameParser* p) {
-  uint8_t buf[2048];
+  uint8_t buf[65536];
   uint64_t t = 0;
   while (t == 0) {
     const ssize_t n = ::recv(fd, buf, sizeof buf, 0);
     if (n <= 0) return 0;
     p->Feed(buf, static_cast<size_t>(n), [&](const Frame& f) {
-      if (f.msgid == kMsgHilSensor && UnpackHilSensor(f).id == 0 && t == 0) t = UnpackHilSensor(f).time_usec;
+      if (f.msgid == kMsgHilSensor && UnpackHilSensor(f).id == 0) t = std::max(t, UnpackHilSensor(f).time_usec);
     });
   }
   return t;
 }
 
+// Armed outputs (0.3 on each motor) stamped t, as the scripted client sends them.
+HilActuatorControls Outputs(uint64_t t) {
+  HilActuatorControls act;
+  act.time_usec = t;
+  act.mode = 129;
+  act.controls = {0.3f, 0.3f, 0.3f, 0.3f};
+  return act;
+}
+
+// Answers the sample at t and returns the next sample's time_usec (0: connection closed).
+uint64_t AnswerThenNext(int fd, FrameEncoder* enc, FrameParser* p, uint64_t t) {
+  std::vector<uint8_t> bytes;
+  EncodeMessage(enc, kMsgHilActuatorControls, Outputs(t), &bytes);
+  if (::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(bytes.size())) return 0;
+  return NextSensorTime(fd, p);
+}
+
 TEST(ServePx4, BadInputIsIgnoredSecondClientRefusedDisconnectEndsTheFlightCleanly) {
-  std::atomic<int> port{0};
-  ServeOptions opt;
-  opt.port = 0;
-  opt.accept_timeout_s = 30;
-  opt.idle_timeout_s = 30;
-  opt.log = [&port](const std::string& line) {
-    const size_t at = line.find("listening on 127.0.0.1:");
-    if (at != std::string::npos) port = std::atoi(line.c_str() + at + 23);
-  };
-  Result<ServeResult> result = Status::BadInput("not run");
-  std::thread server([&] { result = ServePx4(QuadSetup(), opt); });
-  while (port == 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ServerThread server(5.0);  // a client that answers a stale sample waits this long, then fails
+  const int port = server.port();
   const int fd = Connect(port);
   ASSERT_GE(fd, 0);
   FrameParser parser;
   FrameEncoder enc(1, 1);
-  HilActuatorControls act;
-  act.mode = 129;
-  act.controls = {0.3f, 0.3f, 0.3f, 0.3f};
   std::vector<uint8_t> good, bad_crc, unknown, signed_frame, garbage = {0xFD, 0x00, 0xFD, 0x51, 0x01, 0x42};
   uint64_t t = NextSensorTime(fd, &parser);
   ASSERT_GT(t, 0u);
-  act.time_usec = t;
+  // PX4 boots on the paced sensor stream: a backlog of ~40 samples is waiting when lockstep engages.
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  const HilActuatorControls act = Outputs(t);
   EncodeMessage(&enc, kMsgHilActuatorControls, act, &bad_crc);
   bad_crc[20] ^= 0x55;
   EncodeMessage(&enc, kMsgHeartbeat, Heartbeat{}, &unknown);
@@ -91,22 +134,18 @@ TEST(ServePx4, BadInputIsIgnoredSecondClientRefusedDisconnectEndsTheFlightCleanl
   const int second = Connect(port);  // refused: accepted and closed at once
   ASSERT_GE(second, 0);
   for (int step = 0; step < 200; ++step) {
-    good.clear();
-    act.time_usec = t;
-    EncodeMessage(&enc, kMsgHilActuatorControls, act, &good);
-    SendBytes(fd, good);
-    t = NextSensorTime(fd, &parser);
+    t = AnswerThenNext(fd, &enc, &parser, t);
     ASSERT_GT(t, 0u);
   }
   uint8_t byte = 0;
   EXPECT_EQ(::recv(second, &byte, 1, 0), 0) << "the second client must be closed";
   ::close(second);
-  good.clear();
   EncodeMessage(&enc, kMsgHilActuatorControls, act, &good);
   good.resize(good.size() / 2);  // half a frame, then gone
   SendBytes(fd, good);
   ::close(fd);
-  server.join();
+  server.Join();
+  const Result<ServeResult>& result = server.result();
   ASSERT_TRUE(result.ok()) << result.status().message();
   EXPECT_EQ(result->end_reason, "client disconnected");
   const ServeStats& s = result->stats;
@@ -119,6 +158,34 @@ TEST(ServePx4, BadInputIsIgnoredSecondClientRefusedDisconnectEndsTheFlightCleanl
   EXPECT_GE(result->run.log.rows(), 40u);  // ~0.5 s at 100 Hz, closed at the disconnect
   EXPECT_EQ(result->run.summary.status, sim::RunStatus::kCompleted);
   EXPECT_NE(result->run.summary.reason.find("client disconnected"), std::string::npos);
+}
+
+TEST(ServePx4, SecondClientIsRefusedWhileTheFirstIsSilentInLockstep) {
+  ServerThread server(20.0);
+  const int port = server.port();
+  const int fd = Connect(port);
+  ASSERT_GE(fd, 0);
+  FrameParser parser;
+  FrameEncoder enc(1, 1);
+  uint64_t t = NextSensorTime(fd, &parser);
+  for (int step = 0; step < 3 && t > 0; ++step) t = AnswerThenNext(fd, &enc, &parser, t);
+  ASSERT_GT(t, 0u);
+  // Silent now: lockstep engaged, the server waits on our answer; a second client is still refused.
+  const int second = Connect(port);
+  ASSERT_GE(second, 0);
+  const timeval two_s{2, 0};
+  ::setsockopt(second, SOL_SOCKET, SO_RCVTIMEO, &two_s, sizeof two_s);
+  uint8_t byte = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(::recv(second, &byte, 1, 0), 0) << "the second client must be closed while the first is silent";
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
+  ::close(second);
+  ::close(fd);
+  server.Join();
+  const Result<ServeResult>& result = server.result();
+  ASSERT_TRUE(result.ok()) << result.status().message();
+  EXPECT_EQ(result->stats.refused_clients, 1u);
+  EXPECT_EQ(result->end_reason, "client disconnected");
 }
 
 TEST(ServePx4, NoClientWithinTheTimeoutIsAClearError) {

@@ -12,6 +12,7 @@
 // Skips (saying so) only when node is not installed; the npm fixture (bridge_peer_npm) installs
 // node-mavlink from bridge/test/peer/package-lock.json into the build tree.
 #include <netinet/in.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -98,6 +99,10 @@ class PeerFlight : public ::testing::Test {
     int status = 0;
     ::waitpid(pid, &status, 0);
     server_rc_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    rusage children{};  // node and hexsim, both waited for: the flight's CPU, whatever else runs
+    ::getrusage(RUSAGE_CHILDREN, &children);
+    peer_cpu_s_ = static_cast<double>(children.ru_utime.tv_sec + children.ru_stime.tv_sec) +
+                  1e-6 * static_cast<double>(children.ru_utime.tv_usec + children.ru_stime.tv_usec);
   }
 
   void SetUp() override {
@@ -116,7 +121,7 @@ class PeerFlight : public ::testing::Test {
   static inline fs::path dir_;
   static inline int peer_rc_ = -1, server_rc_ = -1;
   static inline int battery_port_ = FreeUdpPort();
-  static inline double peer_wall_s_ = 0.0;
+  static inline double peer_wall_s_ = 0.0, peer_cpu_s_ = 0.0;
   nlohmann::json peer_, meta_;
   logs::FlightLog log_;
 };
@@ -135,9 +140,12 @@ TEST_F(PeerFlight, TakesOffAndHoldsAltitudeWithinHalfAMetre) {
   }
   EXPECT_GE(n, 3000u);
   EXPECT_LE(worst, 0.5);
-  std::printf("peer hover: worst height error %.3f m over %.0f s; %.1f s wall for %.1f s simulated\n", worst,
-              window_hi - window_lo, peer_wall_s_, t.back());
-  EXPECT_LT(peer_wall_s_, 10.0 * 4);  // the 10 s target is measured in bench/; a loaded CI host gets 4x
+  std::printf("peer hover: worst height error %.3f m over %.0f s; %.1f s wall (%.1f s CPU, node and hexsim) for "
+              "%.1f s simulated\n",
+              worst, window_hi - window_lo, peer_wall_s_, peer_cpu_s_, t.back());
+  // Target: the 30 s hover under 10 s wall (bench/README.md: this line over 10 runs on the shared
+  // host); a loaded CI host gets 4x.
+  EXPECT_LT(peer_wall_s_, 10.0 * 4);
 }
 
 TEST_F(PeerFlight, NoStepSkippedOrRepeated) {
