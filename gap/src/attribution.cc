@@ -28,7 +28,7 @@ std::vector<int> BlockIndex(size_t n, int G) {
 
 int BlockCount(const std::vector<double>& t, const DiagnoseOptions& o) {
   const size_t n = t.size();
-  if (n < 2) return kMinBlocks;
+  if (n < 2) return kMinAnalysisBlocks;
   // The time the samples cover: each sample's step to the next, a gap (held-out blocks between,
   // a dropout) counted as one typical step.
   std::vector<double> dt;
@@ -42,7 +42,7 @@ int BlockCount(const std::vector<double>& t, const DiagnoseOptions& o) {
   const double by_time = std::floor(covered / o.min_block_s);
   const double by_samples = std::floor(static_cast<double>(n) / o.min_block_samples);
   const double g = std::min({static_cast<double>(o.blocks), by_time, by_samples});
-  return std::max(kMinBlocks, static_cast<int>(g));
+  return std::max(kMinAnalysisBlocks, static_cast<int>(g));
 }
 
 Block SumBlocks(const std::vector<Block>& blocks, const std::vector<double>& w, int p) {

@@ -29,8 +29,8 @@ struct Fit {
 
 // The number of contiguous blocks a channel's samples `t` (s) are cut into (equal sample counts):
 // as many as DiagnoseOptions::blocks allows while each block covers min_block_s of flight and holds
-// min_block_samples samples; never fewer than kMinBlocks (the CV needs two folds of two blocks).
-constexpr int kMinBlocks = 4;
+// min_block_samples samples; never fewer than kMinAnalysisBlocks (channels.h: the CV needs two
+// folds of two blocks).
 int BlockCount(const std::vector<double>& t, const DiagnoseOptions& o);
 Fit Solve(const std::vector<Block>& blocks, const std::vector<double>& w, int p);
 // The weighted sums Σ_b w_b·(A_b, g_b, s_b, n_b) of p-parameter blocks, and the fit from them.
