@@ -15,6 +15,14 @@ logs::FlightLog FramelessLog() {
   return log;
 }
 
+// A quad's log (FRAME 1, four motors) with too little flight to identify the vehicle.
+logs::FlightLog ShortQuadLog() {
+  logs::FlightLog log = FramelessLog();
+  log.meta["params"] = {{"FRAME", 1}};
+  log.meta["motor_count"] = 4;
+  return log;
+}
+
 TEST(DiagnoseLog, GivenAnEmptyLogThenItIsBadInputNamingTheLog) {
   LogDiagnosisOptions o;
   o.log_name = "flight.csv";
@@ -52,9 +60,7 @@ TEST(DiagnoseLog, GivenAVehicleAndAToBeforeTheFromThenItIsBadInput) {
 TEST(DiagnoseLog, GivenNoVehicleAndALogTooShortToIdentifyThenTheBaseVehicleIsUsedAndSaidSo) {
   LogDiagnosisOptions o;
   o.log_name = "flight.csv";
-  logs::FlightLog log = FramelessLog();
-  log.meta["params"] = {{"FRAME", 1}};
-  log.meta["motor_count"] = 4;
+  const logs::FlightLog log = ShortQuadLog();
   auto d = DiagnoseLog(log, o);
   ASSERT_TRUE(d.ok()) << d.status().message();
   EXPECT_FALSE(d->identified);
@@ -73,9 +79,7 @@ TEST(DiagnoseLog, GivenNoVehicleAndALogTooShortToIdentifyThenTheBaseVehicleIsUse
 TEST(DiagnoseLog, GivenNoVehicleThenTheBasesWiringIsNotModelledAndSaidSo) {
   LogDiagnosisOptions o;
   o.log_name = "flight.csv";
-  logs::FlightLog log = FramelessLog();
-  log.meta["params"] = {{"FRAME", 1}};
-  log.meta["motor_count"] = 4;
+  const logs::FlightLog log = ShortQuadLog();
   auto d = DiagnoseLog(log, o);
   ASSERT_TRUE(d.ok()) << d.status().message();
   EXPECT_TRUE(d->vehicle.wiring.segments.empty());
