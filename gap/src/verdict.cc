@@ -270,8 +270,8 @@ void AddRefusedFindings(const std::vector<CandidateResult>& all, bool structure,
 }
 
 // The nuisance terms beyond their normal ranges that join fitted effects: plausible (a term outside
-// its physical range is a model mismatch, never an effect), and not a name already listed (the
-// per-axis scale family and the field scale share scale_error).
+// its physical range is a model mismatch, never an effect), and not an effect already listed (the
+// per-axis gains, scale_error, and the Earth field's scale, field_scale, are two effects).
 std::vector<CandidateResult> NuisanceBeside(const NuisanceReport& nu, const std::vector<EffectShare>& effects) {
   std::vector<CandidateResult> out;
   for (const CandidateResult& t : nu.terms) {
