@@ -12,6 +12,9 @@ namespace {
 Status ChooseVehicle(const LogDiagnosisOptions& o, logs::FlightLog* log, LogDiagnosis* d) {
   auto base = identify::ChooseBaseVehicle(*log, o.vehicle, "auto", o.log_name, "give --sim VEHICLE");
   if (!base.ok()) return base.status();
+  // Without --sim the base's wiring is hexsim's airframe's, not this one's: each compass is compared
+  // with no modelled current field, so its gap is the log's whole current field (= the absolute term).
+  if (o.vehicle.empty()) HEXSIM_RETURN_IF_ERROR(identify::DropWiring(&base->params, &base->yaml));
   d->vehicle = base->params;
   d->vehicle_yaml = base->yaml;
   d->stem = FileStem(base->path);
@@ -24,11 +27,6 @@ Status ChooseVehicle(const LogDiagnosisOptions& o, logs::FlightLog* log, LogDiag
     return Status::Ok();
   }
   d->lines.push_back("frame " + base->frame + " (" + base->frame_source + "): base " + base->params.name);
-  // The base's wiring is hexsim's airframe's, not this one's: each compass is compared with no
-  // modelled current field, so its gap is the log's whole current field (= the absolute term).
-  HEXSIM_RETURN_IF_ERROR(identify::DropWiring(&base->params, &base->yaml));
-  d->vehicle = base->params;
-  d->vehicle_yaml = base->yaml;
   d->vehicle_source["wiring"] = "none: the base's wiring layout is not this airframe's; the compasses are compared "
                                 "with no modelled current field";
   d->lines.push_back("no --sim: " + base->params.name + "'s wiring is not this airframe's: the compasses are compared "

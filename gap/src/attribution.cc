@@ -8,6 +8,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/LU>
 
+#include "replay_util.h"
 #include "stats.h"
 
 namespace hexsim::gap::internal {
@@ -34,9 +35,7 @@ int BlockCount(const std::vector<double>& t, const DiagnoseOptions& o) {
   std::vector<double> dt;
   dt.reserve(n - 1);
   for (size_t k = 1; k < n; ++k) dt.push_back(t[k] - t[k - 1]);
-  std::vector<double> sorted = dt;
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
-  const double step = std::max(0.0, sorted[sorted.size() / 2]);
+  const double step = std::max(0.0, MedianFinite(dt));
   double covered = step;
   for (double d : dt) covered += (d > 0 && d <= 5.0 * step) ? d : step;
   const double by_time = std::floor(covered / o.min_block_s);
