@@ -227,7 +227,7 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
     const auto it = var.find(k.effect);
     if (it == var.end() || k.id == Effect::kLatency) continue;
     const double lo = k.magnitude - k.magnitude_ci95[0], hi = k.magnitude_ci95[1] - k.magnitude;
-    const bool norm = k.id != Effect::kScaleError;  // every other magnitude is a norm or a lag (>= 0)
+    const bool norm = !Info(k.id).signed_magnitude;
     k.magnitude_ci95[0] = k.magnitude - std::sqrt(lo * lo + it->second);
     k.magnitude_ci95[1] = k.magnitude + std::sqrt(hi * hi + it->second);
     if (norm) k.magnitude_ci95[0] = std::max(0.0, k.magnitude_ci95[0]);

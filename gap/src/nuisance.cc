@@ -35,7 +35,8 @@ double WaldSub(const Eigen::VectorXd& b, const Eigen::MatrixXd& V, int G) {
   return FSf(t2 * static_cast<double>(G - q) / (static_cast<double>(q) * (G - 1)), q, G - q);
 }
 
-CandidateResult Term(const std::string& effect, double value, double sd, double t975, const std::string& unit, bool norm) {
+CandidateResult Term(const std::string& effect, double value, double sd, double t975, const std::string& unit) {
+  const bool norm = !Info(EffectFromName(effect)).signed_magnitude;
   CandidateResult r;
   r.effect = effect;
   r.id = EffectFromName(effect);
@@ -137,15 +138,15 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
   nu.field_direction_error_uT = perp_norm;
   nu.undone_compensation = ch.undone_compensation;
   nu.ranges = o.nuisance_ranges;
-  nr.terms.push_back(Term("hard_iron_offset", b_norm, b_ci_sd, t975, "uT", true));
+  nr.terms.push_back(Term("hard_iron_offset", b_norm, b_ci_sd, t975, "uT"));
   nr.terms.back().params["b_x_uT"] = b.x();
   nr.terms.back().params["b_y_uT"] = b.y();
   nr.terms.back().params["b_z_uT"] = b.z();
-  nr.terms.push_back(Term("local_anomaly", d_norm, d_ci_sd, t975, "uT", true));
+  nr.terms.push_back(Term("local_anomaly", d_norm, d_ci_sd, t975, "uT"));
   nr.terms.back().params["anomaly_N_uT"] = d.x();
   nr.terms.back().params["anomaly_E_uT"] = d.y();
   nr.terms.back().params["anomaly_D_uT"] = d.z();
-  nr.terms.push_back(Term("field_scale", s_along, s_ci_sd, t975, "1", false));
+  nr.terms.push_back(Term("field_scale", s_along, s_ci_sd, t975, "1"));
   nr.terms.back().parameters = 1;
   {
     // The term reports scale − 1; its physical range is the field_scale row's ratio range less one.

@@ -60,6 +60,9 @@ struct EffectInfo {
   // A field added per ampere or per unit throttle: what COMPASS_MOT / CAL_MAGn_COMP compensate and
   // the in-flight model's absolute term measures (a current-driven soft iron is not).
   bool compensable = false;
+  // The magnitude carries a sign (a scale's departure from one): its interval may cross zero and is
+  // never clipped at zero. Every other magnitude is a norm or a lag (>= 0).
+  bool signed_magnitude = false;
 };
 
 // Every registered effect, in the order of Effect.
