@@ -274,7 +274,7 @@ Result<FlightFit> FitFlightCompass(const std::vector<FlightFitSample>& samples, 
     }
   }
   if (static_cast<int>(samples.size()) < o.min_samples) {
-    return Status::BadInput(Format("flight fit: %zu samples with an attitude, needs at least %d", samples.size(), o.min_samples));
+    return Status::BadInput(Format("flight fit: %zu samples, needs at least %d", samples.size(), o.min_samples));
   }
   if (!o.prior_field_N_uT.allFinite() || !(o.prior_sigma_uT > 0.0) || !(o.block_s > 0.0)) {
     return Status::BadInput("flight fit: prior field, prior sigma and block length must be finite and positive");

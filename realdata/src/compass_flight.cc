@@ -222,6 +222,16 @@ std::vector<size_t> Pick(const logs::MagInput& in, const FlightWindows& w, int m
   return pick;
 }
 
+// Too few samples for the model: the count and where the others went (a short log's flight windows
+// hold ground seconds whose samples the current check removes; nothing is lost to the attitude).
+Status TooFew(const logs::MagInput& in, size_t kept, const CompassFlightOptions& o, const CompassFlight& out, int motors) {
+  return Status::BadInput(fmt::format(
+      "flight fit: {} samples, needs at least {}: of the compass's {} samples {} lie outside the flight windows, {} tilted "
+      "beyond {:.0f} deg, {} under {:.1f} A ({:.1f} A per motor: motors not carrying the vehicle)",
+      kept, o.fit.min_samples, in.t_s.size(), out.outside, out.tilted, o.max_tilt_deg, out.not_airborne,
+      o.min_current_per_motor_A * motors, o.min_current_per_motor_A));
+}
+
 }  // namespace
 
 magnetics::MotorCompensationInLog MotorCompensationOf(const logs::FlightLog& log, const std::string& compass) {
@@ -341,8 +351,8 @@ Result<CompassFlight> FitCompassInFlight(const logs::FlightLog& log, const logs:
                                       "left out", out.not_airborne, o.min_current_per_motor_A * MotorCount(log),
                                       o.min_current_per_motor_A);
     }
-    if (pick.size() < 2) return Status::BadInput(fmt::format("flight fit: {} airborne samples, needs {}", pick.size(), o.fit.min_samples));
   }
+  if (static_cast<int>(pick.size()) < o.fit.min_samples) return TooFew(in, pick.size(), o, out, MotorCount(log));
   if (o.scan_latency && static_cast<int>(pick.size()) >= o.fit.min_samples) {
     magnetics::FlightFitOptions trial = out.options;
     trial.intervals = false;

@@ -95,6 +95,24 @@ TEST(CompassFlight, GivenAFlightWindowStartingWithTheMotorsStopped_WhenFitted_Th
   EXPECT_GT(std::fabs(off->fit.term_norm_uT - truth), 0.2 * truth) << off->fit.term_norm_uT << " truth " << truth;
 }
 
+// A short PX4 log (ZweiterFlugtag log_18, 1 Hz sensor_mag): its armed window held 35 compass samples,
+// 6 of them before the motors carried the vehicle; the refusal said "29 samples with an attitude" as
+// if the attitude lookup had lost samples. It names where the samples went.
+TEST(CompassFlight, GivenTooFewAirborneSamples_WhenFitted_ThenTheRefusalSaysWhereTheSamplesWent) {
+  const logs::FlightLog log = Flight(117.5, Vector3d::Zero());
+  auto in = logs::MagInputFromFlightLog(log, "synthetic", "mag");
+  ASSERT_TRUE(in.ok()) << in.status().message();
+  CompassFlightOptions o;
+  o.scan_latency = false;
+  // A window of 45 samples, the first 20 on the ground: 25 airborne.
+  auto f = FitCompassInFlight(log, *in, WindowsFromRange(log, 115.45, 200.0), o);
+  ASSERT_FALSE(f.ok());
+  const std::string& why = f.status().message();
+  EXPECT_NE(why.find("flight fit: 25 samples, needs at least 30"), std::string::npos) << why;
+  EXPECT_NE(why.find("1155 lie outside the flight windows, 0 tilted beyond 60 deg, 20 under 2.0 A"), std::string::npos) << why;
+  EXPECT_EQ(why.find("attitude"), std::string::npos) << why;
+}
+
 // A log without a GPS fix (six Erle logs of the corpus) has no place and date for the WMM: the model's
 // Earth-field terms are fitted freely, and the fit still finds the field, the offset and the current
 // term (it was refused: "no place and date").
