@@ -1,6 +1,7 @@
 #include "hexsim/magnetics/flight_fit.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 
@@ -223,8 +224,9 @@ void FillIntervals(const MatrixXd& cov, int p, FlightFit* fit) {
   }
   fit->term_t_threshold = StudentTQuantile(1.0 - 0.05 / 6.0, static_cast<double>(fit->blocks - 1));
   fit->term_resolved = fit->term_max_abs_t >= fit->term_t_threshold;
-  fit->term_norm_ci95[0] = std::max(0.0, fit->term_norm_uT - h);
-  fit->term_norm_ci95[1] = fit->term_norm_uT + h;
+  const std::array<double, 2> ci = TermNormInterval(fit->term_uT, fit->term_ci_half_uT, h);
+  fit->term_norm_ci95[0] = ci[0];
+  fit->term_norm_ci95[1] = ci[1];
 }
 
 // Whether the attitudes differ at all: the free Earth field (field_free) is told from the offset only
@@ -243,6 +245,12 @@ bool AttitudeVaries(const std::vector<FlightFitSample>& samples) {
 }
 
 }  // namespace
+
+std::array<double, 2> TermNormInterval(const Eigen::Vector3d& term, const Eigen::Vector3d& axis_half, double norm_half) {
+  const double norm = term.norm();
+  const bool zero_inside = (term.cwiseAbs().array() <= axis_half.array()).all();
+  return {zero_inside ? 0.0 : std::max(0.0, norm - norm_half), norm + norm_half};
+}
 
 const char* FlightTermFormName(FlightTermForm form) { return form == FlightTermForm::kCurrent ? "current" : "throttle"; }
 const char* FlightTermUnit(FlightTermForm form) { return form == FlightTermForm::kCurrent ? "uT/A" : "uT/throttle"; }

@@ -187,5 +187,17 @@ TEST(FlightFit, GivenAFewWildSamples_WhenFitted_ThenTheyAreDroppedAndTheOffsetHo
   EXPECT_LT((fit->offset_y_uT - f.offset_uT).norm(), 1.0);
 }
 
+// A term whose every axis is 0.9 of its half-width from 0 has a length 1.56 half-widths: the delta
+// method's |d| - h excluded 0 (an external compass at 1-2 Hz without a field read 0.3 [0.04, 0.6]
+// mG/A); an axis clear of 0 keeps the delta-method bound.
+TEST(FlightFit, GivenATermWhoseEveryAxisHoldsZero_WhenItsNormIntervalIsTaken_ThenItStartsAtZero) {
+  const Eigen::Vector3d half(0.1, 0.1, 0.1);
+  const auto ci = TermNormInterval(Eigen::Vector3d(0.09, -0.09, 0.09), half, 0.1);
+  EXPECT_EQ(ci[0], 0.0);
+  EXPECT_NEAR(ci[1], std::sqrt(3.0) * 0.09 + 0.1, 1e-12);
+  const auto clear = TermNormInterval(Eigen::Vector3d(0.3, -0.09, 0.09), half, 0.1);
+  EXPECT_NEAR(clear[0], Eigen::Vector3d(0.3, -0.09, 0.09).norm() - 0.1, 1e-12);
+}
+
 }  // namespace
 }  // namespace hexsim::magnetics
