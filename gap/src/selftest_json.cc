@@ -162,8 +162,8 @@ Result<TrialRecord> TrialRecordFromJson(const Json& j) {
   }
 }
 
-Json ToJson(const SelftestResult& m) {
-  const SelftestOptions& o = m.options;
+Json ToJson(const SelftestResult& result) {
+  const SelftestOptions& o = result.options;
   Json j;
   j["schema"] = "hexsim.gap_selftest/1";
   j["profile"] = o.profile;
@@ -171,28 +171,28 @@ Json ToJson(const SelftestResult& m) {
   j["seed"] = o.seed;
   j["vehicle"] = o.vehicle;
   j["mission"] = o.mission;
-  j["channel"] = m.channel;
+  j["channel"] = result.channel;
   j["classes"] = Json::array();
-  for (const std::string& c : m.classes) j["classes"].push_back(ClassJson(m, c, m.stats.at(c)));
-  j["overall_top1_rate"] = m.overall_top1;
-  const double th = m.threshold.value_uT_per_A;
+  for (const std::string& c : result.classes) j["classes"].push_back(ClassJson(result, c, result.stats.at(c)));
+  j["overall_top1_rate"] = result.overall_top1;
+  const double th = result.threshold.value_uT_per_A;
   j["detection_threshold"] = {{"current_hard_iron",
                                {{"uT_per_A", std::isfinite(th) ? Json(th) : Json(nullptr)},
-                                {"grid_uT_per_A", m.threshold.grid_uT_per_A},
-                                {"flagged_rate", m.threshold.flagged_rate},
+                                {"grid_uT_per_A", result.threshold.grid_uT_per_A},
+                                {"flagged_rate", result.threshold.flagged_rate},
                                 {"trials_per_magnitude", o.threshold_trials}}}};
   // Every trial's record in trial order, to read a failure from.
   j["trials"] = Json::array();
-  for (size_t i = 0; i < m.trials.size(); ++i) {
-    Json tj = ToJson(m.trials[i]);
-    tj["class"] = m.trial_classes.at(i);
+  for (size_t i = 0; i < result.trials.size(); ++i) {
+    Json tj = ToJson(result.trials[i]);
+    tj["class"] = result.trial_classes.at(i);
     j["trials"].push_back(std::move(tj));
   }
-  j["targets"] = m.targets;
-  j["targets_met"] = m.targets_met;
-  j["compass_targets_met"] = m.compass_targets_met;
-  j["dynamics_targets"] = m.dynamics_targets ? Json(*m.dynamics_targets) : Json(nullptr);
-  j["dynamics_targets_met"] = m.dynamics_targets_met;
+  j["targets"] = result.targets;
+  j["targets_met"] = result.targets_met;
+  j["compass_targets_met"] = result.compass_targets_met;
+  j["dynamics_targets"] = result.dynamics_targets ? Json(*result.dynamics_targets) : Json(nullptr);
+  j["dynamics_targets_met"] = result.dynamics_targets_met;
   return j;
 }
 
