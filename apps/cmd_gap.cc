@@ -13,6 +13,7 @@
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/experiments/log_diagnosis.h"
 #include "hexsim/gap/selftest.h"
+#include "hexsim/gap/selftest_json.h"
 #include "hexsim/logs/read_log.h"
 #include "hexsim/reports/gap_report.h"
 
@@ -71,18 +72,31 @@ Status SelftestCommand(const SelftestArgs& a, int* exit_code) {
   if (a.options.profile != "real" && a.options.profile != "ideal") {
     return Status::BadInput("--profile: '" + a.options.profile + "': expected real or ideal");
   }
-  // The trials run in forked workers (batch's process pool), one per core; the results do not
-  // depend on the number of workers.
+  // The trials run in forked workers (batch's process pool), one per core, each record passed back
+  // as JSON; the results do not depend on the number of workers.
   const int jobs = a.jobs > 0 ? a.jobs : std::max(1, static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN)));
   const bool tty = isatty(2) != 0;
-  gap::TrialRunner runner = [jobs, tty](size_t n, const gap::TrialFn& one) {
-    return batch::RunForkedMap(n, one, jobs, [tty](size_t done, size_t total) {
+  gap::TrialRunner runner = [jobs, tty](size_t n, const gap::TrialFn& one) -> Result<std::vector<gap::TrialRecord>> {
+    auto as_json = [&one](size_t i) -> Result<nlohmann::json> {
+      auto r = one(i);
+      if (!r.ok()) return r.status();
+      return gap::ToJson(*r);
+    };
+    auto outs = batch::RunForkedMap(n, as_json, jobs, [tty](size_t done, size_t total) {
       if (tty) Progress(static_cast<int>(done), static_cast<int>(total));
     });
+    if (!outs.ok()) return outs.status();
+    std::vector<gap::TrialRecord> records;
+    for (const auto& j : *outs) {
+      auto r = gap::TrialRecordFromJson(j);
+      if (!r.ok()) return r.status();
+      records.push_back(std::move(*r));
+    }
+    return records;
   };
   auto r = gap::RunSelftest(a.options, nullptr, runner);
   if (!r.ok()) return r.status();
-  if (!a.json.empty()) HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(a.json, r->json.dump(2) + "\n"));
+  if (!a.json.empty()) HEXSIM_RETURN_IF_ERROR(WriteFileAtomic(a.json, gap::ToJson(*r).dump(2) + "\n"));
   std::fputs(r->table.c_str(), stdout);
   *exit_code = r->targets_met ? 0 : 1;
   return Status::Ok();

@@ -115,6 +115,9 @@ inline bool SplitsBatteryCurrent(const LogInputs& in, const vehicle::VehiclePara
   return in.current != nullptr && in.motor_A.empty() && !v.rotors.empty() && in.motor_u.size() == v.rotors.size();
 }
 
+// The vehicle file models a current field: any wire segment or motor dipole.
+inline bool HasWiring(const vehicle::VehicleParams& v) { return !v.wiring.segments.empty() || !v.wiring.dipoles.empty(); }
+
 // How a compass is replayed: its timing, which rows, how much is built.
 struct CompassReplayOptions {
   double latency_s = 0.0;        // the sample stamped t measured the field at t − latency_s

@@ -148,7 +148,7 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
     pairs.emplace_back(lo, hi);
   }
   // The split matters only where the replay splits a battery current over configured motor wiring.
-  if (SplitsBatteryCurrent(in, v) && (!v.wiring.segments.empty() || !v.wiring.dipoles.empty())) {
+  if (SplitsBatteryCurrent(in, v) && HasWiring(v)) {
     CompassReplayOptions lo = used, hi = used;
     lo.share_exponent = kShareExponentLo;
     hi.share_exponent = kShareExponentHi;

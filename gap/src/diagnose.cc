@@ -277,7 +277,7 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
   const ChannelData ground = internal::ReplayCompass(log, vehicle, c, rr.inputs, B_N, ro);
   r.ground_vs_flight = internal::CompareGroundFlight(ch, ground, r.nuisance);
   if (ro.calibrated_log) {
-    const bool wiring = !vehicle.wiring.segments.empty() || !vehicle.wiring.dipoles.empty();
+    const bool wiring = internal::HasWiring(vehicle);
     r.findings.emplace_back(std::string("logged values are the autopilot's calibrated ones: the vehicle file's hard and soft "
                                         "iron are not applied to them") +
                             (wiring ? "; its wiring (current) field still is" : ""));

@@ -99,10 +99,10 @@ const std::vector<EffectRange>& RealInjectableEffects() {
   return kEffects;
 }
 
-std::string TruthLabel(const std::string& injected) {
-  if (injected == "axis_scale_error") return "scale_error";
-  if (injected == "unmodelled_latency") return "latency";
-  return injected;
+Effect TruthLabel(const std::string& injected) {
+  if (injected == "axis_scale_error") return Effect::kScaleError;
+  if (injected == "unmodelled_latency") return Effect::kLatency;
+  return EffectFromName(injected);
 }
 
 Result<Trial> MakeTrial(const SelftestOptions& o, uint64_t seed, const std::vector<Injection>& injections, RngStream* rng) {
@@ -331,7 +331,7 @@ Result<logs::FlightLog> FlyAsLogged(const internal::SelftestPlan& p, Trial* tria
   return deg;
 }
 
-Result<nlohmann::json> ThresholdTrial(const internal::SelftestPlan& p, size_t index, int k, RngStream* rng) {
+Result<TrialRecord> ThresholdTrial(const internal::SelftestPlan& p, size_t index, int k, RngStream* rng) {
   const double m = p.threshold_grid[static_cast<size_t>(k / p.o.threshold_trials)];
   auto trial = MakeTrial(p.o, p.o.seed * 100003 + index + 1, {{"current_hard_iron", m}}, rng);
   if (!trial.ok()) return trial.status();
@@ -343,8 +343,11 @@ Result<nlohmann::json> ThresholdTrial(const internal::SelftestPlan& p, size_t in
   auto rep = Diagnose(*log, trial->configured, opt);
   if (!rep.ok()) return rep.status();
   const ChannelResult* r = Find(*rep, p.channel);
-  return nlohmann::json{{"flagged", r && r->gap_detected}, {"magnitude", trial->true_magnitude[0]},
-                        {"verdict", r ? r->verdict : std::string("not diagnosed")}};
+  ThresholdTrialRecord rec;
+  rec.magnitude_uT_per_A = trial->true_magnitude[0];
+  rec.flagged = r && r->gap_detected;
+  rec.verdict = r ? r->verdict : std::string("not diagnosed");
+  return TrialRecord(std::move(rec));
 }
 
 // The withheld effects of trial k of class c, and its log-level form.
@@ -383,101 +386,108 @@ std::vector<Injection> DrawInjections(const internal::SelftestPlan& p, const std
   return inj;
 }
 
+// The verdict names the registered effect e.
+bool Names(const std::string& verdict, Effect e) { return e != Effect::kNone && verdict == Info(e).name; }
+
 // The reported candidates of the injected effects, and whether the injected form's interval holds
 // its truth (one effect).
-void ReportTruth(const std::vector<Injection>& inj, const Trial& trial, const ChannelResult& r, bool one, nlohmann::json* out) {
-  nlohmann::json reported = nlohmann::json::object();
+void ReportTruth(const Trial& trial, const ChannelResult& r, bool one, ClassTrialRecord* out) {
   for (const auto& cand : r.candidates) {
-    const bool injected = std::any_of(inj.begin(), inj.end(), [&](const Injection& x) { return TruthLabel(x.effect) == cand.effect; });
+    const bool injected = std::any_of(out->injected.begin(), out->injected.end(),
+                                      [&](const InjectedEffect& x) { return x.label != Effect::kNone && x.label == cand.id; });
     if (!injected) continue;
-    reported[cand.effect] = {{"magnitude", cand.magnitude}, {"ci95", {cand.magnitude_ci95[0], cand.magnitude_ci95[1]}},
-                             {"explained_share", cand.explained_share}, {"selected", cand.selected}};
+    const ReportedEffect rep{cand.id, cand.magnitude, {cand.magnitude_ci95[0], cand.magnitude_ci95[1]}, cand.explained_share,
+                             cand.selected};
+    // One entry per effect: a later candidate of the same effect replaces an earlier one.
+    auto same = std::find_if(out->reported.begin(), out->reported.end(), [&](const ReportedEffect& e) { return e.effect == cand.id; });
+    if (same == out->reported.end()) out->reported.push_back(rep);
+    else *same = rep;
   }
-  (*out)["reported"] = reported;
   if (!one) return;
   // The true effect's held-out explained share (of the baseline residual), 0 when not reported.
-  const std::string label = TruthLabel(inj[0].effect);
+  const std::string& injected = out->injected[0].name;
+  const Effect label = out->injected[0].label;
   double true_share = 0;
   for (const auto& cand : r.candidates) {
-    if (cand.effect == label && (cand.selected || true_share == 0)) true_share = cand.explained_share;
+    if (label != Effect::kNone && cand.id == label && (cand.selected || true_share == 0)) true_share = cand.explained_share;
   }
-  (*out)["true_share"] = true_share;
+  out->true_share = true_share;
   for (const auto& cand : r.candidates) {
     // The reported candidate of the injected form (the nuisance term for a uniform scale).
-    if (cand.effect != label || (inj[0].effect == "axis_scale_error" && cand.nuisance_term) ||
-        (inj[0].effect == "field_scale" && !cand.nuisance_term)) {
+    if (label == Effect::kNone || cand.id != label || (injected == "axis_scale_error" && cand.nuisance_term) ||
+        (injected == "field_scale" && !cand.nuisance_term)) {
       continue;
     }
     // The per-axis family reports the spread of the gains (≥ 0); every other form its signed size.
-    const double tm = inj[0].effect == "axis_scale_error" ? std::fabs(trial.true_magnitude[0]) : trial.true_magnitude[0];
-    (*out)["covered"].push_back(tm >= cand.magnitude_ci95[0] && tm <= cand.magnitude_ci95[1]);
+    const double tm = injected == "axis_scale_error" ? std::fabs(trial.true_magnitude[0]) : trial.true_magnitude[0];
+    out->covered = tm >= cand.magnitude_ci95[0] && tm <= cand.magnitude_ci95[1];
     break;
   }
 }
 
-// A form's judgement: named right (the verdict is one of the names it is a form of), and right
+// A form's judgement: named right (the verdict is one of the effects it is a form of), and right
 // (named right, or not confident); the lag candidate's fit beside a lagged form's truth.
-void JudgeForm(const std::string& name, const LogInjection& li, const ChannelResult& r, nlohmann::json* out) {
+void JudgeForm(const std::string& name, const LogInjection& li, const ChannelResult& r, ClassTrialRecord* out) {
   const internal::LogForm* form = internal::FindForm(name);
   bool named = false;
-  if (form) named = std::find(form->named_right.begin(), form->named_right.end(), r.verdict) != form->named_right.end();
-  (*out)["named_right"] = named;
-  (*out)["judged_right"] = named || (*out)["not_confident"].get<bool>();
+  if (form) {
+    named = std::any_of(form->named_right.begin(), form->named_right.end(), [&](Effect e) { return Names(r.verdict, e); });
+  }
+  out->named_right = named;
+  out->judged_right = named || out->not_confident;
   if (!std::isfinite(li.form_truth.lag_s)) return;
-  (*out)["true_lag_s"] = li.form_truth.lag_s;
+  out->true_lag_s = li.form_truth.lag_s;
   for (const auto& cand : r.candidates) {
-    if (cand.effect != "current_lag" || name != "current_power_lag") continue;
-    (*out)["lag_fit"] = {{"tau_s", cand.magnitude}, {"ci95", {cand.magnitude_ci95[0], cand.magnitude_ci95[1]}},
-                         {"selected", cand.selected}, {"plausible", cand.plausible}};
+    if (cand.id != Effect::kCurrentLag || name != "current_power_lag") continue;
+    LagFit fit;
+    fit.tau_s = cand.magnitude;
+    fit.ci95_s = {cand.magnitude_ci95[0], cand.magnitude_ci95[1]};
+    fit.selected = cand.selected;
+    fit.plausible = cand.plausible;
     // Recovered: named current_lag, its lag's interval holding the truth.
-    (*out)["lag_named"] = r.verdict == "current_lag";
-    (*out)["lag_covered"] = cand.magnitude_ci95[0] <= li.form_truth.lag_s && li.form_truth.lag_s <= cand.magnitude_ci95[1];
+    fit.named = Names(r.verdict, Effect::kCurrentLag);
+    fit.covered = cand.magnitude_ci95[0] <= li.form_truth.lag_s && li.form_truth.lag_s <= cand.magnitude_ci95[1];
+    out->lag_fit = fit;
   }
 }
 
 // What the metrics need of a class trial.
-nlohmann::json Outcome(const std::string& c, const std::vector<Injection>& inj, const LogInjection& li, const Trial& trial,
-                       const GapReport& rep, const ChannelResult& r) {
-  nlohmann::json out = {{"family", li.family.empty() ? li.form : li.family},
-                        {"verdict", r.verdict},
-                        {"gap_detected", r.gap_detected},
-                        {"heldout_shrink", r.heldout_shrink},
-                        {"any_compass_alarm", false},
-                        {"effects", nlohmann::json::array()},
-                        {"labels", nlohmann::json::array()},
-                        {"covered", nlohmann::json::array()}};
-  for (const Injection& x : inj) out["effects"].push_back(x.effect);
-  for (const Injection& x : inj) out["labels"].push_back(TruthLabel(x.effect));
+ClassTrialRecord Outcome(const std::string& c, const std::vector<Injection>& inj, const LogInjection& li, const Trial& trial,
+                         const GapReport& rep, const ChannelResult& r) {
+  ClassTrialRecord out;
+  out.family = li.family.empty() ? li.form : li.family;
+  out.verdict = r.verdict;
+  out.gap_detected = r.gap_detected;
+  out.heldout_shrink = r.heldout_shrink;
+  for (const Injection& x : inj) out.injected.push_back({x.effect, TruthLabel(x.effect)});
   // Honest about an out-of-library form: not explained, ambiguous, partial, or the structure it
   // leaves reported beside the headline (CONTRACTS.md: the leftover is never a veto).
   bool left_reported = false;
   for (const std::string& f : r.findings) left_reported = left_reported || f.find("structure no candidate describes") != std::string::npos;
-  out["left_reported"] = left_reported;
-  out["not_confident"] = r.verdict == "unexplained" || r.verdict == "ambiguous" || r.partial || left_reported;
-  if (!li.family.empty() || !li.form.empty()) JudgeForm(li.family.empty() ? li.form : li.family, li, r, &out);
+  out.left_reported = left_reported;
+  out.not_confident = r.verdict == "unexplained" || r.verdict == "ambiguous" || r.partial || left_reported;
+  if (!out.family.empty()) JudgeForm(out.family, li, r, &out);
   int in_effects = 0;
-  for (const Injection& x : inj) {
-    for (const EffectShare& e : r.effects) in_effects += e.effect == TruthLabel(x.effect) ? 1 : 0;
+  for (const InjectedEffect& x : out.injected) {
+    for (const EffectShare& e : r.effects) in_effects += x.label != Effect::kNone && e.id == x.label ? 1 : 0;
   }
-  out["all_in_effects"] = in_effects >= static_cast<int>(inj.size()) && !inj.empty();
+  out.all_in_effects = in_effects >= static_cast<int>(inj.size()) && !inj.empty();
   // The trial as it came out (reported under "trials"): the truth beside what was reported of it.
-  out["true_magnitude"] = trial.true_magnitude;
-  out["explained_share"] = r.explained_share;
-  std::string sel;
+  out.true_magnitude = trial.true_magnitude;
+  out.explained_share = r.explained_share;
   for (const auto& cand : r.candidates) {
-    if (cand.selected) sel += (sel.empty() ? "" : "+") + cand.effect;
+    if (cand.selected) out.selected += (out.selected.empty() ? "" : "+") + cand.effect;
   }
-  out["selected"] = sel;
   if (c == "clean") {
-    if (const ChannelResult* d = Find(rep, "dynamics")) out["dynamics_detected"] = d->gap_detected;
+    if (const ChannelResult* d = Find(rep, "dynamics")) out.dynamics_detected = d->gap_detected;
   }
-  out["any_compass_alarm"] = std::any_of(rep.channels.begin(), rep.channels.end(),
-                                         [](const ChannelResult& cr) { return cr.unit == "uT" && cr.gap_detected; });
-  ReportTruth(inj, trial, r, c == "one_effect" || c == "dynamics_one_effect", &out);
+  out.any_compass_alarm = std::any_of(rep.channels.begin(), rep.channels.end(),
+                                      [](const ChannelResult& cr) { return cr.unit == "uT" && cr.gap_detected; });
+  ReportTruth(trial, r, c == "one_effect" || c == "dynamics_one_effect", &out);
   return out;
 }
 
-Result<nlohmann::json> ClassTrial(const internal::SelftestPlan& p, size_t index, const std::string& c, int k, RngStream* rng) {
+Result<TrialRecord> ClassTrial(const internal::SelftestPlan& p, size_t index, const std::string& c, int k, RngStream* rng) {
   LogInjection li;
   const std::vector<Injection> inj = DrawInjections(p, c, k, rng, &li);
   auto trial = MakeTrial(p.o, p.o.seed * 100003 + index + 1, inj, rng);
@@ -491,7 +501,7 @@ Result<nlohmann::json> ClassTrial(const internal::SelftestPlan& p, size_t index,
   const std::string channel = c == "dynamics_one_effect" ? "dynamics" : p.channel;
   const ChannelResult* r = Find(*rep, channel);
   if (!r) return Status::Numerical("selftest: channel " + channel + " was not diagnosed");
-  return Outcome(c, inj, li, *trial, *rep, *r);
+  return TrialRecord(Outcome(c, inj, li, *trial, *rep, *r));
 }
 
 }  // namespace
@@ -516,7 +526,7 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
   const int total = plan.total();
   // Every trial is independent (its own simulator seed and random stream, SelftestPlan), so the
   // runner may run them in any order or in parallel; the metrics are summed in trial order.
-  auto run_trial = [&plan](size_t index) -> Result<nlohmann::json> {
+  auto run_trial = [&plan](size_t index) -> Result<TrialRecord> {
     RngStream rng(plan.o.seed, fmt::format("gap_selftest/{}", index));
     const internal::Slot slot = internal::Locate(plan, index);
     if (!slot.segment) return Status::Numerical("selftest: no trial " + std::to_string(index));
@@ -524,8 +534,8 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
     return ClassTrial(plan, index, slot.segment->cls, slot.k, &rng);
   };
   int done = 0;
-  auto serial = [&](size_t n, const TrialFn& one) -> Result<std::vector<nlohmann::json>> {
-    std::vector<nlohmann::json> outs;
+  auto serial = [&](size_t n, const TrialFn& one) -> Result<std::vector<TrialRecord>> {
+    std::vector<TrialRecord> outs;
     for (size_t i = 0; i < n; ++i) {
       auto r = one(i);
       if (!r.ok()) return r.status();
@@ -537,7 +547,7 @@ Result<SelftestResult> RunSelftest(const SelftestOptions& options, void (*progre
   auto outcomes = runner ? runner(static_cast<size_t>(total), run_trial) : serial(static_cast<size_t>(total), run_trial);
   if (!outcomes.ok()) return outcomes.status();
   if (outcomes->size() != static_cast<size_t>(total)) return Status::Numerical("selftest: the runner lost trials");
-  return internal::SummariseSelftest(plan, *outcomes);
+  return internal::SummariseSelftest(plan, std::move(*outcomes));
 }
 
 }  // namespace hexsim::gap

@@ -36,9 +36,9 @@ std::vector<double> Lagged(const std::vector<double>& t, const std::vector<doubl
 }
 
 // Current-driven names: a field in proportion to the battery current, per motor or lagged.
-const std::vector<std::string> kCurrentDriven = {"current_hard_iron", "per_motor_current_hard_iron", "current_lag"};
-const std::vector<std::string> kCurrentOrThrottle = {"current_hard_iron", "per_motor_current_hard_iron", "current_lag",
-                                                     "throttle_hard_iron"};
+const std::vector<Effect> kCurrentDriven = {Effect::kCurrentHardIron, Effect::kPerMotorCurrentHardIron, Effect::kCurrentLag};
+const std::vector<Effect> kCurrentOrThrottle = {Effect::kCurrentHardIron, Effect::kPerMotorCurrentHardIron, Effect::kCurrentLag,
+                                                Effect::kThrottleHardIron};
 
 // The current sensor reads 0 over spans of 1–3 s that cover 15 % of the flight (a loose connector).
 void DropOut(const std::vector<double>& t, std::vector<double>* I, RngStream* rng) {
@@ -70,8 +70,8 @@ const std::vector<LogForm>& BeyondLibraryForms() {
   //     the logged IMU temperature: temperature_drift.
   static const std::vector<LogForm> kForms = {
       {"current_power_lag", kCurrentDriven},    {"battery_sag_field", kCurrentDriven},
-      {"throttle_power_field", {"throttle_hard_iron"}}, {"current_dropout", kCurrentOrThrottle},
-      {"current_clipped", kCurrentOrThrottle},  {"lagged_temperature", {"temperature_drift"}},
+      {"throttle_power_field", {Effect::kThrottleHardIron}}, {"current_dropout", kCurrentOrThrottle},
+      {"current_clipped", kCurrentOrThrottle},  {"lagged_temperature", {Effect::kTemperatureDrift}},
   };
   return kForms;
 }

@@ -5,8 +5,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "hexsim/gap/selftest.h"
 
 namespace hexsim::gap::internal {
@@ -44,7 +42,7 @@ struct Slot {
 };
 Slot Locate(const SelftestPlan& plan, size_t index);
 
-// The metrics, targets, JSON and table from the trials' outcomes, in index order (selftest_report.cc).
-SelftestResult SummariseSelftest(const SelftestPlan& plan, const std::vector<nlohmann::json>& outcomes);
+// The metrics, targets and table from the trials' records, in index order (selftest_report.cc).
+SelftestResult SummariseSelftest(const SelftestPlan& plan, std::vector<TrialRecord> outcomes);
 
 }  // namespace hexsim::gap::internal

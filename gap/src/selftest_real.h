@@ -8,6 +8,7 @@
 #include "channels.h"
 #include "hexsim/common/rng.h"
 #include "hexsim/common/status.h"
+#include "hexsim/gap/effects.h"
 #include "hexsim/logs/flight_log.h"
 #include "hexsim/vehicle/vehicle_params.h"
 
@@ -28,7 +29,7 @@ Vec3 RandomUnit(RngStream* rng);
 // right answer where `named_right` is empty.
 struct LogForm {
   const char* name;
-  std::vector<std::string> named_right;
+  std::vector<Effect> named_right;
 };
 // Effect families outside the library, one drawn per out-of-library trial (named_right empty).
 const std::vector<LogForm>& OutOfLibraryFamilies();

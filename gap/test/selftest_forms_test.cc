@@ -107,11 +107,11 @@ TEST(GapSelftestForms, GivenTheRegistry_WhenAFormIsLookedUp_ThenOnlyTheEffectItI
   ASSERT_EQ(BeyondLibraryForms().size(), 6u);
   const LogForm* lag = FindForm("current_power_lag");
   ASSERT_NE(lag, nullptr);
-  EXPECT_NE(std::find(lag->named_right.begin(), lag->named_right.end(), "current_hard_iron"), lag->named_right.end());
-  EXPECT_EQ(std::find(lag->named_right.begin(), lag->named_right.end(), "scale_error"), lag->named_right.end());
+  EXPECT_NE(std::find(lag->named_right.begin(), lag->named_right.end(), Effect::kCurrentHardIron), lag->named_right.end());
+  EXPECT_EQ(std::find(lag->named_right.begin(), lag->named_right.end(), Effect::kScaleError), lag->named_right.end());
   const LogForm* temp = FindForm("lagged_temperature");
   ASSERT_NE(temp, nullptr);
-  EXPECT_EQ(temp->named_right, std::vector<std::string>{"temperature_drift"});
+  EXPECT_EQ(temp->named_right, std::vector<Effect>{Effect::kTemperatureDrift});
   // Out-of-library families have no right name: only an honest "not confident" is right.
   for (const LogForm& f : OutOfLibraryFamilies()) EXPECT_TRUE(f.named_right.empty()) << f.name;
   EXPECT_EQ(FindForm("no_such_form"), nullptr);

@@ -526,198 +526,185 @@ double DecimalYearFromUnix(double unix_s) {
   return static_cast<double>(year) + (unix_s - start) / (end - start);
 }
 
-Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string& name,
-                                     const ImportOptions& options) {
-  if (bytes.empty()) return Status::BadInput(name + ": empty file");
-  Collected c;
-  c.mags = {MakeMagChannel("mag"), MakeMagChannel("mag2"), MakeMagChannel("mag3")};
-  DataFlashReader reader(bytes);
-  DataFlashMessage m;
-  size_t data_messages = 0;
-  RecordPlausibility plausibility;  // drops records damage made implausible (dataflash_plausibility.h)
-  while (reader.Next(&m)) {
-    if (m.type() != kDataFlashFmtType) ++data_messages;
-    if (plausibility.Accept(m)) CollectMessage(m, &c);
-  }
-  if (data_messages == 0) {
-    return Status::BadInput(fmt::format("{}: not an ArduPilot DataFlash log: no readable messages ({} bytes skipped)",
-                                        name, reader.damage().skipped_bytes));
-  }
-  // Rows need a finite attitude.
-  {
-    Channel att = c.att;
-    c.att = Channel("", att.columns);
-    for (size_t i = 0; i < att.size(); ++i) {
-      if (std::isfinite(att.At(i, 0)) && std::isfinite(att.At(i, 1)) && std::isfinite(att.At(i, 2))) {
-        c.att.Add(att.t[i], {att.At(i, 0), att.At(i, 1), att.At(i, 2)});
-      } else {
-        ++c.att.dropped;
-      }
-    }
-    c.att.dropped += att.dropped;
-  }
-  for (Channel* ch : {&c.att, &c.imu, &c.batt, &c.rcou, &c.ctun, &c.gps, &c.baro, &c.mode, &c.waypoint, &c.armed}) {
-    ch->Finalize();
-  }
-  for (auto& ch : c.mags) ch.Finalize();
-  for (auto& [n, ch] : c.ekf) ch.Finalize();
-  RecordDamage& records = plausibility.mutable_damage();
-  records.time = c.att.dropped + c.imu.dropped + c.batt.dropped + c.rcou.dropped + c.ctun.dropped + c.gps.dropped +
-                 c.baro.dropped + c.mode.dropped + c.waypoint.dropped;
-  for (const auto& mc : c.mags) records.time += mc.dropped;
-  for (const auto& [n, e] : c.ekf) records.time += e.dropped;
-  if (const double share = DamagedRecordShare(reader.damage(), records, data_messages); share > kMaxDamagedRecordShare) {
-    return Status::BadInput(fmt::format("{}: damage: {:.0f} % of the records are damaged (more than {:.0f} %), refused: {}",
-                                        name, 100.0 * share, 100.0 * kMaxDamagedRecordShare,
-                                        DamageSummaryLine(name, reader.damage(), records, data_messages)));
-  }
-  if (c.att.size() == 0) {
-    const auto att_dropped = records.by_message.find("ATT");
-    if (att_dropped != records.by_message.end() || c.att.dropped > 0) {
-      return Status::BadInput(fmt::format("{}: ATT: every attitude record is damaged ({} dropped), so no rows to import",
-                                          name, c.att.dropped + (att_dropped == records.by_message.end()
-                                                                      ? 0 : att_dropped->second)));
-    }
-    return Status::BadInput(name + ": ATT: no attitude messages, so no rows to import");
-  }
-  const std::vector<double>& att_t = c.att.t;
+namespace {
 
-  ImportResult result;
-  result.damage = reader.damage();
-  result.rows_dropped = c.att.dropped;
-  result.records = records;
-  result.records_accepted = data_messages;
-  FlightLog& log = result.log;
-
-  // Rows: one per ATT sample.
-  const size_t t_col = log.AddColumn("t_s");
-  for (const double t_s : att_t) {
-    log.AppendRow();
-    log.Set(t_col, t_s);
+// Rows need a finite attitude: the ATT samples without one are dropped (counted in att.dropped).
+void KeepFiniteAttitude(Collected* c) {
+  Channel att = c->att;
+  c->att = Channel("", att.columns);
+  for (size_t i = 0; i < att.size(); ++i) {
+    if (std::isfinite(att.At(i, 0)) && std::isfinite(att.At(i, 1)) && std::isfinite(att.At(i, 2))) {
+      c->att.Add(att.t[i], {att.At(i, 0), att.At(i, 1), att.At(i, 2)});
+    } else {
+      ++c->att.dropped;
+    }
   }
-  // Truth position/velocity (the autopilot's EKF) come right after t_s, as in the schema.
-  const Channel* ekf = nullptr;
-  std::string ekf_name;
+  c->att.dropped += att.dropped;
+}
+
+// Samples dropped for their time (damaged or out of order), every channel but the attitude's.
+size_t SamplesDropped(const Collected& c) {
+  size_t n = c.imu.dropped + c.batt.dropped + c.rcou.dropped + c.ctun.dropped + c.gps.dropped + c.baro.dropped +
+             c.mode.dropped + c.waypoint.dropped;
+  for (const auto& mc : c.mags) n += mc.dropped;
+  for (const auto& [name, e] : c.ekf) n += e.dropped;
+  return n;
+}
+
+// Why a log without attitude rows has none.
+Status NoAttitudeRows(const Collected& c, const RecordDamage& records, const std::string& name) {
+  const auto att_dropped = records.by_message.find("ATT");
+  if (att_dropped != records.by_message.end() || c.att.dropped > 0) {
+    return Status::BadInput(fmt::format("{}: ATT: every attitude record is damaged ({} dropped), so no rows to import",
+                                        name, c.att.dropped + (att_dropped == records.by_message.end()
+                                                                    ? 0 : att_dropped->second)));
+  }
+  return Status::BadInput(name + ": ATT: no attitude messages, so no rows to import");
+}
+
+// The autopilot's EKF position/velocity channel (XKF1, NKF1 or EKF1, the first with samples), or null.
+const Channel* EkfChannel(const Collected& c, std::string* ekf_name) {
   for (const char* n : {"XKF1", "NKF1", "EKF1"}) {
     auto it = c.ekf.find(n);
     if (it != c.ekf.end() && it->second.size() > 0) {
-      ekf = &it->second;
-      ekf_name = n;
-      break;
+      *ekf_name = n;
+      return &it->second;
     }
   }
-  if (ekf) AddHeld(*ekf, AllColumns(*ekf), &log);
+  return nullptr;
+}
 
-  const size_t qw = log.AddColumn("q_w"), qx = log.AddColumn("q_x"), qy = log.AddColumn("q_y"),
-               qz = log.AddColumn("q_z");
+// q_w..q_z from ATT's Euler angles: w >= 0 first, then continuous.
+void AddAttitude(const Collected& c, FlightLog* log) {
+  const size_t qw = log->AddColumn("q_w"), qx = log->AddColumn("q_x"), qy = log->AddColumn("q_y"),
+               qz = log->AddColumn("q_z");
   Eigen::Quaterniond prev(1, 0, 0, 0);
-  for (size_t r = 0; r < log.rows(); ++r) {
+  for (size_t r = 0; r < log->rows(); ++r) {
     Eigen::Quaterniond q =
         QuatFromEuler(c.att.At(r, 0) * kDegToRad, c.att.At(r, 1) * kDegToRad, c.att.At(r, 2) * kDegToRad).normalized();
     if ((r == 0 && q.w() < 0) || (r > 0 && q.dot(prev) < 0)) q.coeffs() = -q.coeffs();  // w >= 0 first, then continuous
     prev = q;
-    log.MutableColumn(qw)[r] = q.w();
-    log.MutableColumn(qx)[r] = q.x();
-    log.MutableColumn(qy)[r] = q.y();
-    log.MutableColumn(qz)[r] = q.z();
+    log->MutableColumn(qw)[r] = q.w();
+    log->MutableColumn(qx)[r] = q.x();
+    log->MutableColumn(qy)[r] = q.y();
+    log->MutableColumn(qz)[r] = q.z();
   }
-  AddHeld(c.imu, AllColumns(c.imu), &log);
-  // Compasses; motor-offset columns only when the log has any non-zero.
-  const char* mag_prefix[] = {"mag", "mag2", "mag3"};
-  for (size_t k = 0; k < 3; ++k) {
-    std::vector<size_t> cols = {0, 1, 2};
-    if (HasMotorOffsets(c, k)) cols.insert(cols.end(), {3, 4, 5});
-    AddHeld(c.mags[k], cols, &log);
-  }
-  AddHeld(c.baro, AllColumns(c.baro), &log);
+}
 
-  // GPS relative to the first 3-D fix (flat Earth about that point, WGS-84 radii).
-  if (c.gps.size() > 0) {
-    const double lat0 = c.gps.At(0, 0), lon0 = c.gps.At(0, 1), alt0 = c.gps.At(0, 2);
-    const double s = std::sin(lat0 * kDegToRad);
-    const double den = 1.0 - kWgs84E2 * s * s;
-    const double r_n = kWgs84A_m * (1.0 - kWgs84E2) / (den * std::sqrt(den));
-    const double r_e = kWgs84A_m / std::sqrt(den);
-    Channel g("gps_t_s", {"gps_N_m", "gps_E_m", "gps_D_m", "gps_vel_N_mps", "gps_vel_E_mps", "gps_vel_D_mps"});
-    for (size_t i = 0; i < c.gps.size(); ++i) {
-      const double dlat = (c.gps.At(i, 0) - lat0) * kDegToRad;
-      const double dlon = WrapPi((c.gps.At(i, 1) - lon0) * kDegToRad);
-      g.Add(c.gps.t[i], {dlat * (r_n + alt0), dlon * (r_e + alt0) * std::cos(lat0 * kDegToRad),
-                         -(c.gps.At(i, 2) - alt0), c.gps.At(i, 3), c.gps.At(i, 4), c.gps.At(i, 5)});
-    }
-    AddHeld(g, AllColumns(g), &log);
+// GPS relative to the first 3-D fix (flat Earth about that point, WGS-84 radii).
+void AddGps(const Collected& c, FlightLog* log) {
+  if (c.gps.size() == 0) return;
+  const double lat0 = c.gps.At(0, 0), lon0 = c.gps.At(0, 1), alt0 = c.gps.At(0, 2);
+  const double s = std::sin(lat0 * kDegToRad);
+  const double den = 1.0 - kWgs84E2 * s * s;
+  const double r_n = kWgs84A_m * (1.0 - kWgs84E2) / (den * std::sqrt(den));
+  const double r_e = kWgs84A_m / std::sqrt(den);
+  Channel g("gps_t_s", {"gps_N_m", "gps_E_m", "gps_D_m", "gps_vel_N_mps", "gps_vel_E_mps", "gps_vel_D_mps"});
+  for (size_t i = 0; i < c.gps.size(); ++i) {
+    const double dlat = (c.gps.At(i, 0) - lat0) * kDegToRad;
+    const double dlon = WrapPi((c.gps.At(i, 1) - lon0) * kDegToRad);
+    g.Add(c.gps.t[i], {dlat * (r_n + alt0), dlon * (r_e + alt0) * std::cos(lat0 * kDegToRad),
+                       -(c.gps.At(i, 2) - alt0), c.gps.At(i, 3), c.gps.At(i, 4), c.gps.At(i, 5)});
   }
-  AddHeld(c.ctun, AllColumns(c.ctun), &log);
-  AddHeld(c.batt, AllColumns(c.batt), &log);
+  AddHeld(g, AllColumns(g), log);
+}
 
-  // Motors: PWM -> 0..1.
-  const std::vector<std::string> texts = c.texts;
-  const std::string frame_name = FrameNameOf(texts);
-  std::string motors_source;
-  const int motors = MotorCount(c, frame_name, &motors_source);
-  double pwm_min = 1000.0, pwm_max = 2000.0;
-  std::string pwm_source = "default 1000..2000";
+// The motors' PWM range: the import option, MOT_PWM_MIN/MAX, RC3_MIN/MAX, else 1000..2000 µs.
+struct PwmRange {
+  double min_us = 1000.0, max_us = 2000.0;
+  std::string source = "default 1000..2000";
+};
+
+PwmRange PwmRangeOf(const Collected& c, const ImportOptions& options) {
+  PwmRange r;
   if (options.pwm_min_us > 0 && options.pwm_max_us > options.pwm_min_us) {
-    pwm_min = options.pwm_min_us;
-    pwm_max = options.pwm_max_us;
-    pwm_source = "import option";
+    r = {options.pwm_min_us, options.pwm_max_us, "import option"};
   } else if (Param(c, "MOT_PWM_MIN").value_or(0) > 0 && Param(c, "MOT_PWM_MAX").value_or(0) > *Param(c, "MOT_PWM_MIN")) {
-    pwm_min = *Param(c, "MOT_PWM_MIN");
-    pwm_max = *Param(c, "MOT_PWM_MAX");
-    pwm_source = "MOT_PWM_MIN/MAX";
+    r = {*Param(c, "MOT_PWM_MIN"), *Param(c, "MOT_PWM_MAX"), "MOT_PWM_MIN/MAX"};
   } else if (Param(c, "RC3_MIN").value_or(0) > 0 && Param(c, "RC3_MAX").value_or(0) > *Param(c, "RC3_MIN")) {
-    pwm_min = *Param(c, "RC3_MIN");
-    pwm_max = *Param(c, "RC3_MAX");
-    pwm_source = "RC3_MIN/MAX";
+    r = {*Param(c, "RC3_MIN"), *Param(c, "RC3_MAX"), "RC3_MIN/MAX"};
   }
-  if (c.rcou.size() > 0 && motors > 0) {
-    const size_t n = std::min<size_t>(static_cast<size_t>(motors), c.rcou.columns.size());
-    Channel u("rcou_t_s", {});
-    for (size_t i = 0; i < n; ++i) u.columns.push_back(fmt::format("motor_{}_u", i + 1));
-    for (size_t s = 0; s < c.rcou.size(); ++s) {
-      std::vector<double> v;
-      for (size_t i = 0; i < n; ++i) v.push_back(Clamp01((c.rcou.At(s, i) - pwm_min) / (pwm_max - pwm_min)));
-      u.Add(c.rcou.t[s], v);
-    }
-    AddHeld(u, AllColumns(u), &log);
-  }
-  // Native-rate streams beside the table (same motor mapping).
-  size_t stream_dropped = 0;
-  for (auto& [sname, table] : internal::DataFlashStreams(
-           bytes, {pwm_min, pwm_max, static_cast<size_t>(std::max(0, motors))}, &stream_dropped)) {
-    log.SetStream(sname, std::move(table));
-  }
-  if (ekf) {
-    Channel est("", {"est_pos_N_m", "est_pos_E_m", "est_pos_D_m", "est_vel_N_mps", "est_vel_E_mps", "est_vel_D_mps"});
-    est.t = ekf->t;
-    est.values = ekf->values;
-    AddHeld(est, AllColumns(est), &log);
-  }
-  const size_t yaw_col = log.AddColumn("yaw_true_deg");
-  for (size_t r = 0; r < log.rows(); ++r) log.MutableColumn(yaw_col)[r] = WrapDeg180(c.att.At(r, 2));
-  AddHeld(c.mode, AllColumns(c.mode), &log);
-  AddHeld(c.waypoint, AllColumns(c.waypoint), &log);
-  if (c.armed.size() > 0) {
-    // Before the first event the state is the opposite of it (a log starts disarmed, or armed when
-    // its first event is a disarm).
-    Channel armed("", {"armed"});
-    if (att_t.front() < c.armed.t.front()) armed.Add(att_t.front(), {1.0 - c.armed.At(0, 0)});
-    for (size_t i = 0; i < c.armed.size(); ++i) armed.Add(c.armed.t[i], {c.armed.At(i, 0)});
-    AddHeld(armed, AllColumns(armed), &log);
-  }
+  return r;
+}
 
-  // Meta.
+// Motors: PWM -> 0..1 over the range.
+void AddMotors(const Collected& c, int motors, const PwmRange& pwm, FlightLog* log) {
+  if (c.rcou.size() == 0 || motors <= 0) return;
+  const size_t n = std::min<size_t>(static_cast<size_t>(motors), c.rcou.columns.size());
+  Channel u("rcou_t_s", {});
+  for (size_t i = 0; i < n; ++i) u.columns.push_back(fmt::format("motor_{}_u", i + 1));
+  for (size_t s = 0; s < c.rcou.size(); ++s) {
+    std::vector<double> v;
+    for (size_t i = 0; i < n; ++i) v.push_back(Clamp01((c.rcou.At(s, i) - pwm.min_us) / (pwm.max_us - pwm.min_us)));
+    u.Add(c.rcou.t[s], v);
+  }
+  AddHeld(u, AllColumns(u), log);
+}
+
+// The armed state. Before the first event the state is the opposite of it (a log starts disarmed,
+// or armed when its first event is a disarm).
+void AddArmed(const Collected& c, FlightLog* log) {
+  if (c.armed.size() == 0) return;
+  const std::vector<double>& att_t = c.att.t;
+  Channel armed("", {"armed"});
+  if (att_t.front() < c.armed.t.front()) armed.Add(att_t.front(), {1.0 - c.armed.At(0, 0)});
+  for (size_t i = 0; i < c.armed.size(); ++i) armed.Add(c.armed.t[i], {c.armed.At(i, 0)});
+  AddHeld(armed, AllColumns(armed), log);
+}
+
+// What the import decided besides the table, for the meta.
+struct ImportFacts {
+  std::string frame_name, motors_source, ekf_name;
+  int motors = 0;
+  bool has_ekf = false;
+  PwmRange pwm;
+  size_t data_messages = 0, stream_dropped = 0;
+};
+
+// Place, date and compasses of the meta.
+void WritePlaceAndCompasses(const Collected& c, nlohmann::json* meta) {
+  nlohmann::json& m = *meta;
+  if (c.first_fix) {
+    m["location"] = *c.first_fix;
+    m["location"]["source"] = "first GPS 3-D fix";
+  } else if (c.home) {
+    m["location"] = *c.home;
+  }
+  if (c.home) m["home"] = *c.home;
+  if (c.gps_week > 0 && std::isfinite(c.gps_tow_s)) {
+    m["date_decimal_year"] = DecimalYearFromGps(c.gps_week, c.gps_tow_s);
+    m["date_utc"] = IsoUtc(UnixFromGps(c.gps_week, c.gps_tow_s));
+    m["gps_week"] = c.gps_week;
+  }
+  const char* mag_prefix[] = {"mag", "mag2", "mag3"};
+  nlohmann::json compasses = nlohmann::json::array();
+  std::string external;
+  for (size_t k = 0; k < 3; ++k) {
+    if (c.mags[k].size() == 0) continue;
+    compasses.push_back(CompassMeta(c, k, mag_prefix[k]));
+    if (compasses.back()["external"] == true && external.empty()) external = mag_prefix[k];
+  }
+  m["compasses"] = compasses;
+  m["external_compass"] = external.empty() ? nlohmann::json(nullptr) : nlohmann::json(external);
+  if (auto motct = Param(c, "COMPASS_MOTCT")) m["compass_motct"] = *motct;
+  m["params"] = ParamsOfInterest(c.params);
+}
+
+// The log's meta (hexsim.log_meta/1).
+void WriteMeta(const Collected& c, const std::string& name, const ImportFacts& f, ImportResult* result) {
+  FlightLog& log = result->log;
   nlohmann::json& meta = log.meta;
-  const std::string firmware = FirmwareOf(texts);
+  const std::vector<double>& att_t = c.att.t;
+  const std::string firmware = FirmwareOf(c.texts);
   meta["schema"] = "hexsim.log_meta/1";
   meta["source"] = name;
   meta["format"] = "ardupilot-dataflash";
   meta["firmware"] = firmware;
   meta["vehicle_type"] = VehicleTypeOf(firmware);
-  meta["frame"] = frame_name;
-  meta["motor_count"] = motors;
-  meta["motor_count_source"] = motors_source;
-  meta["messages_text"] = texts;
+  meta["frame"] = f.frame_name;
+  meta["motor_count"] = f.motors;
+  meta["motor_count_source"] = f.motors_source;
+  meta["messages_text"] = c.texts;
   const double t0 = att_t.front(), t1 = att_t.back();
   std::vector<double> dt;
   for (size_t i = 1; i < att_t.size(); ++i) dt.push_back(att_t[i] - att_t[i - 1]);
@@ -730,47 +717,108 @@ Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string
   meta["sampling"] = "one row per ATT sample; other channels sample-and-hold (latest sample at or before the row), "
                      "<channel>_t_s = time of the held sample";
   meta["attitude_source"] = "ATT Roll/Pitch/Yaw: the autopilot's own attitude estimate";
-  meta["position_source"] = ekf ? ekf_name + " PN/PE/PD, VN/VE/VD (autopilot EKF, core 0): pos_*/vel_* and est_*"
-                                : "none";
+  meta["position_source"] = f.has_ekf ? f.ekf_name + " PN/PE/PD, VN/VE/VD (autopilot EKF, core 0): pos_*/vel_* and est_*"
+                                      : "none";
   meta["gps_reference"] = "first 3-D fix (gps_N/E/D = 0 there)";
-  meta["motor_pwm_range_us"] = {{"min", pwm_min}, {"max", pwm_max}, {"source", pwm_source}};
+  meta["motor_pwm_range_us"] = {{"min", f.pwm.min_us}, {"max", f.pwm.max_us}, {"source", f.pwm.source}};
   meta["compass_units"] = "uT, as logged by the autopilot (offsets and, where the firmware applies them, "
                           "COMPASS_DIA/ODI and motor compensation included)";
-  if (c.first_fix) {
-    meta["location"] = *c.first_fix;
-    meta["location"]["source"] = "first GPS 3-D fix";
-  } else if (c.home) {
-    meta["location"] = *c.home;
-  }
-  if (c.home) meta["home"] = *c.home;
-  if (c.gps_week > 0 && std::isfinite(c.gps_tow_s)) {
-    meta["date_decimal_year"] = DecimalYearFromGps(c.gps_week, c.gps_tow_s);
-    meta["date_utc"] = IsoUtc(UnixFromGps(c.gps_week, c.gps_tow_s));
-    meta["gps_week"] = c.gps_week;
-  }
-  nlohmann::json compasses = nlohmann::json::array();
-  std::string external;
-  for (size_t k = 0; k < 3; ++k) {
-    if (c.mags[k].size() == 0) continue;
-    compasses.push_back(CompassMeta(c, k, mag_prefix[k]));
-    if (compasses.back()["external"] == true && external.empty()) external = mag_prefix[k];
-  }
-  meta["compasses"] = compasses;
-  meta["external_compass"] = external.empty() ? nlohmann::json(nullptr) : nlohmann::json(external);
-  if (auto motct = Param(c, "COMPASS_MOTCT")) meta["compass_motct"] = *motct;
-  meta["params"] = ParamsOfInterest(c.params);
-  nlohmann::json damage = DamageJson(result.damage);
-  damage["rows_dropped"] = result.rows_dropped;
-  size_t samples_dropped = c.imu.dropped + c.batt.dropped + c.rcou.dropped + c.ctun.dropped + c.gps.dropped +
-                           c.baro.dropped + c.mode.dropped + c.waypoint.dropped;
-  for (const auto& mc : c.mags) samples_dropped += mc.dropped;
-  for (const auto& [n, e] : c.ekf) samples_dropped += e.dropped;
-  damage["samples_dropped"] = samples_dropped;
-  damage["stream_samples_dropped"] = stream_dropped;
-  damage.update(RecordDamageJson(records));
-  damage["damaged_record_share"] = DamagedRecordShare(result.damage, records, data_messages);
+  WritePlaceAndCompasses(c, &meta);
+  nlohmann::json damage = DamageJson(result->damage);
+  damage["rows_dropped"] = result->rows_dropped;
+  damage["samples_dropped"] = SamplesDropped(c);
+  damage["stream_samples_dropped"] = f.stream_dropped;
+  damage.update(RecordDamageJson(result->records));
+  damage["damaged_record_share"] = DamagedRecordShare(result->damage, result->records, f.data_messages);
   meta["damage"] = damage;
   WriteCurrentCheck(CheckCurrentSensor(log), &meta);
+}
+
+// The table: one row per ATT sample, the other channels held (the EKF's position right after t_s,
+// as in the schema), the motors' outputs, the native-rate streams beside it.
+void FillTable(const std::string& bytes, const Collected& c, const Channel* ekf, ImportFacts* f, FlightLog* log) {
+  const size_t t_col = log->AddColumn("t_s");
+  for (const double t_s : c.att.t) {
+    log->AppendRow();
+    log->Set(t_col, t_s);
+  }
+  if (ekf) AddHeld(*ekf, AllColumns(*ekf), log);
+  AddAttitude(c, log);
+  AddHeld(c.imu, AllColumns(c.imu), log);
+  // Compasses; motor-offset columns only when the log has any non-zero.
+  for (size_t k = 0; k < 3; ++k) {
+    std::vector<size_t> cols = {0, 1, 2};
+    if (HasMotorOffsets(c, k)) cols.insert(cols.end(), {3, 4, 5});
+    AddHeld(c.mags[k], cols, log);
+  }
+  AddHeld(c.baro, AllColumns(c.baro), log);
+  AddGps(c, log);
+  AddHeld(c.ctun, AllColumns(c.ctun), log);
+  AddHeld(c.batt, AllColumns(c.batt), log);
+  f->frame_name = FrameNameOf(c.texts);
+  f->motors = MotorCount(c, f->frame_name, &f->motors_source);
+  AddMotors(c, f->motors, f->pwm, log);
+  // Native-rate streams beside the table (same motor mapping).
+  for (auto& [sname, table] : internal::DataFlashStreams(
+           bytes, {f->pwm.min_us, f->pwm.max_us, static_cast<size_t>(std::max(0, f->motors))}, &f->stream_dropped)) {
+    log->SetStream(sname, std::move(table));
+  }
+  if (ekf) {
+    Channel est("", {"est_pos_N_m", "est_pos_E_m", "est_pos_D_m", "est_vel_N_mps", "est_vel_E_mps", "est_vel_D_mps"});
+    est.t = ekf->t;
+    est.values = ekf->values;
+    AddHeld(est, AllColumns(est), log);
+  }
+  const size_t yaw_col = log->AddColumn("yaw_true_deg");
+  for (size_t r = 0; r < log->rows(); ++r) log->MutableColumn(yaw_col)[r] = WrapDeg180(c.att.At(r, 2));
+  AddHeld(c.mode, AllColumns(c.mode), log);
+  AddHeld(c.waypoint, AllColumns(c.waypoint), log);
+  AddArmed(c, log);
+}
+
+}  // namespace
+
+Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string& name,
+                                     const ImportOptions& options) {
+  if (bytes.empty()) return Status::BadInput(name + ": empty file");
+  Collected c;
+  c.mags = {MakeMagChannel("mag"), MakeMagChannel("mag2"), MakeMagChannel("mag3")};
+  DataFlashReader reader(bytes);
+  DataFlashMessage m;
+  ImportFacts facts;
+  RecordPlausibility plausibility;  // drops records damage made implausible (dataflash_plausibility.h)
+  while (reader.Next(&m)) {
+    if (m.type() != kDataFlashFmtType) ++facts.data_messages;
+    if (plausibility.Accept(m)) CollectMessage(m, &c);
+  }
+  if (facts.data_messages == 0) {
+    return Status::BadInput(fmt::format("{}: not an ArduPilot DataFlash log: no readable messages ({} bytes skipped)",
+                                        name, reader.damage().skipped_bytes));
+  }
+  KeepFiniteAttitude(&c);
+  for (Channel* ch : {&c.att, &c.imu, &c.batt, &c.rcou, &c.ctun, &c.gps, &c.baro, &c.mode, &c.waypoint, &c.armed}) {
+    ch->Finalize();
+  }
+  for (auto& ch : c.mags) ch.Finalize();
+  for (auto& [n, ch] : c.ekf) ch.Finalize();
+  RecordDamage& records = plausibility.mutable_damage();
+  records.time = c.att.dropped + SamplesDropped(c);
+  if (const double share = DamagedRecordShare(reader.damage(), records, facts.data_messages); share > kMaxDamagedRecordShare) {
+    return Status::BadInput(fmt::format("{}: damage: {:.0f} % of the records are damaged (more than {:.0f} %), refused: {}",
+                                        name, 100.0 * share, 100.0 * kMaxDamagedRecordShare,
+                                        DamageSummaryLine(name, reader.damage(), records, facts.data_messages)));
+  }
+  if (c.att.size() == 0) return NoAttitudeRows(c, records, name);
+  ImportResult result;
+  result.damage = reader.damage();
+  result.rows_dropped = c.att.dropped;
+  result.records = records;
+  result.records_accepted = facts.data_messages;
+  const Channel* ekf = EkfChannel(c, &facts.ekf_name);
+  facts.has_ekf = ekf != nullptr;
+  facts.pwm = PwmRangeOf(c, options);
+  FillTable(bytes, c, ekf, &facts, &result.log);
+  WriteMeta(c, name, facts, &result);
   return result;
 }
 

@@ -317,23 +317,13 @@ Channel PowerSignal(const ULog& u, int comp_type, const ArmedState& armed, std::
                    }}}, nullptr};
 }
 
-}  // namespace
-
-Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name) {
-  auto parsed = ParseULog(bytes, name);
-  if (!parsed.ok()) return parsed.status();
-  const ULog& u = *parsed;
-  const ULogTopic* att = u.Find("vehicle_attitude");
-  if (att == nullptr || att->records.empty() || !att->Has("q[0]")) {
-    return Status::BadInput(name + ": vehicle_attitude: no attitude samples (rows are one per attitude sample)");
-  }
-  ULogImport out;
-  FlightLog& log = out.log;
-  size_t dropped = 0;
+// The table's rows, one per usable vehicle_attitude sample time (the first of equal times), with
+// the attitude's columns, and the attitude's native-rate stream. Returns the rows' times.
+Result<std::vector<double>> AttitudeRows(const ULogTopic* att, const std::string& name, FlightLog* log, size_t* dropped) {
   const Channel att_ch = Attitude(att);
   std::vector<size_t> att_recs;
   std::vector<double> row_t;
-  for (size_t i : Usable(att_ch, &dropped)) {
+  for (size_t i : Usable(att_ch, dropped)) {
     if (!row_t.empty() && att->TimeS(i) == row_t.back()) continue;  // one row per time
     att_recs.push_back(i);
     row_t.push_back(att->TimeS(i));
@@ -341,74 +331,95 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
   if (row_t.empty()) {
     return Status::BadInput(name + ": vehicle_attitude: no attitude sample has a usable timestamp");
   }
-  const size_t t_col = log.AddColumn("t_s");
+  const size_t t_col = log->AddColumn("t_s");
   std::vector<size_t> att_cols;
-  for (const auto& c : att_ch.columns) att_cols.push_back(log.AddColumn(c.name));
-  log.Reserve(row_t.size());
+  for (const auto& c : att_ch.columns) att_cols.push_back(log->AddColumn(c.name));
+  log->Reserve(row_t.size());
   for (size_t r = 0; r < row_t.size(); ++r) {
-    log.AppendRow();
-    log.Set(t_col, row_t[r]);
-    for (size_t k = 0; k < att_cols.size(); ++k) log.Set(att_cols[k], att_ch.columns[k].value(att_recs[r]));
+    log->AppendRow();
+    log->Set(t_col, row_t[r]);
+    for (size_t k = 0; k < att_cols.size(); ++k) log->Set(att_cols[k], att_ch.columns[k].value(att_recs[r]));
   }
-  log.SetStream("att", StreamOf(att_ch, att_recs));
+  log->SetStream("att", StreamOf(att_ch, att_recs));
+  return row_t;
+}
 
-  nlohmann::json compasses = nlohmann::json::array();
-  std::vector<Channel> channels;
-  if (const ULogTopic* imu = u.Find("sensor_combined"); imu != nullptr && imu->Has("gyro_rad[0]")) {
-    Channel c{imu, "imu", {}, nullptr};
-    Vec3(&c, "gyro", "_radps", {"gyro_rad[0]", "gyro_rad[1]", "gyro_rad[2]"}, 1.0);
-    Vec3(&c, "accel", "_mps2", {"accelerometer_m_s2[0]", "accelerometer_m_s2[1]", "accelerometer_m_s2[2]"}, 1.0);
-    channels.push_back(std::move(c));
-  }
-  const ArmedState armed = ArmedOf(u);
-  Magnetometers(u, name, armed, &channels, &compasses, &out.warnings);
-  // The power signal of PX4's magnetometer power compensation, when one is in force (ulog_mag_cal.h).
+// PX4's magnetometer power compensation as the log has it: CAL_MAG_COMP_TYP, and the source of the
+// power signal its channel carries ("" : none).
+struct PowerCompensation {
+  int type = 0;
+  std::string source;
+};
+
+// Adds the power signal's channel when a compensation is in force (a non-zero CAL_MAGn_COMP on some
+// compass and CAL_MAG_COMP_TYP set; ulog_mag_cal.h), or a warning when the log lacks the signal.
+// `armed` must outlive the channel.
+PowerCompensation AddPowerChannel(const ULog& u, const std::string& name, const nlohmann::json& compasses,
+                                  const ArmedState& armed, std::vector<Channel>* channels, std::vector<std::string>* warnings) {
+  PowerCompensation pc;
   const auto comp_it = u.params.find("CAL_MAG_COMP_TYP");
-  const int comp_type = comp_it != u.params.end() ? static_cast<int>(comp_it->second) : 0;
+  pc.type = comp_it != u.params.end() ? static_cast<int>(comp_it->second) : 0;
   bool comp_nonzero = false;
   for (const auto& c : compasses) {
     if (!c.contains("px4_calibration")) continue;
     for (const auto& v : c["px4_calibration"]["power_compensation"]) comp_nonzero = comp_nonzero || v.get<double>() != 0.0;
   }
-  std::string power_source;
-  if (comp_nonzero && comp_type != 0) {
-    Channel p = PowerSignal(u, comp_type, armed, &power_source);
-    if (p.topic != nullptr) channels.push_back(std::move(p));
-    else out.warnings.push_back(fmt::format("{}: CAL_MAG_COMP_TYP {}: the log lacks the power signal it needs", name, comp_type));
+  if (comp_nonzero && pc.type != 0) {
+    Channel p = PowerSignal(u, pc.type, armed, &pc.source);
+    if (p.topic != nullptr) channels->push_back(std::move(p));
+    else warnings->push_back(fmt::format("{}: CAL_MAG_COMP_TYP {}: the log lacks the power signal it needs", name, pc.type));
   }
-  if (const ULogTopic* b = u.Find("battery_status"); b != nullptr) {
-    channels.push_back({b, "batt", {{"current_A", [b](size_t i) { return b->Get(i, "current_a"); }},
-                                    {"voltage_V", [b](size_t i) { return b->Get(i, "voltage_v"); }}}, nullptr});
-  }
+  return pc;
+}
+
+// The rotor count: CA_ROTOR_COUNT where it holds 1..12, else 4.
+int MotorCount(const ULog& u) {
   const auto rotors_it = u.params.find("CA_ROTOR_COUNT");
-  const int motors = rotors_it != u.params.end() && rotors_it->second >= 1 && rotors_it->second <= 12
-                         ? static_cast<int>(rotors_it->second) : 4;
+  return rotors_it != u.params.end() && rotors_it->second >= 1 && rotors_it->second <= 12 ? static_cast<int>(rotors_it->second) : 4;
+}
+
+// The motors' outputs (0..1): actuator_motors' controls, or actuator_outputs' PWM over the
+// PWM_MAIN_MIN..MAX range (the PWM itself in the stream only). Null topic: neither is logged.
+Channel MotorOutputs(const ULog& u, int motors) {
   const ULogTopic* am = u.Find("actuator_motors");
   const ULogTopic* ao = u.Find("actuator_outputs");
-  if (am != nullptr || ao != nullptr) {
-    const auto pmin = u.params.find("PWM_MAIN_MIN"), pmax = u.params.find("PWM_MAIN_MAX");
-    const double lo = pmin != u.params.end() ? pmin->second : 1000.0, hi = pmax != u.params.end() ? pmax->second : 2000.0;
-    const ULogTopic* t = am != nullptr ? am : ao;
-    Channel c{t, "rcou", {}, nullptr};
-    const bool pwm = am == nullptr;
-    for (int k = 0; k < motors; ++k) {
-      const std::string f = fmt::format(pwm ? "output[{}]" : "control[{}]", k);
-      c.columns.push_back({fmt::format("motor_{}_u", k + 1), [t, f, pwm, lo, hi](size_t i) {
-                             const double v = t->Get(i, f);
-                             return std::clamp(pwm ? (v - lo) / (hi - lo) : v, 0.0, 1.0);
-                           }});
-    }
-    for (int k = 0; k < motors && pwm; ++k) {
-      const std::string f = fmt::format("output[{}]", k);
-      c.columns.push_back({fmt::format("pwm_{}_us", k + 1), [t, f](size_t i) { return t->Get(i, f); }, false});
-    }
-    channels.push_back(std::move(c));
+  if (am == nullptr && ao == nullptr) return {};
+  const auto pmin = u.params.find("PWM_MAIN_MIN"), pmax = u.params.find("PWM_MAIN_MAX");
+  const double lo = pmin != u.params.end() ? pmin->second : 1000.0, hi = pmax != u.params.end() ? pmax->second : 2000.0;
+  const ULogTopic* t = am != nullptr ? am : ao;
+  Channel c{t, "rcou", {}, nullptr};
+  const bool pwm = am == nullptr;
+  for (int k = 0; k < motors; ++k) {
+    const std::string f = fmt::format(pwm ? "output[{}]" : "control[{}]", k);
+    c.columns.push_back({fmt::format("motor_{}_u", k + 1), [t, f, pwm, lo, hi](size_t i) {
+                           const double v = t->Get(i, f);
+                           return std::clamp(pwm ? (v - lo) / (hi - lo) : v, 0.0, 1.0);
+                         }});
   }
+  for (int k = 0; k < motors && pwm; ++k) {
+    const std::string f = fmt::format("output[{}]", k);
+    c.columns.push_back({fmt::format("pwm_{}_us", k + 1), [t, f](size_t i) { return t->Get(i, f); }, false});
+  }
+  return c;
+}
+
+// The power side: battery current and voltage, the motors' outputs, the collective thrust (control_u).
+void AddPowerChannels(const ULog& u, int motors, std::vector<Channel>* channels) {
+  if (const ULogTopic* b = u.Find("battery_status"); b != nullptr) {
+    channels->push_back({b, "batt", {{"current_A", [b](size_t i) { return b->Get(i, "current_a"); }},
+                                     {"voltage_V", [b](size_t i) { return b->Get(i, "voltage_v"); }}}, nullptr});
+  }
+  if (Channel c = MotorOutputs(u, motors); c.topic != nullptr) channels->push_back(std::move(c));
   if (const ULogTopic* th = u.Find("vehicle_thrust_setpoint"); th != nullptr && th->Has("xyz[2]")) {
-    channels.push_back({th, "ctun", {{"control_u", [th](size_t i) { return -1000.0 * th->Get(i, "xyz[2]"); }}}, nullptr});
+    channels->push_back({th, "ctun", {{"control_u", [th](size_t i) { return -1000.0 * th->Get(i, "xyz[2]"); }}}, nullptr});
   } else if (const ULogTopic* ac = u.Find("actuator_controls_0"); ac != nullptr && ac->Has("control[3]")) {
-    channels.push_back({ac, "ctun", {{"control_u", [ac](size_t i) { return 1000.0 * ac->Get(i, "control[3]"); }}}, nullptr});
+    channels->push_back({ac, "ctun", {{"control_u", [ac](size_t i) { return 1000.0 * ac->Get(i, "control[3]"); }}}, nullptr});
   }
+}
+
+// The navigation side: the estimator's local position and velocity, the barometric altitude, and
+// the GPS (3-D fixes only).
+void AddNavigationChannels(const ULog& u, std::vector<Channel>* channels) {
   if (const ULogTopic* lp = u.Find("vehicle_local_position"); lp != nullptr) {
     Channel c{lp, "ekf", {}, nullptr};
     const std::pair<const char*, const char*> m[6] = {{"N_m", "x"},   {"E_m", "y"},   {"D_m", "z"},
@@ -418,12 +429,12 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
       c.columns.push_back({kind + suffix, [lp, f](size_t i) { return lp->Get(i, f); }});
       c.columns.push_back({"est_" + kind + suffix, [lp, f](size_t i) { return lp->Get(i, f); }});
     }
-    channels.push_back(std::move(c));
+    channels->push_back(std::move(c));
   }
   const ULogTopic* air = u.Find("vehicle_air_data");
   if (air == nullptr || !air->Has("baro_alt_meter")) air = u.Find("sensor_combined");
   if (air != nullptr && air->Has("baro_alt_meter")) {
-    channels.push_back({air, "baro", {{"baro_alt_m", [air](size_t i) { return air->Get(i, "baro_alt_meter"); }}}, nullptr});
+    channels->push_back({air, "baro", {{"baro_alt_m", [air](size_t i) { return air->Get(i, "baro_alt_meter"); }}}, nullptr});
   }
   if (const ULogTopic* g = u.Find("vehicle_gps_position"); g != nullptr && g->Has("vel_n_m_s")) {
     Channel c{g, "gps", {}, [g](size_t i) { return g->Get(i, "fix_type") >= kGps3dFix; }};
@@ -434,44 +445,52 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
       const std::string f = fmt::format("vel_{}_m_s", static_cast<char>(std::tolower(axis[0])));
       c.columns.push_back({fmt::format("gps_vel_{}_mps", axis), [g, f](size_t i) { return g->Get(i, f); }});
     }
-    channels.push_back(std::move(c));
+    channels->push_back(std::move(c));
   }
-  for (const auto& ch : channels) {
-    // Columns added now are filled with NaN for every row so far (AddColumn), then held.
-    const std::vector<size_t> recs = Usable(ch, &dropped);
-    if (recs.empty()) continue;
-    Hold(ch, recs, &log, row_t);
-    if (!ch.stream.empty()) log.SetStream(ch.stream, StreamOf(ch, recs));
-  }
-  if (!armed.t_s.empty()) {
-    const size_t col = log.AddColumn("armed");
-    for (size_t r = 0; r < row_t.size(); ++r) log.MutableColumn(col)[r] = armed.At(row_t[r]);
-  }
-  nlohmann::json& meta = log.meta;
-  // Place and date for the Earth-field model (gap diagnose): the first 3-D fix, as for DataFlash.
-  if (const ULogTopic* g = u.Find("vehicle_gps_position"); g != nullptr && g->Has("fix_type")) {
-    for (size_t i = 0; i < g->records.size(); ++i) {
-      if (!(g->Get(i, "fix_type") >= kGps3dFix)) continue;
-      const double lat = GpsLatDeg(*g, i), lon = GpsLonDeg(*g, i), alt = GpsAltM(*g, i);
-      if (!(std::fabs(lat) <= 90) || !(std::fabs(lon) <= 180) || (lat == 0 && lon == 0)) continue;
-      meta["location"] = {{"lat_deg", lat}, {"lon_deg", lon}, {"alt_m", alt},
-                          {"source", "first GPS 3-D fix (vehicle_gps_position)"}};
-      const double utc_s = g->Has("time_utc_usec") ? 1e-6 * g->Get(i, "time_utc_usec") : 0.0;
-      if (utc_s > 1.0e9) {  // after 2001: a real UTC time, not an unset 0
-        meta["date_decimal_year"] = DecimalYearFromUnix(utc_s);
-        meta["date_utc"] = IsoUtcFromUnix(utc_s);
-      }
-      break;
+}
+
+// Place and date for the Earth-field model (gap diagnose): the first 3-D fix, as for DataFlash.
+void WriteLocation(const ULog& u, nlohmann::json* meta) {
+  const ULogTopic* g = u.Find("vehicle_gps_position");
+  if (g == nullptr || !g->Has("fix_type")) return;
+  for (size_t i = 0; i < g->records.size(); ++i) {
+    if (!(g->Get(i, "fix_type") >= kGps3dFix)) continue;
+    const double lat = GpsLatDeg(*g, i), lon = GpsLonDeg(*g, i), alt = GpsAltM(*g, i);
+    if (!(std::fabs(lat) <= 90) || !(std::fabs(lon) <= 180) || (lat == 0 && lon == 0)) continue;
+    (*meta)["location"] = {{"lat_deg", lat}, {"lon_deg", lon}, {"alt_m", alt}, {"source", "first GPS 3-D fix (vehicle_gps_position)"}};
+    const double utc_s = g->Has("time_utc_usec") ? 1e-6 * g->Get(i, "time_utc_usec") : 0.0;
+    if (utc_s > 1.0e9) {  // after 2001: a real UTC time, not an unset 0
+      (*meta)["date_decimal_year"] = DecimalYearFromUnix(utc_s);
+      (*meta)["date_utc"] = IsoUtcFromUnix(utc_s);
     }
+    return;
   }
+}
+
+// What the import found besides the table, for the meta.
+struct ImportFacts {
+  const std::vector<double>* row_t = nullptr;
+  int motors = 4;
+  const ArmedState* armed = nullptr;
+  PowerCompensation compensation;
+  nlohmann::json compasses;
+  size_t dropped = 0;
+};
+
+// The log's meta (hexsim.log_meta/1): source, firmware, rotors, the parameters identification
+// reads, time span, compasses, armed state, power compensation, text messages, damage, warnings.
+void WriteMeta(const ULog& u, const std::string& name, const ImportFacts& f, ULogImport* out) {
+  FlightLog& log = out->log;
+  nlohmann::json& meta = log.meta;
+  WriteLocation(u, &meta);
   meta["schema"] = "hexsim.log_meta/1";
   meta["source"] = name;
   meta["format"] = "px4-ulog";
   meta["ulog_version"] = u.version;
   meta["firmware"] = u.info.count("ver_sw") != 0 ? u.info.at("ver_sw") : "";
   meta["vehicle_type"] = "px4";
-  meta["motor_count"] = motors;
-  meta["motor_count_source"] = rotors_it != u.params.end() ? "CA_ROTOR_COUNT" : "default (4)";
+  meta["motor_count"] = f.motors;
+  meta["motor_count_source"] = u.params.count("CA_ROTOR_COUNT") != 0 ? "CA_ROTOR_COUNT" : "default (4)";
   // The parameters identification reads: the control allocator's rotor geometry (CA_ROTORn_PX/PY/KM,
   // KM > 0 for a counter-clockwise rotor), the airframe, the PWM range and the thrust model factor.
   nlohmann::json params = nlohmann::json::object();
@@ -484,30 +503,77 @@ Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name)
   meta["params"] = params;
   meta["rows"] = log.rows();
   meta["row_source"] = "vehicle_attitude";
+  const std::vector<double>& row_t = *f.row_t;
   meta["time"] = {{"start_s", row_t.front()}, {"end_s", row_t.back()}, {"duration_s", row_t.back() - row_t.front()},
                   {"base", "seconds since autopilot boot"}};
   meta["attitude_source"] = "vehicle_attitude q: the autopilot's own attitude estimate";
-  meta["compasses"] = compasses;
-  meta["armed_source"] = armed.t_s.empty() ? "none (no actuator_armed or vehicle_status)" : armed.source;
-  if (comp_type != 0) {
-    meta["px4_mag_power_compensation"] = {{"type", comp_type}, {"column", power_source.empty() ? "" : "px4_mag_power"},
-                                          {"source", power_source}};
+  meta["compasses"] = f.compasses;
+  meta["armed_source"] = f.armed->t_s.empty() ? "none (no actuator_armed or vehicle_status)" : f.armed->source;
+  if (f.compensation.type != 0) {
+    meta["px4_mag_power_compensation"] = {{"type", f.compensation.type},
+                                          {"column", f.compensation.source.empty() ? "" : "px4_mag_power"},
+                                          {"source", f.compensation.source}};
   }
   meta["compass_units"] = "uT (PX4 logs gauss: x100)";
   meta["messages_text"] = u.messages;
   meta["bytes_skipped"] = u.bytes_skipped;
-  meta["stream_samples_dropped"] = dropped;
+  meta["stream_samples_dropped"] = f.dropped;
   if (u.bytes_skipped > 0) {
-    out.warnings.push_back(fmt::format("{}: truncated: the file ends inside a record ({} bytes of it); everything before "
-                                       "that imported",
-                                       name, u.bytes_skipped));
+    out->warnings.push_back(fmt::format("{}: truncated: the file ends inside a record ({} bytes of it); everything before "
+                                        "that imported",
+                                        name, u.bytes_skipped));
   }
-  meta["warnings"] = out.warnings;
+  meta["warnings"] = out->warnings;
   WriteCurrentCheck(CheckCurrentSensor(log), &meta);
   // The log's own strings (ver_sw, logged messages, warnings quoting names) are bytes, not always
   // UTF-8; JSON requires UTF-8, so invalid sequences become U+FFFD once, here, and every later
   // dump() of the meta succeeds (fuzz finding: an 0x80 byte in a logged message).
   meta = nlohmann::json::parse(meta.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));
+}
+
+}  // namespace
+
+Result<ULogImport> ImportULog(const std::string& bytes, const std::string& name) {
+  auto parsed = ParseULog(bytes, name);
+  if (!parsed.ok()) return parsed.status();
+  const ULog& u = *parsed;
+  const ULogTopic* att = u.Find("vehicle_attitude");
+  if (att == nullptr || att->records.empty() || !att->Has("q[0]")) {
+    return Status::BadInput(name + ": vehicle_attitude: no attitude samples (rows are one per attitude sample)");
+  }
+  ULogImport out;
+  FlightLog& log = out.log;
+  ImportFacts facts;
+  auto row_t = AttitudeRows(att, name, &log, &facts.dropped);
+  if (!row_t.ok()) return row_t.status();
+  facts.row_t = &*row_t;
+  facts.compasses = nlohmann::json::array();
+  std::vector<Channel> channels;
+  if (const ULogTopic* imu = u.Find("sensor_combined"); imu != nullptr && imu->Has("gyro_rad[0]")) {
+    Channel c{imu, "imu", {}, nullptr};
+    Vec3(&c, "gyro", "_radps", {"gyro_rad[0]", "gyro_rad[1]", "gyro_rad[2]"}, 1.0);
+    Vec3(&c, "accel", "_mps2", {"accelerometer_m_s2[0]", "accelerometer_m_s2[1]", "accelerometer_m_s2[2]"}, 1.0);
+    channels.push_back(std::move(c));
+  }
+  const ArmedState armed = ArmedOf(u);  // outlives `channels` (the power signal reads it)
+  facts.armed = &armed;
+  Magnetometers(u, name, armed, &channels, &facts.compasses, &out.warnings);
+  facts.compensation = AddPowerChannel(u, name, facts.compasses, armed, &channels, &out.warnings);
+  facts.motors = MotorCount(u);
+  AddPowerChannels(u, facts.motors, &channels);
+  AddNavigationChannels(u, &channels);
+  for (const auto& ch : channels) {
+    // Columns added now are filled with NaN for every row so far (AddColumn), then held.
+    const std::vector<size_t> recs = Usable(ch, &facts.dropped);
+    if (recs.empty()) continue;
+    Hold(ch, recs, &log, *row_t);
+    if (!ch.stream.empty()) log.SetStream(ch.stream, StreamOf(ch, recs));
+  }
+  if (!armed.t_s.empty()) {
+    const size_t col = log.AddColumn("armed");
+    for (size_t r = 0; r < row_t->size(); ++r) log.MutableColumn(col)[r] = armed.At((*row_t)[r]);
+  }
+  WriteMeta(u, name, facts, &out);
   return out;
 }
 

@@ -140,45 +140,66 @@ struct LmResult {
   double condition_number = 0.0;
 };
 
+// Residuals e_i = ‖M(H_i − β)‖ − 1 and Jacobian J (n×9, every column written: the caller's buffer
+// is reused) at p = [M00 M11 M22 M01 M02 M12 βx βy βz]; `sphere`: M = m I (column 0 only).
+void LmResiduals(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, bool sphere,
+                 const Eigen::Matrix<double, 9, 1>& p, Eigen::VectorXd* e, Eigen::MatrixXd* J) {
+  const Eigen::Index n = static_cast<Eigen::Index>(H.size());
+  const Matrix3d M = SymFromParams(p);
+  const Vector3d beta = p.tail<3>();
+  e->resize(n);
+  J->resize(n, 9);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const Vector3d v = H[i] - beta;
+    const Vector3d w = M * v;
+    const double nw = w.norm();
+    (*e)(i) = nw - 1.0;
+    const Vector3d u = nw > 0.0 ? Vector3d(w / nw) : Vector3d::Zero();
+    if (sphere) {
+      const double dm = u.dot(v);  // d/dm of ‖m v‖ with M = m I
+      (*J)(i, 0) = dm;
+      for (int c = 1; c < 6; ++c) (*J)(i, c) = 0.0;
+    } else {
+      (*J)(i, 0) = u(0) * v(0);
+      (*J)(i, 1) = u(1) * v(1);
+      (*J)(i, 2) = u(2) * v(2);
+      (*J)(i, 3) = u(0) * v(1) + u(1) * v(0);
+      (*J)(i, 4) = u(0) * v(2) + u(2) * v(0);
+      (*J)(i, 5) = u(1) * v(2) + u(2) * v(1);
+    }
+    J->block<1, 3>(i, 6) = -(u.transpose() * M);
+    if (!o.weights.empty()) {  // Σ w e²: rows scaled by √w
+      const double sw = std::sqrt(o.weights[static_cast<size_t>(i)]);
+      (*e)(i) *= sw;
+      J->row(i) *= sw;
+    }
+  }
+}
+
+// Condition number of the column-scaled Jacobian Ja·D⁻¹ (D = its column norms √(JaᵀJa)_kk) from
+// the active parameters' normal matrix JaᵀJa: cond = sqrt(λmax/λmin) of D⁻¹·JaᵀJa·D⁻¹, the same
+// number as an SVD of the scaled n×9 Jacobian.
+template <typename MatA>
+double ScaledConditionNumber(MatA JtJ) {
+  for (Eigen::Index k = 0; k < JtJ.rows(); ++k) {
+    const double cn = std::sqrt(JtJ(k, k));
+    if (cn > 0.0) {
+      JtJ.row(k) /= cn;
+      JtJ.col(k) /= cn;
+    }
+  }
+  Eigen::SelfAdjointEigenSolver<MatA> eig(JtJ, Eigen::EigenvaluesOnly);
+  const auto& ev = eig.eigenvalues();  // ascending
+  return ev(0) > 0.0 ? std::sqrt(ev(ev.size() - 1) / ev(0)) : std::numeric_limits<double>::infinity();
+}
+
 // Levenberg–Marquardt on e_i = ‖M(H_i − β)‖ − 1, p = [M00 M11 M22 M01 M02 M12 βx βy βz].
 // `sphere` keeps M at a multiple of I (only M00 = M11 = M22 free); `planar` also keeps βz fixed.
 LmResult RefineLm(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, bool sphere,
                   Eigen::Matrix<double, 9, 1>* params, bool planar = false) {
   using Vec9 = Eigen::Matrix<double, 9, 1>;
   using Mat9 = Eigen::Matrix<double, 9, 9>;
-  const Eigen::Index n = static_cast<Eigen::Index>(H.size());
-  // Residuals e and Jacobian J (n×9, every column written: the caller's buffer is reused).
-  auto evaluate = [&](const Vec9& p, Eigen::VectorXd* e, Eigen::MatrixXd* J) {
-    const Matrix3d M = SymFromParams(p);
-    const Vector3d beta = p.tail<3>();
-    e->resize(n);
-    J->resize(n, 9);
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const Vector3d v = H[i] - beta;
-      const Vector3d w = M * v;
-      const double nw = w.norm();
-      (*e)(i) = nw - 1.0;
-      const Vector3d u = nw > 0.0 ? Vector3d(w / nw) : Vector3d::Zero();
-      if (sphere) {
-        const double dm = u.dot(v);  // d/dm of ‖m v‖ with M = m I
-        (*J)(i, 0) = dm;
-        for (int c = 1; c < 6; ++c) (*J)(i, c) = 0.0;
-      } else {
-        (*J)(i, 0) = u(0) * v(0);
-        (*J)(i, 1) = u(1) * v(1);
-        (*J)(i, 2) = u(2) * v(2);
-        (*J)(i, 3) = u(0) * v(1) + u(1) * v(0);
-        (*J)(i, 4) = u(0) * v(2) + u(2) * v(0);
-        (*J)(i, 5) = u(1) * v(2) + u(2) * v(1);
-      }
-      J->block<1, 3>(i, 6) = -(u.transpose() * M);
-      if (!o.weights.empty()) {  // Σ w e²: rows scaled by √w
-        const double sw = std::sqrt(o.weights[static_cast<size_t>(i)]);
-        (*e)(i) *= sw;
-        J->row(i) *= sw;
-      }
-    }
-  };
+  auto evaluate = [&](const Vec9& p, Eigen::VectorXd* e, Eigen::MatrixXd* J) { LmResiduals(H, o, sphere, p, e, J); };
   // Normal equations of the full 9 columns, JᵀJ and Jᵀe, as column dot products (contiguous
   // columns; upper triangle mirrored): half the work of a GEMM and none of its packing.
   auto normal = [&](const Eigen::MatrixXd& J, const Eigen::VectorXd& e, Mat9* JtJ, Vec9* Jte) {
@@ -270,20 +291,8 @@ LmResult RefineLm(const std::vector<Vector3d>& H, const EllipsoidFitOptions& o, 
     if (r.converged) break;
   }
   if (r.iterations > o.max_iterations) r.iterations = o.max_iterations;
-  // Condition number of the column-scaled Jacobian Ja·D⁻¹ (D = its column norms √(JaᵀJa)_kk), at
-  // the final parameters: cond = sqrt(λmax/λmin) of D⁻¹·JaᵀJa·D⁻¹, the same number as an SVD of
-  // the scaled n×9 Jacobian, from the normal matrix already accumulated.
   reduce(JtJ9, Jte9, &JtJ, &g);
-  for (Eigen::Index k = 0; k < na; ++k) {
-    const double cn = std::sqrt(JtJ(k, k));
-    if (cn > 0.0) {
-      JtJ.row(k) /= cn;
-      JtJ.col(k) /= cn;
-    }
-  }
-  Eigen::SelfAdjointEigenSolver<MatA> eig(JtJ, Eigen::EigenvaluesOnly);
-  const auto& ev = eig.eigenvalues();  // ascending
-  r.condition_number = ev(0) > 0.0 ? std::sqrt(ev(ev.size() - 1) / ev(0)) : std::numeric_limits<double>::infinity();
+  r.condition_number = ScaledConditionNumber(JtJ);
   *params = p;
   if (!p.allFinite()) {
     r.status = Status::Numerical("ellipsoid refinement produced non-finite parameters");

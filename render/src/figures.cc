@@ -188,81 +188,82 @@ Status TrackFigures(const logs::FlightLog& log, Writer& out) {
   return out.Write("track_3d.png", view, 900, 760);
 }
 
-}  // namespace
 
-Status RenderStandardFigures(const logs::FlightLog& log, const std::string& out_dir,
-                             std::vector<std::string>* written) {
-  if (!log.Has("t_s")) return Status::BadInput("plot: log has no t_s column");
-  HEXSIM_RETURN_IF_ERROR(EnsureDirectory(out_dir));
-  Writer out(out_dir, written);
+Status AltitudeFigure(const logs::FlightLog& log, Writer& out) {
   const std::vector<double>& t = log.Column("t_s");
+  Plot2D p = TimePlot(log, "Altitude", "altitude (m)");
+  if (HasData(log, "pos_D_m")) p.series.push_back(Line("true", t, Negated(log.Column("pos_D_m"))));
+  if (HasData(log, "est_pos_D_m")) p.series.push_back(Line("estimated", t, Negated(log.Column("est_pos_D_m"))));
+  if (HasData(log, "baro_alt_m")) p.series.push_back(Line("baro", t, log.Column("baro_alt_m")));
+  if (HasData(log, "gps_D_m")) p.series.push_back(Line("GPS", t, Negated(log.Column("gps_D_m"))));
+  if (!p.series.empty()) HEXSIM_RETURN_IF_ERROR(out.Write("altitude.png", p));
+  return Status::Ok();
+}
 
-  HEXSIM_RETURN_IF_ERROR(TrackFigures(log, out));
+bool HasAttitude(const logs::FlightLog& log) { return HasAll(log, {"q_w", "q_x", "q_y", "q_z"}); }
+bool HasEstimatedAttitude(const logs::FlightLog& log) { return HasAll(log, {"est_q_w", "est_q_x", "est_q_y", "est_q_z"}); }
 
-  {  // Altitude.
-    Plot2D p = TimePlot(log, "Altitude", "altitude (m)");
-    if (HasData(log, "pos_D_m")) p.series.push_back(Line("true", t, Negated(log.Column("pos_D_m"))));
-    if (HasData(log, "est_pos_D_m")) p.series.push_back(Line("estimated", t, Negated(log.Column("est_pos_D_m"))));
-    if (HasData(log, "baro_alt_m")) p.series.push_back(Line("baro", t, log.Column("baro_alt_m")));
-    if (HasData(log, "gps_D_m")) p.series.push_back(Line("GPS", t, Negated(log.Column("gps_D_m"))));
-    if (!p.series.empty()) HEXSIM_RETURN_IF_ERROR(out.Write("altitude.png", p));
+// Roll, pitch and yaw of the attitude (q) and of the estimate (est_q), one panel each.
+Status AttitudeFigure(const logs::FlightLog& log, Writer& out) {
+  const bool has_q = HasAttitude(log), has_est_q = HasEstimatedAttitude(log);
+  if (!has_q && !has_est_q) return Status::Ok();
+  const std::vector<double>& t = log.Column("t_s");
+  Figure f;
+  f.title = "Attitude";
+  f.rows = 3;
+  const char* names[3] = {"roll (°)", "pitch (°)", "yaw (°)"};
+  Euler truth, est;
+  if (has_q) truth = EulerColumns(log, "q_");
+  if (has_est_q) est = EulerColumns(log, "est_q_");
+  for (int k = 0; k < 3; ++k) {
+    Plot2D p = TimePlot(log, "", names[k]);
+    if (k < 2) p.x_label.clear();
+    auto pick = [k](const Euler& e) { return k == 0 ? e.roll_deg : (k == 1 ? e.pitch_deg : e.yaw_deg); };
+    if (has_q) {
+      Series s = Line("attitude (q)", t, pick(truth), PaletteColour(0));
+      if (k == 2) BreakWraps(&s.x, &s.y);
+      p.series.push_back(std::move(s));
+    }
+    if (has_est_q) {
+      Series s = Line("estimate (est_q)", t, pick(est), PaletteColour(1));
+      s.dashed = true;
+      if (k == 2) BreakWraps(&s.x, &s.y);
+      p.series.push_back(std::move(s));
+    }
+    if (k == 2) p.y_range = Range{-185.0, 185.0};
+    if (k > 0) p.legend = LegendPosition::kNone;
+    f.panels.emplace_back(p);
   }
+  return out.Write("attitude.png", f, kFigureWidth_px, 900);
+}
 
-  const bool has_q = HasAll(log, {"q_w", "q_x", "q_y", "q_z"});
-  const bool has_est_q = HasAll(log, {"est_q_w", "est_q_x", "est_q_y", "est_q_z"});
-  if (has_q || has_est_q) {  // Attitude.
-    Figure f;
-    f.title = "Attitude";
-    f.rows = 3;
-    const char* names[3] = {"roll (°)", "pitch (°)", "yaw (°)"};
-    Euler truth, est;
-    if (has_q) truth = EulerColumns(log, "q_");
-    if (has_est_q) est = EulerColumns(log, "est_q_");
-    for (int k = 0; k < 3; ++k) {
-      Plot2D p = TimePlot(log, "", names[k]);
-      if (k < 2) p.x_label.clear();
-      auto pick = [k](const Euler& e) { return k == 0 ? e.roll_deg : (k == 1 ? e.pitch_deg : e.yaw_deg); };
-      if (has_q) {
-        Series s = Line("attitude (q)", t, pick(truth), PaletteColour(0));
-        if (k == 2) BreakWraps(&s.x, &s.y);
-        p.series.push_back(std::move(s));
-      }
-      if (has_est_q) {
-        Series s = Line("estimate (est_q)", t, pick(est), PaletteColour(1));
-        s.dashed = true;
-        if (k == 2) BreakWraps(&s.x, &s.y);
-        p.series.push_back(std::move(s));
-      }
-      if (k == 2) p.y_range = Range{-185.0, 185.0};
-      if (k > 0) p.legend = LegendPosition::kNone;
-      f.panels.emplace_back(p);
-    }
-    HEXSIM_RETURN_IF_ERROR(out.Write("attitude.png", f, kFigureWidth_px, 900));
+// Yaw error: logged yaw columns, else the estimate's quaternion against q.
+Status YawErrorFigure(const logs::FlightLog& log, Writer& out) {
+  const std::vector<double>& t = log.Column("t_s");
+  std::vector<double> err;
+  if (HasAll(log, {"yaw_est_deg", "yaw_true_deg"})) {
+    const auto& e = log.Column("yaw_est_deg");
+    const auto& tr = log.Column("yaw_true_deg");
+    for (size_t i = 0; i < e.size(); ++i) err.push_back(WrapDeg180(e[i] - tr[i]));
+  } else if (HasAttitude(log) && HasEstimatedAttitude(log)) {
+    const Euler truth = EulerColumns(log, "q_"), est = EulerColumns(log, "est_q_");
+    for (size_t i = 0; i < t.size(); ++i) err.push_back(WrapDeg180(est.yaw_deg[i] - truth.yaw_deg[i]));
   }
-
-  {  // Yaw error: logged yaw columns, else the estimate's quaternion against q.
-    std::vector<double> err;
-    if (HasAll(log, {"yaw_est_deg", "yaw_true_deg"})) {
-      const auto& e = log.Column("yaw_est_deg");
-      const auto& tr = log.Column("yaw_true_deg");
-      for (size_t i = 0; i < e.size(); ++i) err.push_back(WrapDeg180(e[i] - tr[i]));
-    } else if (has_q && has_est_q) {
-      const Euler truth = EulerColumns(log, "q_"), est = EulerColumns(log, "est_q_");
-      for (size_t i = 0; i < t.size(); ++i) err.push_back(WrapDeg180(est.yaw_deg[i] - truth.yaw_deg[i]));
-    }
-    for (double& v : err) {
-      if (!std::isfinite(v)) v = kNaN;
-    }
-    if (!err.empty()) {
-      Plot2D p = TimePlot(log, "Yaw error (estimated − true)", "yaw error (°)");
-      p.series.push_back(Line("", t, err, PaletteColour(3)));
-      p.ref_lines.push_back({RefLine::Axis::kHorizontal, 0.0, "", {0.3f, 0.3f, 0.3f, 1.0f}});
-      p.legend = LegendPosition::kNone;
-      HEXSIM_RETURN_IF_ERROR(out.Write("yaw_error.png", p));
-    }
+  for (double& v : err) {
+    if (!std::isfinite(v)) v = kNaN;
   }
+  if (err.empty()) return Status::Ok();
+  Plot2D p = TimePlot(log, "Yaw error (estimated − true)", "yaw error (°)");
+  p.series.push_back(Line("", t, err, PaletteColour(3)));
+  p.ref_lines.push_back({RefLine::Axis::kHorizontal, 0.0, "", {0.3f, 0.3f, 0.3f, 1.0f}});
+  p.legend = LegendPosition::kNone;
+  return out.Write("yaw_error.png", p);
+}
 
-  for (const char* prefix : {"mag", "mag2", "mag3", "mag4"}) {  // Compasses.
+// Each compass' axes and field magnitude.
+Status CompassFigures(const logs::FlightLog& log, Writer& out) {
+  const std::vector<double>& t = log.Column("t_s");
+  for (const char* prefix : {"mag", "mag2", "mag3", "mag4"}) {
     const std::string px = prefix;
     if (!HasAll(log, {(px + "_x_uT").c_str(), (px + "_y_uT").c_str(), (px + "_z_uT").c_str()})) continue;
     Figure f;
@@ -284,52 +285,76 @@ Status RenderStandardFigures(const logs::FlightLog& log, const std::string& out_
     f.panels = {comp, mag};
     HEXSIM_RETURN_IF_ERROR(out.Write("compass_" + px + ".png", f, kFigureWidth_px, 800));
   }
-
-  {  // Current and voltage.
-    Figure f;
-    f.title = "Electrical";
-    Plot2D current = TimePlot(log, "", "current (A)");
-    if (HasData(log, "current_A")) {
-      Series s = Line("battery", t, log.Column("current_A"), Colour{0.13f, 0.13f, 0.13f, 1.0f});
-      s.width_px = 2.0f;
-      current.series.push_back(s);
-    }
-    for (int m = 1; m <= 12; ++m) {
-      const std::string name = "motor_" + std::to_string(m) + "_A";
-      if (HasData(log, name)) current.series.push_back(Line("motor " + std::to_string(m), t, log.Column(name)));
-    }
-    if (!current.series.empty()) f.panels.emplace_back(current);
-    if (HasData(log, "voltage_V")) {
-      Plot2D volt = TimePlot(log, "", "voltage (V)");
-      volt.series.push_back(Line("bus voltage", t, log.Column("voltage_V"), PaletteColour(3)));
-      volt.legend = LegendPosition::kNone;
-      f.panels.emplace_back(volt);
-    }
-    f.rows = static_cast<int>(f.panels.size());
-    if (f.rows == 2) std::get<Plot2D>(f.panels[0]).x_label.clear();
-    if (!f.panels.empty()) HEXSIM_RETURN_IF_ERROR(out.Write("power.png", f, kFigureWidth_px, 360 * f.rows + 40));
-  }
-
-  {  // Motor commands and collective.
-    Figure f;
-    f.title = "Motor commands";
-    Plot2D motors = TimePlot(log, "", "motor command (0…1)");
-    for (int m = 1; m <= 12; ++m) {
-      const std::string name = "motor_" + std::to_string(m) + "_u";
-      if (HasData(log, name)) motors.series.push_back(Line("motor " + std::to_string(m), t, log.Column(name)));
-    }
-    if (!motors.series.empty()) f.panels.emplace_back(motors);
-    if (HasData(log, "control_u")) {
-      Plot2D u = TimePlot(log, "", "control amount (0…1000)");
-      u.series.push_back(Line("control_u", t, log.Column("control_u"), Colour{0.13f, 0.13f, 0.13f, 1.0f}));
-      u.legend = LegendPosition::kNone;
-      f.panels.emplace_back(u);
-    }
-    f.rows = static_cast<int>(f.panels.size());
-    if (f.rows == 2) std::get<Plot2D>(f.panels[0]).x_label.clear();
-    if (!f.panels.empty()) HEXSIM_RETURN_IF_ERROR(out.Write("motors.png", f, kFigureWidth_px, 360 * f.rows + 40));
-  }
   return Status::Ok();
+}
+
+// Panels stacked one per row, the upper one without its time label; written when there is one.
+Status WriteStacked(Figure f, const std::string& file, Writer& out) {
+  f.rows = static_cast<int>(f.panels.size());
+  if (f.rows == 2) std::get<Plot2D>(f.panels[0]).x_label.clear();
+  if (f.panels.empty()) return Status::Ok();
+  return out.Write(file, f, kFigureWidth_px, 360 * f.rows + 40);
+}
+
+// Current (battery and each motor) and voltage.
+Status PowerFigure(const logs::FlightLog& log, Writer& out) {
+  const std::vector<double>& t = log.Column("t_s");
+  Figure f;
+  f.title = "Electrical";
+  Plot2D current = TimePlot(log, "", "current (A)");
+  if (HasData(log, "current_A")) {
+    Series s = Line("battery", t, log.Column("current_A"), Colour{0.13f, 0.13f, 0.13f, 1.0f});
+    s.width_px = 2.0f;
+    current.series.push_back(s);
+  }
+  for (int m = 1; m <= 12; ++m) {
+    const std::string name = "motor_" + std::to_string(m) + "_A";
+    if (HasData(log, name)) current.series.push_back(Line("motor " + std::to_string(m), t, log.Column(name)));
+  }
+  if (!current.series.empty()) f.panels.emplace_back(current);
+  if (HasData(log, "voltage_V")) {
+    Plot2D volt = TimePlot(log, "", "voltage (V)");
+    volt.series.push_back(Line("bus voltage", t, log.Column("voltage_V"), PaletteColour(3)));
+    volt.legend = LegendPosition::kNone;
+    f.panels.emplace_back(volt);
+  }
+  return WriteStacked(std::move(f), "power.png", out);
+}
+
+// Motor commands and the collective.
+Status MotorFigure(const logs::FlightLog& log, Writer& out) {
+  const std::vector<double>& t = log.Column("t_s");
+  Figure f;
+  f.title = "Motor commands";
+  Plot2D motors = TimePlot(log, "", "motor command (0…1)");
+  for (int m = 1; m <= 12; ++m) {
+    const std::string name = "motor_" + std::to_string(m) + "_u";
+    if (HasData(log, name)) motors.series.push_back(Line("motor " + std::to_string(m), t, log.Column(name)));
+  }
+  if (!motors.series.empty()) f.panels.emplace_back(motors);
+  if (HasData(log, "control_u")) {
+    Plot2D u = TimePlot(log, "", "control amount (0…1000)");
+    u.series.push_back(Line("control_u", t, log.Column("control_u"), Colour{0.13f, 0.13f, 0.13f, 1.0f}));
+    u.legend = LegendPosition::kNone;
+    f.panels.emplace_back(u);
+  }
+  return WriteStacked(std::move(f), "motors.png", out);
+}
+
+}  // namespace
+
+Status RenderStandardFigures(const logs::FlightLog& log, const std::string& out_dir,
+                             std::vector<std::string>* written) {
+  if (!log.Has("t_s")) return Status::BadInput("plot: log has no t_s column");
+  HEXSIM_RETURN_IF_ERROR(EnsureDirectory(out_dir));
+  Writer out(out_dir, written);
+  HEXSIM_RETURN_IF_ERROR(TrackFigures(log, out));
+  HEXSIM_RETURN_IF_ERROR(AltitudeFigure(log, out));
+  HEXSIM_RETURN_IF_ERROR(AttitudeFigure(log, out));
+  HEXSIM_RETURN_IF_ERROR(YawErrorFigure(log, out));
+  HEXSIM_RETURN_IF_ERROR(CompassFigures(log, out));
+  HEXSIM_RETURN_IF_ERROR(PowerFigure(log, out));
+  return MotorFigure(log, out);
 }
 
 Plot2D TracksTopView(const Track& planned, const std::vector<Track>& flown) {

@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -50,9 +51,7 @@ Range FinishRange(double lo, double hi) {
 HAlign HFor(double dx) { return dx > 0.35 ? HAlign::kLeft : (dx < -0.35 ? HAlign::kRight : HAlign::kCenter); }
 VAlign VFor(double dy) { return dy > 0.35 ? VAlign::kTop : (dy < -0.35 ? VAlign::kBottom : VAlign::kMiddle); }
 
-}  // namespace
-
-Status DrawPlot3D(Canvas& canvas, const Plot3D& plot, double x0, double y0, double w, double h) {
+Status ValidatePlot3D(const Plot3D& plot) {
   for (const Series3D& s : plot.series) {
     if (s.x.size() != s.y.size() || s.x.size() != s.z.size()) {
       return Status::BadInput("render: 3-D series '" + s.label + "': x, y, z differ in length");
@@ -63,7 +62,11 @@ Status DrawPlot3D(Canvas& canvas, const Plot3D& plot, double x0, double y0, doub
       return Status::BadInput("render: 3-D plot '" + plot.title + "': range must be finite with hi > lo");
     }
   }
-  const Style st = Style::ForPanel(w, h);
+  return Status::Ok();
+}
+
+// Each axis' range: the plot's own, or what the finite points and the ellipsoids span.
+std::array<Range, 3> AxisRanges(const Plot3D& plot) {
   const double inf = std::numeric_limits<double>::infinity();
   double lo[3] = {inf, inf, inf}, hi[3] = {-inf, -inf, -inf};
   for (const Series3D& s : plot.series) {
@@ -81,14 +84,17 @@ Status DrawPlot3D(Canvas& canvas, const Plot3D& plot, double x0, double y0, doub
       Extend(e.centre[static_cast<size_t>(a)] + r, &lo[a], &hi[a]);
     }
   }
-  Range ranges[3] = {plot.x_range ? *plot.x_range : FinishRange(lo[0], hi[0]),
-                     plot.y_range ? *plot.y_range : FinishRange(lo[1], hi[1]),
-                     plot.z_range ? *plot.z_range : FinishRange(lo[2], hi[2])};
+  return {plot.x_range ? *plot.x_range : FinishRange(lo[0], hi[0]), plot.y_range ? *plot.y_range : FinishRange(lo[1], hi[1]),
+          plot.z_range ? *plot.z_range : FinishRange(lo[2], hi[2])};
+}
+
+// The camera's box and view direction (its screen scale and centre: FitCamera).
+Camera Orient(const Plot3D& plot, const std::array<Range, 3>& ranges) {
   Camera cam;
   double max_half = 0.0;
   for (int a = 0; a < 3; ++a) {
-    cam.mid[static_cast<size_t>(a)] = 0.5 * (ranges[a].lo + ranges[a].hi);
-    cam.half[static_cast<size_t>(a)] = 0.5 * (ranges[a].hi - ranges[a].lo);
+    cam.mid[static_cast<size_t>(a)] = 0.5 * (ranges[static_cast<size_t>(a)].lo + ranges[static_cast<size_t>(a)].hi);
+    cam.half[static_cast<size_t>(a)] = 0.5 * (ranges[static_cast<size_t>(a)].hi - ranges[static_cast<size_t>(a)].lo);
     max_half = std::max(max_half, cam.half[static_cast<size_t>(a)]);
   }
   for (size_t a = 0; a < 3; ++a) cam.box[a] = plot.equal_aspect ? cam.half[a] / max_half : 1.0;
@@ -96,30 +102,35 @@ Status DrawPlot3D(Canvas& canvas, const Plot3D& plot, double x0, double y0, doub
   cam.toward = {std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)};
   cam.right = {-std::sin(az), std::cos(az), 0.0};
   cam.up = {-std::sin(el) * std::cos(az), -std::sin(el) * std::sin(az), std::cos(el)};
+  return cam;
+}
 
-  // Fit the projected box into the panel, leaving room for the title and tick labels.
-  const double title_h = plot.title.empty() ? 0.0 : canvas.Measure(plot.title, st.title_px()).height_px + st.pad_px();
+// Fits the projected box into the panel below a title of height title_h, leaving room for the tick labels.
+Status FitCamera(const Style& st, double title_h, double x0, double y0, double w, double h, Camera* cam) {
+  const double inf = std::numeric_limits<double>::infinity();
   const double margin = 62.0 * st.scale;
   const double ax0 = x0 + margin, ax1 = x0 + w - margin;
   const double ay0 = y0 + st.pad_px() + title_h + 0.6 * margin, ay1 = y0 + h - margin;
   double smin[2] = {inf, inf}, smax[2] = {-inf, -inf};
   for (int c = 0; c < 8; ++c) {
-    const V3 n = {(c & 1 ? 1 : -1) * cam.box[0], (c & 2 ? 1 : -1) * cam.box[1], (c & 4 ? 1 : -1) * cam.box[2]};
-    const double sx = Dot(n, cam.right), sy = Dot(n, cam.up);
+    const V3 n = {(c & 1 ? 1 : -1) * cam->box[0], (c & 2 ? 1 : -1) * cam->box[1], (c & 4 ? 1 : -1) * cam->box[2]};
+    const double sx = Dot(n, cam->right), sy = Dot(n, cam->up);
     smin[0] = std::min(smin[0], sx);
     smax[0] = std::max(smax[0], sx);
     smin[1] = std::min(smin[1], sy);
     smax[1] = std::max(smax[1], sy);
   }
   if (ax1 - ax0 < 10.0 || ay1 - ay0 < 10.0) return Status::BadInput("render: image too small for the 3-D plot");
-  cam.k = std::min((ax1 - ax0) / (smax[0] - smin[0]), (ay1 - ay0) / (smax[1] - smin[1]));
-  cam.cx = 0.5 * (ax0 + ax1) - cam.k * 0.5 * (smin[0] + smax[0]);
-  cam.cy = 0.5 * (ay0 + ay1) + cam.k * 0.5 * (smin[1] + smax[1]);
-  const Pt centre = cam.ScreenOfBox({0.0, 0.0, 0.0});
+  cam->k = std::min((ax1 - ax0) / (smax[0] - smin[0]), (ay1 - ay0) / (smax[1] - smin[1]));
+  cam->cx = 0.5 * (ax0 + ax1) - cam->k * 0.5 * (smin[0] + smax[0]);
+  cam->cy = 0.5 * (ay0 + ay1) + cam->k * 0.5 * (smin[1] + smax[1]);
+  return Status::Ok();
+}
 
-  // Back panes (the side of each axis away from the viewer), with grid lines at the ticks.
-  std::vector<double> ticks[3];
-  for (int a = 0; a < 3; ++a) ticks[a] = NiceTicks(ranges[a].lo, ranges[a].hi, 5);
+using Ticks = std::array<std::vector<double>, 3>;
+
+// Back panes (the side of each axis away from the viewer), with grid lines at the ticks.
+void DrawBackPanes(Canvas& canvas, const Camera& cam, const Ticks& ticks) {
   const Colour pane = {0.95f, 0.95f, 0.96f, 1.0f};
   const Colour pane_edge = {0.62f, 0.62f, 0.62f, 1.0f};
   for (int a = 0; a < 3; ++a) {
@@ -148,17 +159,21 @@ Status DrawPlot3D(Canvas& canvas, const Plot3D& plot, double x0, double y0, doub
     }
     canvas.Polyline(quad, pane_edge, 1.0);
   }
+}
 
-  // Tick labels along front-bottom edges (x, y) and a side edge (z).
+// An edge of the box that carries an axis' ticks and label.
+struct AxisEdge {
+  V3 a, b;  // ends in box coordinates
+  int axis;
+  const std::string* label;
+};
+
+// The edges that carry the tick labels: front-bottom edges for x and y, a side edge for z (the
+// vertical edge at the corner furthest to the left on screen).
+std::array<AxisEdge, 3> LabelledEdges(const Plot3D& plot, const Camera& cam) {
   const double sx_front = cam.toward[0] > 0 ? 1.0 : -1.0, sy_front = cam.toward[1] > 0 ? 1.0 : -1.0;
   const double zb = -cam.box[2];
-  struct AxisEdge {
-    V3 a, b;  // ends in box coordinates
-    int axis;
-    const std::string* label;
-  };
-  // Vertical edge for z: the corner furthest to the left on screen.
-  double best = inf;
+  double best = std::numeric_limits<double>::infinity();
   V3 zcorner{};
   for (int c = 0; c < 4; ++c) {
     const V3 n = {(c & 1 ? 1 : -1) * cam.box[0], (c & 2 ? 1 : -1) * cam.box[1], 0.0};
@@ -168,44 +183,82 @@ Status DrawPlot3D(Canvas& canvas, const Plot3D& plot, double x0, double y0, doub
       zcorner = n;
     }
   }
-  const AxisEdge edges[3] = {
-      {{-cam.box[0], sy_front * cam.box[1], zb}, {cam.box[0], sy_front * cam.box[1], zb}, 0, &plot.x_label},
-      {{sx_front * cam.box[0], -cam.box[1], zb}, {sx_front * cam.box[0], cam.box[1], zb}, 1, &plot.y_label},
-      {{zcorner[0], zcorner[1], -cam.box[2]}, {zcorner[0], zcorner[1], cam.box[2]}, 2, &plot.z_label},
-  };
-  for (const AxisEdge& e : edges) {
-    const size_t ax = static_cast<size_t>(e.axis);
-    const Pt mid_edge = cam.ScreenOfBox({0.5 * (e.a[0] + e.b[0]), 0.5 * (e.a[1] + e.b[1]), 0.5 * (e.a[2] + e.b[2])});
-    double dx = mid_edge[0] - centre[0], dy = mid_edge[1] - centre[1];
-    if (e.axis == 2) dy = 0.0;  // z labels sit beside their edge
-    const double len = std::hypot(dx, dy);
-    if (len < 1e-9) {
-      dx = 0.0;
-      dy = 1.0;
-    } else {
-      dx /= len;
-      dy /= len;
-    }
-    const Pt pa = cam.ScreenOfBox(e.a), pb = cam.ScreenOfBox(e.b);
-    canvas.Line(pa[0], pa[1], pb[0], pb[1], kInk, 1.0);
-    const double step = ticks[ax].size() > 1 ? ticks[ax][1] - ticks[ax][0] : 1.0;
-    double widest = 0.0;
-    for (double v : ticks[ax]) {
-      V3 n = e.a;
-      n[ax] = (v - cam.mid[ax]) / cam.half[ax] * cam.box[ax];
-      const Pt p = cam.ScreenOfBox(n);
-      canvas.Line(p[0], p[1], p[0] + dx * 4.0 * st.scale, p[1] + dy * 4.0 * st.scale, kInk, 1.0);
-      const std::string text = FormatTick(v, step);
-      widest = std::max(widest, canvas.Measure(text, st.tick_px()).width_px);
-      canvas.Text(text, p[0] + dx * 7.0 * st.scale, p[1] + dy * 7.0 * st.scale, st.tick_px(), kInk, HFor(dx), VFor(dy));
-    }
-    if (!e.label->empty()) {
-      const double off = 7.0 * st.scale + (std::fabs(dx) > 0.35 ? widest : 0.0) +
-                         (std::fabs(dy) > 0.35 ? canvas.Measure("0", st.tick_px()).height_px : 0.0) + 8.0 * st.scale;
-      canvas.Text(*e.label, mid_edge[0] + dx * off, mid_edge[1] + dy * off, st.label_px(), kInk, HFor(dx), VFor(dy),
-                  e.axis == 2);
-    }
+  return {AxisEdge{{-cam.box[0], sy_front * cam.box[1], zb}, {cam.box[0], sy_front * cam.box[1], zb}, 0, &plot.x_label},
+          AxisEdge{{sx_front * cam.box[0], -cam.box[1], zb}, {sx_front * cam.box[0], cam.box[1], zb}, 1, &plot.y_label},
+          AxisEdge{{zcorner[0], zcorner[1], -cam.box[2]}, {zcorner[0], zcorner[1], cam.box[2]}, 2, &plot.z_label}};
+}
+
+// One axis' edge, its ticks and tick labels pointing away from the box's centre, and its label.
+void DrawAxisEdge(Canvas& canvas, const Style& st, const Camera& cam, const AxisEdge& e, const std::vector<double>& ticks) {
+  const Pt centre = cam.ScreenOfBox({0.0, 0.0, 0.0});
+  const size_t ax = static_cast<size_t>(e.axis);
+  const Pt mid_edge = cam.ScreenOfBox({0.5 * (e.a[0] + e.b[0]), 0.5 * (e.a[1] + e.b[1]), 0.5 * (e.a[2] + e.b[2])});
+  double dx = mid_edge[0] - centre[0], dy = mid_edge[1] - centre[1];
+  if (e.axis == 2) dy = 0.0;  // z labels sit beside their edge
+  const double len = std::hypot(dx, dy);
+  if (len < 1e-9) {
+    dx = 0.0;
+    dy = 1.0;
+  } else {
+    dx /= len;
+    dy /= len;
   }
+  const Pt pa = cam.ScreenOfBox(e.a), pb = cam.ScreenOfBox(e.b);
+  canvas.Line(pa[0], pa[1], pb[0], pb[1], kInk, 1.0);
+  const double step = ticks.size() > 1 ? ticks[1] - ticks[0] : 1.0;
+  double widest = 0.0;
+  for (double v : ticks) {
+    V3 n = e.a;
+    n[ax] = (v - cam.mid[ax]) / cam.half[ax] * cam.box[ax];
+    const Pt p = cam.ScreenOfBox(n);
+    canvas.Line(p[0], p[1], p[0] + dx * 4.0 * st.scale, p[1] + dy * 4.0 * st.scale, kInk, 1.0);
+    const std::string text = FormatTick(v, step);
+    widest = std::max(widest, canvas.Measure(text, st.tick_px()).width_px);
+    canvas.Text(text, p[0] + dx * 7.0 * st.scale, p[1] + dy * 7.0 * st.scale, st.tick_px(), kInk, HFor(dx), VFor(dy));
+  }
+  if (!e.label->empty()) {
+    const double off = 7.0 * st.scale + (std::fabs(dx) > 0.35 ? widest : 0.0) +
+                       (std::fabs(dy) > 0.35 ? canvas.Measure("0", st.tick_px()).height_px : 0.0) + 8.0 * st.scale;
+    canvas.Text(*e.label, mid_edge[0] + dx * off, mid_edge[1] + dy * off, st.label_px(), kInk, HFor(dx), VFor(dy),
+                e.axis == 2);
+  }
+}
+
+// An ellipsoid as a wire frame: rings of constant polar angle and meridians.
+void DrawEllipsoid(Canvas& canvas, const Camera& cam, const Ellipsoid3D& e, Colour wire) {
+  auto On = [&](double theta, double phi) {  // u on the unit sphere, p = centre + shape·u
+    const V3 u = {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
+    return cam.Screen({e.centre[0] + Dot(e.shape[0], u), e.centre[1] + Dot(e.shape[1], u),
+                       e.centre[2] + Dot(e.shape[2], u)});
+  };
+  constexpr int kRings = 7, kMeridians = 12, kHalfSegments = kEllipseSegments / 2;
+  for (int i = 1; i <= kRings; ++i) {
+    std::vector<Pt> ring;
+    const double theta = 3.14159265358979323846 * i / (kRings + 1);
+    for (int j = 0; j <= kEllipseSegments; ++j) ring.push_back(On(theta, 2.0 * 3.14159265358979323846 * j / kEllipseSegments));
+    canvas.Polyline(ring, wire, 1.0);
+  }
+  for (int j = 0; j < kMeridians; ++j) {
+    std::vector<Pt> meridian;
+    const double phi = 2.0 * 3.14159265358979323846 * j / kMeridians;
+    for (int i = 0; i <= kHalfSegments; ++i) meridian.push_back(On(3.14159265358979323846 * i / kHalfSegments, phi));
+    canvas.Polyline(meridian, wire, 1.0);
+  }
+}
+
+}  // namespace
+
+Status DrawPlot3D(Canvas& canvas, const Plot3D& plot, double x0, double y0, double w, double h) {
+  HEXSIM_RETURN_IF_ERROR(ValidatePlot3D(plot));
+  const Style st = Style::ForPanel(w, h);
+  const std::array<Range, 3> ranges = AxisRanges(plot);
+  Camera cam = Orient(plot, ranges);
+  const double title_h = plot.title.empty() ? 0.0 : canvas.Measure(plot.title, st.title_px()).height_px + st.pad_px();
+  HEXSIM_RETURN_IF_ERROR(FitCamera(st, title_h, x0, y0, w, h, &cam));
+  Ticks ticks;
+  for (size_t a = 0; a < 3; ++a) ticks[a] = NiceTicks(ranges[a].lo, ranges[a].hi, 5);
+  DrawBackPanes(canvas, cam, ticks);
+  for (const AxisEdge& e : LabelledEdges(plot, cam)) DrawAxisEdge(canvas, st, cam, e, ticks[static_cast<size_t>(e.axis)]);
 
   // Data.
   canvas.Clip(x0, y0, x0 + w, y0 + h);
@@ -215,24 +268,7 @@ Status DrawPlot3D(Canvas& canvas, const Plot3D& plot, double x0, double y0, doub
     const Colour c = e.colour ? *e.colour : PaletteColour(auto_colour++);
     Colour wire = c;
     wire.a *= 0.55f;
-    auto On = [&](double theta, double phi) {  // u on the unit sphere, p = centre + shape·u
-      const V3 u = {std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
-      return cam.Screen({e.centre[0] + Dot(e.shape[0], u), e.centre[1] + Dot(e.shape[1], u),
-                         e.centre[2] + Dot(e.shape[2], u)});
-    };
-    constexpr int kRings = 7, kMeridians = 12, kHalfSegments = kEllipseSegments / 2;
-    for (int i = 1; i <= kRings; ++i) {
-      std::vector<Pt> ring;
-      const double theta = 3.14159265358979323846 * i / (kRings + 1);
-      for (int j = 0; j <= kEllipseSegments; ++j) ring.push_back(On(theta, 2.0 * 3.14159265358979323846 * j / kEllipseSegments));
-      canvas.Polyline(ring, wire, 1.0);
-    }
-    for (int j = 0; j < kMeridians; ++j) {
-      std::vector<Pt> meridian;
-      const double phi = 2.0 * 3.14159265358979323846 * j / kMeridians;
-      for (int i = 0; i <= kHalfSegments; ++i) meridian.push_back(On(3.14159265358979323846 * i / kHalfSegments, phi));
-      canvas.Polyline(meridian, wire, 1.0);
-    }
+    DrawEllipsoid(canvas, cam, e, wire);
     if (!e.label.empty()) legend.push_back({e.label, c, SeriesStyle::kLine, false});
   }
   for (const Series3D& s : plot.series) {
