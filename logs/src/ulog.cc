@@ -113,6 +113,11 @@ double ULogTopic::Get(size_t i, std::string_view field) const {
   return std::numeric_limits<double>::quiet_NaN();
 }
 
+double ULogTopic::SampleTimeS(size_t i) const {
+  const double sampled = Has("timestamp_sample") ? Get(i, "timestamp_sample") : 0.0;
+  return sampled > 0 ? sampled * 1e-6 : TimeS(i);
+}
+
 bool ULogTopic::Has(std::string_view field) const {
   for (const auto& f : fields) {
     if (f.name == field) return true;

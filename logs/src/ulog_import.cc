@@ -46,7 +46,14 @@ struct Channel {
   std::string stream;  // "": table columns only, no `_t_s` and no stream
   std::vector<Column> columns;
   std::function<bool(size_t)> keep;  // records to use (null: all)
+  // Time records by when they were sampled (ULogTopic::SampleTimeS), not published: the compasses,
+  // whose latency against the attitude the diagnosis measures.
+  bool by_sample_time = false;
 };
+
+double RecordTime(const Channel& ch, size_t i) {
+  return ch.by_sample_time ? ch.topic->SampleTimeS(i) : ch.topic->TimeS(i);
+}
 
 // The records to use, in file order: a finite time not earlier than the last kept one, and kept
 // by the channel. Others are counted in `dropped` (damaged or out-of-order time only).
@@ -54,7 +61,7 @@ std::vector<size_t> Usable(const Channel& ch, size_t* dropped) {
   std::vector<size_t> out;
   double last = -INFINITY;
   for (size_t i = 0; i < ch.topic->records.size(); ++i) {
-    const double t = ch.topic->TimeS(i);
+    const double t = RecordTime(ch, i);
     if (!std::isfinite(t) || t < last) {
       ++*dropped;
       continue;
@@ -76,10 +83,10 @@ void Hold(const Channel& ch, const std::vector<size_t>& recs, FlightLog* log, co
   size_t next = 0;
   long held = -1;
   for (size_t r = 0; r < row_t.size(); ++r) {
-    while (next < recs.size() && ch.topic->TimeS(recs[next]) <= row_t[r]) held = static_cast<long>(next++);
+    while (next < recs.size() && RecordTime(ch, recs[next]) <= row_t[r]) held = static_cast<long>(next++);
     if (held < 0) continue;
     const size_t i = recs[static_cast<size_t>(held)];
-    if (!ch.stream.empty()) log->MutableColumn(tc)[r] = ch.topic->TimeS(i);
+    if (!ch.stream.empty()) log->MutableColumn(tc)[r] = RecordTime(ch, i);
     for (const auto& [col, c] : cols) log->MutableColumn(col)[r] = c->value(i);
   }
 }
@@ -93,7 +100,7 @@ FlightLog StreamOf(const Channel& ch, const std::vector<size_t>& recs) {
   s.Reserve(recs.size());
   for (size_t i : recs) {
     s.AppendRow();
-    s.Set(tc, ch.topic->TimeS(i));
+    s.Set(tc, RecordTime(ch, i));
     for (size_t k = 0; k < cols.size(); ++k) {
       const double v = ch.columns[k].value(i);
       s.Set(cols[k], std::isfinite(v) ? v : kMissing);
@@ -233,7 +240,7 @@ void Magnetometers(const ULog& u, const std::string& name, const ArmedState& arm
   const char* prefixes[3] = {"mag", "mag2", "mag3"};
   auto add = [&](const ULogTopic* m, const ULogTopic* sm, int k, const std::array<std::string, 3>& fields,
                  MagFrame frame, const std::string& choice) {
-    Channel c{m, prefixes[k], {}, nullptr};
+    Channel c{m, prefixes[k], {}, nullptr, true};
     Vec3(&c, prefixes[k], "_uT", fields, kMicroteslaPerGauss);
     channels->push_back(std::move(c));
     const double device_id = DeviceId(m);
@@ -241,6 +248,7 @@ void Magnetometers(const ULog& u, const std::string& name, const ArmedState& arm
                         {"instance", k},
                         {"source", m->name},
                         {"source_choice", choice},
+                        {"time", m->Has("timestamp_sample") ? "timestamp_sample" : "timestamp"},
                         {"calibrated", frame != MagFrame::kRaw},
                         {"frame", frame == MagFrame::kRaw               ? "raw"
                                   : frame == MagFrame::kDriverCalibrated ? "driver-calibrated"

@@ -185,6 +185,35 @@ TEST(ULogPx4Calibration, GivenAnUnknownRotation_WhenRead_ThenTheFieldIsLeftAsLog
   EXPECT_NE(imp->warnings[0].find("relative to the one in force"), std::string::npos);
 }
 
+// PX4's vehicle_magnetometer is published after its samples are filtered (16 ms later in a public
+// log): the compass stream is timed by timestamp_sample, which the diagnosis's latency is measured
+// against; a topic without one keeps its publication time.
+TEST(ULogStreams, GivenACompassPublishedAfterItWasSampled_WhenImported_ThenItsStreamIsTimedBySampleTime) {
+  ULogWriter w;
+  w.Format("vehicle_attitude:uint64_t timestamp;float[4] q;");
+  w.Format("vehicle_magnetometer:uint64_t timestamp;uint64_t timestamp_sample;uint32_t device_id;"
+           "float[3] magnetometer_ga;uint8_t calibration_count;uint8_t[3] _padding0;");
+  const uint16_t att = w.Subscribe("vehicle_attitude", 0), vm = w.Subscribe("vehicle_magnetometer", 0);
+  constexpr uint64_t kPublishLagUs = 16000;
+  for (uint64_t k = 0; k < 100; ++k) {
+    const uint64_t t = 1000000 + 10000 * k;
+    w.Data(att, Pack(t) + Pack(1.0f) + Pack(0.0f) + Pack(0.0f) + Pack(0.0f));
+    if (k % 5 == 0) {
+      w.Data(vm, Pack(t + kPublishLagUs) + Pack(t) + Pack<uint32_t>(9) + Pack(0.2f) + Pack(0.0f) + Pack(0.4f) +
+                     Pack<uint8_t>(1));
+    }
+  }
+  auto r = ImportULog(w.bytes(), "lag.ulg");
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  const FlightLog* mag = r->log.Stream("mag");
+  ASSERT_NE(mag, nullptr);
+  ASSERT_EQ(mag->rows(), 20u);
+  for (size_t i = 0; i < mag->rows(); ++i) EXPECT_DOUBLE_EQ(mag->Column("t_s")[i], 1.0 + 0.05 * static_cast<double>(i));
+  // The table holds a sample from its sample time on (row 5 is at 1.05 s, the second sample's time).
+  EXPECT_DOUBLE_EQ(r->log.Column("mag_t_s")[5], 1.05);
+  EXPECT_EQ(r->log.meta["compasses"][0]["time"].get<std::string>(), "timestamp_sample");
+}
+
 TEST(ULogStreams, GivenGpsFixes_WhenImported_ThenTheMetaHoldsTheFirst3dFixAsTheLocationAndNoDateWithoutUtc) {
   auto r = ImportULog(MultiRate(), "multi.ulg");
   ASSERT_TRUE(r.ok()) << r.status().message();

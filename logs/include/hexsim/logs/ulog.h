@@ -36,6 +36,9 @@ struct ULogTopic {
   // Numeric value of `field` in record `i` (NaN when missing).
   double Get(size_t i, std::string_view field) const;
   double TimeS(size_t i) const { return Get(i, "timestamp") * 1e-6; }
+  // When record `i` was sampled: `timestamp_sample` where the message has one (PX4's sensor topics;
+  // `timestamp` is when it was published, after filtering and averaging), else TimeS.
+  double SampleTimeS(size_t i) const;
   bool Has(std::string_view field) const;
 };
 
