@@ -114,7 +114,10 @@ void SetTargets(const SelftestPlan& p, SelftestResult* m) {
                   {"false_alarm_le_0.05", m->false_alarm <= 0.05},
                   {"not_confident_ge_0.80", m->not_confident >= 0.8},
                   {"coverage_ge_0.90", m->coverage >= 0.9},
-                  {"median_shrink_ge_0.50", one.MedianShrink() >= 0.5},
+                  // CONTRACTS' one share (explained_share) on both profiles: the held-out shrink's
+                  // RMS about zero counts the noise floor, so it measures the injected size against
+                  // the noise rather than the diagnosis (it stays printed beside it).
+                  {"median_explained_share_ge_0.50", one.MedianShare() >= 0.5},
                   {"current_hard_iron_threshold_le_0.1uT_per_A", th_ok}};
     m->dynamics_targets = std::map<std::string, bool>{{"false_alarm_le_0.05", m->dynamics_false_alarm <= 0.05},
                                                       {"single_top1_ge_0.90", dyn.Rate(dyn.top1) >= 0.9},
@@ -197,8 +200,10 @@ std::string Table(const SelftestPlan& p, const SelftestResult& m) {
   t += fmt::format("  clean            false alarms {:5.1f} %  (target <= 5 %; any compass {:.1f} %)\n", 100 * m.false_alarm,
                    100 * clean.Rate(clean.any_compass_alarm));
   t += fmt::format("  one effect       top-1 {:5.1f} %  (target >= 90 %), 95 % interval coverage {:5.1f} % (>= 90 %), "
-                   "median held-out shrink {:4.0f} % (>= 50 %); leftover reported {:4.0f} %\n",
-                   100 * m.single_top1, 100 * m.coverage, 100 * one.MedianShrink(), 100 * one.Rate(one.left_reported));
+                   "median explained share of the true effect {:4.0f} % (>= 50 %), median held-out shrink {:4.0f} %; "
+                   "leftover reported {:4.0f} %\n",
+                   100 * m.single_top1, 100 * m.coverage, 100 * one.MedianShare(), 100 * one.MedianShrink(),
+                   100 * one.Rate(one.left_reported));
   t += PerEffectLines(one);
   t += fmt::format("  two effects      top-1 {:5.1f} %; overall top-1 {:5.1f} % (target >= {} %); both in effects {:5.1f} %\n",
                    100 * two.Rate(two.top1), 100 * m.overall_top1, p.real ? 75 : 70, 100 * two.Rate(two.all_in_effects));
@@ -208,7 +213,6 @@ std::string Table(const SelftestPlan& p, const SelftestResult& m) {
     t += "\n";
   }
   if (p.real) {
-    t += fmt::format("  median explained share of the true effect {:4.0f} % (target >= 50 %)\n", 100 * one.MedianShare());
     t += "  dynamics channel: not run on the real profile (its replay needs the simulator's row rate)\n";
   } else {
     const SelftestClassStats& dyn = st.at("dynamics_one_effect");
