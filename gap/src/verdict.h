@@ -38,6 +38,17 @@ std::vector<bool> Eligible(const Attribution& at, const DiagnoseOptions& o);
 size_t ChooseFirst(const Attribution& at, const std::vector<bool>& eligible);
 // Material: removes at least o.materiality of the noise floor's power on held-out blocks.
 bool IsMaterial(const Analyzer& an, const Evaluated& e, double cv_before, double noise_var, const DiagnoseOptions& o);
+// What a compass effect's fitted field does to the heading: the RMS over the flight of the angle
+// by which its variation about its flight mean (a constant part is the offset's) turns the
+// horizontal Earth field (the prior plus the baseline's correction), in degrees, and the low end of
+// its 95 % interval (delta method on the block jackknife). Zero where the channel is no compass.
+struct HeadingTurn {
+  double deg = 0.0, lo_deg = 0.0;
+};
+HeadingTurn HeadingTurnOf(const ChannelData& ch, const Analyzer& an, const Evaluated& e);
+// Material by its heading turn (DiagnoseOptions::material_heading_deg): the interval's low end at
+// or above it.
+bool TurnsHeading(const HeadingTurn& h, const DiagnoseOptions& o);
 // The reported model: the first family, then (forward) each further family that beats the model
 // by more than one standard error over the folds, is significant over it and material.
 struct SelectedModel {

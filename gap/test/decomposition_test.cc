@@ -118,5 +118,69 @@ TEST(GapDecomposition, GivenACurrentFieldAndAnOffsetBeyondItsNormalRange_WhenDia
   EXPECT_TRUE(off->selected);
 }
 
+// Adds to mag2 white noise (noise_uT per axis) and a current field along its x axis whose variation
+// has the RMS field_uT; returns its size, µT/A.
+double AddToMag2(double noise_uT, double field_uT, uint64_t seed, logs::FlightLog* log) {
+  const std::vector<double> I = log->Column("current_A");
+  double mean = 0, var = 0;
+  size_t n = 0;
+  for (double v : I) {
+    if (!std::isfinite(v)) continue;
+    mean += v;
+    ++n;
+  }
+  if (n < 100) return 0.0;
+  mean /= static_cast<double>(n);
+  for (double v : I) {
+    if (std::isfinite(v)) var += (v - mean) * (v - mean) / static_cast<double>(n);
+  }
+  const double k = field_uT / std::sqrt(var);
+  RngStream rng(seed, "decomposition/noise");
+  const size_t cx = static_cast<size_t>(log->ColumnIndex("mag2_x_uT"));
+  for (size_t i = 0; i < log->rows(); ++i) {
+    for (size_t a = 0; a < 3; ++a) {
+      double& m = log->MutableColumn(cx + a)[i];
+      if (!std::isfinite(m) || !std::isfinite(I[i])) continue;
+      m += rng.Normal(0.0, noise_uT);
+      if (a == 0) m += k * (I[i] - mean);
+    }
+  }
+  return k;
+}
+
+// Given a noisy compass (3 µT per axis, ten times the simulated one) whose only structure is a
+// current field of 1.2 µT RMS (5 % of the noise power, below the 10 % materiality, as a real internal
+// compass's), when diagnosed, then the current field is material by the heading it turns (its
+// interval around the truth) and said so; with the heading rule off (material_heading_deg 0) it is
+// not an effect.
+TEST(GapDecomposition, GivenANoisyCompassWithACurrentFieldThatTurnsTheHeading_WhenDiagnosed_ThenItIsMaterial) {
+  gaptest::Flown f = gaptest::FlyInjected({}, 2107, "decomposition", "selftest_flight");
+  const double k = AddToMag2(3.0, 1.2, 2107, &f.log);
+  ASSERT_GT(k, 0.0);
+  const logs::FlightLog& log = f.log;
+  const vehicle::VehicleParams& v = f.trial.configured;
+  DiagnoseOptions o;
+  o.channels = {"mag2"};
+  auto rep = Diagnose(log, v, o);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr);
+  ASSERT_TRUE(InEffects(*mag2, "current_hard_iron")) << Summary(*rep);
+  EXPECT_EQ(mag2->verdict, "current_hard_iron") << Summary(*rep);
+  const EffectShare& e = mag2->effects.front();
+  EXPECT_LE(e.ci95.lo, 1.05 * k) << Summary(*rep);
+  EXPECT_GE(e.ci95.hi, 0.95 * k) << Summary(*rep);
+  bool said = false;
+  for (const std::string& s : mag2->findings) said = said || s.find("by the heading it turns") != std::string::npos;
+  EXPECT_TRUE(said) << Summary(*rep);
+
+  o.material_heading_deg = 0.0;
+  auto off = Diagnose(log, v, o);
+  ASSERT_TRUE(off.ok());
+  const ChannelResult* mag2_off = gaptest::FindChannel(*off, "mag2");
+  ASSERT_NE(mag2_off, nullptr);
+  EXPECT_FALSE(InEffects(*mag2_off, "current_hard_iron")) << Summary(*off);
+}
+
 }  // namespace
 }  // namespace hexsim::gap

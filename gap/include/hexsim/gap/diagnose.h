@@ -76,6 +76,13 @@ struct DiagnoseOptions {
   // floor's power on held-out blocks: below a tenth of the noise power a structured part moves no
   // heading by more than the noise does.
   double materiality = 0.1;
+  // Compass channels: an effect is material too when its field turns the heading by at least this
+  // RMS over the flight (degrees, the low end of its 95 % interval; verdict.h HeadingTurnOf), however
+  // noisy the sensor. The attitude filter averages a compass's noise but follows a heading turned
+  // with the current, so a field that turns it matters to the user even where the sensor's noise
+  // power dwarfs it (a noisy internal compass). 1°: the heading a GNSS-aided yaw estimate resolves in
+  // steady flight, below it a turn is lost in the estimate's own error. 0: noise power only.
+  double material_heading_deg = 1.0;
   // Inertial and dynamics channels: an effect is material when it also removes this share of the
   // held-out structure above the floor (a replay's unresolvable part, commands between log rows,
   // is not a gap, and a tenth is the smallest part the CV folds resolve on a 20-block log).
