@@ -142,6 +142,14 @@ EOF
     echo "clang-tidy: $(echo "$findings" | wc -l) findings (full output: $tidy_dir/out/)" >&2
     fail tidy
   fi
+  # A clang-tidy that died (a signal under memory pressure, a front-end crash) printed no finding
+  # but checked nothing: the gate fails and names the file (its key is not recorded as clean).
+  local died
+  died=$(grep -L -x "tidy-exit 0" /dev/null "$tidy_dir"/out/*.log 2>/dev/null | grep -v '^/dev/null$' || true)
+  if [ -n "$died" ]; then
+    for log in $died; do echo "clang-tidy did not finish: $(basename "$log" .log) ($(tail -n 1 "$log"))" >&2; done
+    fail tidy
+  fi
   end tidy
 }
 
