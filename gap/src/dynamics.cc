@@ -14,6 +14,7 @@
 // the physical parameter at the fit (intervals from the same cluster-robust covariance).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include <Eigen/Geometry>
@@ -51,12 +52,13 @@ Vec3 DragForce_B(const vehicle::DragParams& d, const Vec3& v_air_B) {
 // The configured vehicle with a battery of EMF emf_V and internal resistance r_ohm: StepPowertrain
 // then solves the bus voltage the ESCs see from the replay's own current at every step, as the
 // simulator's powertrain does (a command step sags the bus in the same step, not one row later).
-void SetBattery(double emf_V, double r_ohm, vehicle::VehicleParams* p) {
-  // The battery limit puts the bus at emf − r·I_max; a resistance that would take it to 0 V or
-  // below there is not this battery's: the bus is then taken as stiff.
-  const double I_max = p->battery.max_current_A;
-  if (std::isfinite(I_max) && !(emf_V - r_ohm * I_max > 0.0)) r_ohm = 0.0;
+void SetBattery(double emf_V, double r_ohm, double max_current_A, vehicle::VehicleParams* p) {
   p->battery.internal_resistance_ohm = r_ohm;
+  // The battery limit puts the bus at emf − r·I_max; where that is not above 0 V the bus collapses
+  // before the current reaches the limit, which then never binds.
+  p->battery.max_current_A =
+      std::isfinite(max_current_A) && !(emf_V - r_ohm * max_current_A > 0.0) ? std::numeric_limits<double>::infinity()
+                                                                            : max_current_A;
   p->battery.cells_series = 1;
   p->battery.ocv_soc = {0.0, 1.0};
   p->battery.ocv_cell_V = {emf_V, emf_V};
@@ -295,7 +297,7 @@ class PowertrainReplay {
           const double tau = s * h;
           const double w = ap_rate_hz_ > 0 ? std::floor(tau * ap_rate_hz_ + 1e-9) / (ap_rate_hz_ * dt) : tau / dt;
           for (size_t m = 0; m < n_rot; ++m) cmd[m] = (1 - w) * c0[m] + w * c1[m];
-          SetBattery((1 - w) * E0 + w * E1, r_ohm, &pv);
+          SetBattery((1 - w) * E0 + w * E1, r_ohm, v_.battery.max_current_A, &pv);
           vehicle::StepPowertrain(pv, cmd, h, &ps);
         }
       }
