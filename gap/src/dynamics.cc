@@ -1,5 +1,6 @@
 // Open-loop dynamics replay: the log's motor commands, bus voltage, attitude and velocity drive the
-// configured powertrain (rotor speeds integrated with vehicle::StepPowertrain at the logged voltage)
+// configured powertrain (rotor speeds integrated with vehicle::StepPowertrain from the logged
+// battery: its EMF V + R_int·I, the bus solved from the replay's own current; BatteryRows)
 // and airframe drag to predict the body specific force the accelerometer measures:
 //   f_B = (Σ_i k_T·ω_i²·a_i + F_drag(v_B)) / m,   v_B = R_NBᵀ·v_N (no wind configured)
 // and the residual accel − f_B is explained by the rotor/airframe candidates:

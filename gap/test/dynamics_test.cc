@@ -88,11 +88,13 @@ TEST_P(DynamicsEffect, GivenOneWithheldRotorOrAirframeEffectWhenDiagnosedThenItI
   const CandidateResult* k = FindCandidate(*d, c.effect);
   ASSERT_NE(k, nullptr);
   const double truth = f.trial.true_magnitude[0];
-  // Known miss (motor_time_constant only): since the powertrain-realism change (spool states,
-  // take-off ramp, current limits) the fitted extra lag reads 2 % high (51.0 ms [50.5, 51.5] for
-  // 50) on this trial; dropping the take-off ramp rows or the rotor speed's spread over the flight
-  // (±0.3 % in τ) does not explain it, and its cause is not found yet. Its interval is checked
-  // widened by 3 % of the truth so the test still catches a real regression.
+  // Known miss (motor_time_constant only): the fitted extra lag reads 1.5-3 % high on this trial
+  // (50.8 ms [50.3, 51.3] for 50). Part of it was the replay's bus, interpolated between rows while
+  // the real one sags within each command step (51.0 before the replay solved the bus itself; see
+  // GivenASaggingBattery). The rest comes from the commands between the 100 Hz rows: flown with a
+  // row every physics step, the effect reads 50.1-50.2 ms over the clean flight's own offset
+  // (+0.95 ms there, the 400 Hz accelerometer's sample held over 1 kHz rows), seeds 314-315. Its
+  // interval is checked widened by 3 % of the truth so the test still catches a real regression.
   const double slack = std::string(c.effect) == "motor_time_constant" ? 0.03 * truth : 0.0;
   EXPECT_GE(truth + slack, k->magnitude_ci95[0]) << k->magnitude << " [" << k->magnitude_ci95[0] << ", " << k->magnitude_ci95[1] << "]";
   EXPECT_LE(truth - slack, k->magnitude_ci95[1]) << k->magnitude << " [" << k->magnitude_ci95[0] << ", " << k->magnitude_ci95[1] << "]";
