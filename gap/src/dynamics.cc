@@ -1,5 +1,6 @@
 // Open-loop dynamics replay: the log's motor commands, bus voltage, attitude and velocity drive the
-// configured powertrain (rotor speeds integrated with vehicle::StepPowertrain at the logged voltage)
+// configured powertrain (rotor speeds integrated with vehicle::StepPowertrain from the logged
+// battery: its EMF V + R_int·I, the bus solved from the replay's own current; BatteryRows)
 // and airframe drag to predict the body specific force the accelerometer measures:
 //   f_B = (Σ_i k_T·ω_i²·a_i + F_drag(v_B)) / m,   v_B = R_NBᵀ·v_N (no wind configured)
 // and the residual accel − f_B is explained by the rotor/airframe candidates:
@@ -14,6 +15,7 @@
 // the physical parameter at the fit (intervals from the same cluster-robust covariance).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 #include <Eigen/Geometry>
@@ -48,13 +50,19 @@ Vec3 DragForce_B(const vehicle::DragParams& d, const Vec3& v_air_B) {
   return -(d.linear_Nspm.cwiseProduct(v_air_B) + d.quadratic_Ns2pm2.cwiseProduct(v_air_B.cwiseAbs().cwiseProduct(v_air_B)));
 }
 
-// The configured vehicle with a stiff battery at voltage V: StepPowertrain then runs the ESCs and
-// motors at the logged bus voltage.
-void SetStiffBattery(double bus_V, vehicle::VehicleParams* p) {
-  p->battery.internal_resistance_ohm = 0.0;
+// The configured vehicle with a battery of EMF emf_V and internal resistance r_ohm: StepPowertrain
+// then solves the bus voltage the ESCs see from the replay's own current at every step, as the
+// simulator's powertrain does (a command step sags the bus in the same step, not one row later).
+void SetBattery(double emf_V, double r_ohm, double max_current_A, vehicle::VehicleParams* p) {
+  p->battery.internal_resistance_ohm = r_ohm;
+  // The battery limit puts the bus at emf − r·I_max; where that is not above 0 V the bus collapses
+  // before the current reaches the limit, which then never binds.
+  p->battery.max_current_A =
+      std::isfinite(max_current_A) && !(emf_V - r_ohm * max_current_A > 0.0) ? std::numeric_limits<double>::infinity()
+                                                                            : max_current_A;
   p->battery.cells_series = 1;
   p->battery.ocv_soc = {0.0, 1.0};
-  p->battery.ocv_cell_V = {bus_V, bus_V};
+  p->battery.ocv_cell_V = {emf_V, emf_V};
 }
 
 // 1-D or 2-D Gauss–Newton: minimise Σ|y_k − (g_k(θ) − mean g)|², g_k from `model` (value, Jacobian).
@@ -191,26 +199,46 @@ DynamicsInputs FindInputs(const logs::FlightLog& log, size_t n_rot) {
   return in;
 }
 
-// Bus voltage per row: the logged one, else the configured battery V_oc(SoC) − R_int·I.
-std::vector<double> BusVoltage(const DynamicsInputs& in, const vehicle::VehicleParams& v) {
+// The battery the replay's ESCs run from, per row. The bus voltage sags with the current through
+// the battery's internal resistance R within one autopilot tick (a command step's current spike),
+// far faster than a log row, so a bus voltage interpolated between rows leads the real one through
+// every thrust change: the replay then reads as a rotor lag (a motor time constant 2 % high). The
+// replay carries the slow part, the EMF, and solves the bus from its own current:
+//   logged V and I:  EMF = V + R·I (R configured), the bus solved with R;
+//   logged V only:   EMF = V with no resistance (the logged bus, stiff);
+//   no (usable) V:   EMF = V_oc(SoC) of the configured battery, the bus solved with R.
+// bus_V is the bus at the row itself (restarts at steady state, and whether the row is usable).
+struct BatteryRows {
+  std::vector<double> emf_V, r_ohm, bus_V;
+};
+
+BatteryRows BatteryPerRow(const DynamicsInputs& in, const vehicle::VehicleParams& v) {
   const size_t N = in.rows;
   const auto& t = *in.t;
-  std::vector<double> bus_V(N, std::nan(""));
+  const double R = v.battery.internal_resistance_ohm;
+  BatteryRows b{std::vector<double>(N, std::nan("")), std::vector<double>(N, 0.0), std::vector<double>(N, std::nan(""))};
   double soc = v.battery.initial_soc;
   const double capacity_As = v.battery.capacity_Ah * 3600.0;
   for (size_t i = 0; i < N; ++i) {
+    const double I_log = in.I && in.current_usable ? (*in.I)[i] : std::nan("");
     if (in.V) {
-      bus_V[i] = (*in.V)[i];
+      b.bus_V[i] = (*in.V)[i];
+      b.r_ohm[i] = std::isfinite(I_log) ? R : 0.0;
+      b.emf_V[i] = b.bus_V[i] + b.r_ohm[i] * (std::isfinite(I_log) ? I_log : 0.0);
       continue;
     }
     const double I = in.I && in.current_usable ? (*in.I)[i] : 0.0;  // no usable monitor: no load known
     if (in.soc && std::isfinite((*in.soc)[i])) soc = (*in.soc)[i];
-    if (std::isfinite(I)) bus_V[i] = v.battery.OpenCircuitVoltage_V(soc) - v.battery.internal_resistance_ohm * I;
+    if (std::isfinite(I)) {
+      b.emf_V[i] = v.battery.OpenCircuitVoltage_V(soc);
+      b.r_ohm[i] = R;
+      b.bus_V[i] = b.emf_V[i] - R * I;
+    }
     if (!in.soc && i + 1 < N && std::isfinite(I) && capacity_As > 0) {
       soc = std::clamp(soc - I * (t[i + 1] - t[i]) / capacity_As, 0.0, 1.0);
     }
   }
-  return bus_V;
+  return b;
 }
 
 // Height of the take-off point (the first finite altitude, as height up); NaN without an altitude.
@@ -223,29 +251,30 @@ double TakeOffHeight(const DynamicsInputs& in) {
   return std::nan("");
 }
 
-// Rotor speeds at each row: the configured powertrain integrated at the logged voltage, commands
-// interpolated between rows and held between autopilot ticks.
+// Rotor speeds at each row: the configured powertrain integrated from the logged battery (BatteryRows),
+// commands interpolated between rows and held between autopilot ticks.
 class PowertrainReplay {
  public:
   PowertrainReplay(const DynamicsInputs& in, const vehicle::VehicleParams& v)
-      : in_(in), v_(v), bus_V_(BusVoltage(in, v)), ap_rate_hz_(v.sensors.gyro.rate_hz) {}
+      : in_(in), v_(v), bat_(BatteryPerRow(in, v)), ap_rate_hz_(v.sensors.gyro.rate_hz) {}
 
   // inertia_scale multiplies every rotor's inertia (the rotor time constant scales with it);
-  // delta_R_ohm lowers the voltage the ESCs see by ΔR·I.
+  // delta_R_ohm lowers the voltage the ESCs see by ΔR·I (the logged voltage is read ΔR·I upstream
+  // of them: the EMF behind the configured resistance is lower by ΔR·I).
   void Run(double inertia_scale, double delta_R_ohm, std::vector<std::vector<double>>* omega,
            std::vector<bool>* row_ok) const {
     const size_t N = in_.rows, n_rot = v_.rotors.size();
     const auto& t = *in_.t;
     std::vector<double> cmd(n_rot), c0(n_rot), c1(n_rot);
-    vehicle::VehicleParams stiff = v_;
-    stiff.motor.inertia_kgm2 *= inertia_scale;
-    for (auto& r : stiff.rotors) r.inertia_kgm2 *= inertia_scale;
-    vehicle::PowertrainState ps = vehicle::InitialPowertrainState(stiff);
+    vehicle::VehicleParams pv = v_;
+    pv.motor.inertia_kgm2 *= inertia_scale;
+    for (auto& r : pv.rotors) r.inertia_kgm2 *= inertia_scale;
+    vehicle::PowertrainState ps = vehicle::InitialPowertrainState(pv);
     omega->assign(N, {});
     row_ok->assign(N, false);
     bool have_state = false;
     for (size_t i = 0; i < N; ++i) {
-      const bool ok_i = CommandsAt(i, &c1) && std::isfinite(bus_V_[i]) && bus_V_[i] > 0;
+      const bool ok_i = CommandsAt(i, &c1) && std::isfinite(bat_.bus_V[i]) && bat_.bus_V[i] > 0;
       if (!ok_i) {
         have_state = false;
         continue;
@@ -254,14 +283,14 @@ class PowertrainReplay {
         // Restart at the steady state of this row's commands.
         for (size_t m = 0; m < n_rot; ++m) {
           ps.omega_radps[m] =
-              c1[m] > 0 ? vehicle::SteadyOmega_radps(v_, m, v_.esc.Duty(c1[m]) * EscVoltage(i, delta_R_ohm)) : 0.0;
+              c1[m] > 0 ? vehicle::SteadyOmega_radps(v_, m, v_.esc.Duty(c1[m]) * RowBus(i, delta_R_ohm)) : 0.0;
         }
       } else {
         CommandsAt(i - 1, &c0);
         const double dt = t[i] - t[i - 1];
         const int sub = std::max(1, static_cast<int>(std::ceil(dt / kSubstep_s - 1e-9)));
         const double h = dt / sub;
-        const double V0 = EscVoltage(i - 1, delta_R_ohm), V1 = EscVoltage(i, delta_R_ohm);
+        const double E0 = Emf(i - 1, delta_R_ohm), E1 = Emf(i, delta_R_ohm), r_ohm = bat_.r_ohm[i];
         for (int s = 0; s < sub; ++s) {
           // The autopilot updates the commands at its own rate and holds them in between: the
           // command acting at time τ is the one of its last tick, interpolated between the rows.
@@ -269,8 +298,8 @@ class PowertrainReplay {
           const double tau = s * h;
           const double w = ap_rate_hz_ > 0 ? std::floor(tau * ap_rate_hz_ + 1e-9) / (ap_rate_hz_ * dt) : tau / dt;
           for (size_t m = 0; m < n_rot; ++m) cmd[m] = (1 - w) * c0[m] + w * c1[m];
-          SetStiffBattery((1 - w) * V0 + w * V1, &stiff);
-          vehicle::StepPowertrain(stiff, cmd, h, &ps);
+          SetBattery((1 - w) * E0 + w * E1, r_ohm, v_.battery.max_current_A, &pv);
+          vehicle::StepPowertrain(pv, cmd, h, &ps);
         }
       }
       have_state = true;
@@ -284,13 +313,15 @@ class PowertrainReplay {
     for (size_t m = 0; m < c->size(); ++m) (*c)[m] = (*in_.mu[m])[i];
     return std::all_of(c->begin(), c->end(), [](double x) { return std::isfinite(x); });
   }
-  double EscVoltage(size_t i, double delta_R_ohm) const {
-    return delta_R_ohm != 0 && in_.I && std::isfinite((*in_.I)[i]) ? bus_V_[i] - delta_R_ohm * (*in_.I)[i] : bus_V_[i];
+  double SagOf(size_t i, double delta_R_ohm) const {
+    return delta_R_ohm != 0 && in_.I && std::isfinite((*in_.I)[i]) ? delta_R_ohm * (*in_.I)[i] : 0.0;
   }
+  double Emf(size_t i, double delta_R_ohm) const { return bat_.emf_V[i] - SagOf(i, delta_R_ohm); }
+  double RowBus(size_t i, double delta_R_ohm) const { return bat_.bus_V[i] - SagOf(i, delta_R_ohm); }
 
   const DynamicsInputs& in_;
   const vehicle::VehicleParams& v_;
-  std::vector<double> bus_V_;
+  BatteryRows bat_;
   double ap_rate_hz_;  // the autopilot's control loop runs at the IMU rate (as ArduPilot's and the simulator's do)
 };
 

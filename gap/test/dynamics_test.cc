@@ -88,11 +88,13 @@ TEST_P(DynamicsEffect, GivenOneWithheldRotorOrAirframeEffectWhenDiagnosedThenItI
   const CandidateResult* k = FindCandidate(*d, c.effect);
   ASSERT_NE(k, nullptr);
   const double truth = f.trial.true_magnitude[0];
-  // Known miss (motor_time_constant only): since the powertrain-realism change (spool states,
-  // take-off ramp, current limits) the fitted extra lag reads 2 % high (51.0 ms [50.5, 51.5] for
-  // 50) on this trial; dropping the take-off ramp rows or the rotor speed's spread over the flight
-  // (±0.3 % in τ) does not explain it, and its cause is not found yet. Its interval is checked
-  // widened by 3 % of the truth so the test still catches a real regression.
+  // Known miss (motor_time_constant only): the fitted extra lag reads 1.5-3 % high on this trial
+  // (50.8 ms [50.3, 51.3] for 50). Part of it was the replay's bus, interpolated between rows while
+  // the real one sags within each command step (51.0 before the replay solved the bus itself; see
+  // GivenASaggingBattery). The rest comes from the commands between the 100 Hz rows: flown with a
+  // row every physics step, the effect reads 50.1-50.2 ms over the clean flight's own offset
+  // (+0.95 ms there, the 400 Hz accelerometer's sample held over 1 kHz rows), seeds 314-315. Its
+  // interval is checked widened by 3 % of the truth so the test still catches a real regression.
   const double slack = std::string(c.effect) == "motor_time_constant" ? 0.03 * truth : 0.0;
   EXPECT_GE(truth + slack, k->magnitude_ci95[0]) << k->magnitude << " [" << k->magnitude_ci95[0] << ", " << k->magnitude_ci95[1] << "]";
   EXPECT_LE(truth - slack, k->magnitude_ci95[1]) << k->magnitude << " [" << k->magnitude_ci95[0] << ", " << k->magnitude_ci95[1] << "]";
@@ -120,6 +122,31 @@ INSTANTIATE_TEST_SUITE_P(Effects, DynamicsEffect,
                          ::testing::Values(DynCase{"rotor_drag", 5e-5, 321}, DynCase{"ground_effect", 0.3, 312},
                                            DynCase{"battery_sag", 0.05, 313}, DynCase{"motor_time_constant", 0.05, 314},
                                            DynCase{"wind", 3.5, 315}));
+
+// A battery whose bus sags hard with the current (internal resistance 0.25 Ω, a worn or undersized
+// pack): each command step's current spike pulls the bus down within the same autopilot tick. A
+// replay that interpolates the logged bus between rows gives the ESCs the voltage of before the
+// step and so leads the real rotors (the clean flight read as a motor time constant of several ms);
+// the replay solves the bus from its own current behind the logged EMF, as the simulator does.
+TEST(GapDynamics, GivenASaggingBatteryWhenACleanLogIsReplayedThenTheBusSagsWithTheReplaysOwnCurrentAndNoRotorLagIsRead) {
+  SelftestOptions options;
+  RngStream rng(219, "dynamics_test");
+  auto trial = MakeTrial(options, 219, {}, &rng);
+  ASSERT_TRUE(trial.ok()) << trial.status().message();
+  trial->truth.vehicle.battery.internal_resistance_ohm = 0.25;
+  trial->configured.battery.internal_resistance_ohm = 0.25;
+  auto log = FlyTrial(&*trial, &rng);
+  ASSERT_TRUE(log.ok()) << log.status().message();
+  auto rep = Diagnose(*log, trial->configured, gaptest::IdealOptions());
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* d = FindChannel(*rep, "dynamics");
+  ASSERT_NE(d, nullptr) << Summary(*rep);
+  const CandidateResult* k = FindCandidate(*d, "motor_time_constant");
+  ASSERT_NE(k, nullptr) << Candidates(*d);
+  // Hover τ is ≈ 50 ms: a lead of the bus reads as +2..5 ms; within ±1 ms is the replay's resolution.
+  EXPECT_LT(std::fabs(k->magnitude), 1e-3) << Candidates(*d);
+  EXPECT_FALSE(d->gap_detected) << Summary(*rep) << Candidates(*d);
+}
 
 TEST(GapDynamics, GivenALogWithoutMotorOutputsWhenDiagnosedThenOneLineSaysWhatIsMissingAndTheCompassIsStillDiagnosed) {
   Flown f = FlyTrialWith({}, 216);
