@@ -73,8 +73,6 @@ namespace {
 // ArduPilot's per-motor compensation scales each motor's field by output^exp (COMPASS_PMOT_EXP,
 // default 0.65).
 constexpr double kPerMotorExponent = 0.65;
-// throttle^r (pymavlink magfit_compassmot fits r): the grid the throttle family is profiled over.
-constexpr double kThrottleExponents[] = {0.5, 1.0, 1.5, 2.0, 3.0};
 
 // Per replayed sample, what the candidates' regressors are built from.
 struct CompassRows {
@@ -258,7 +256,7 @@ void AddCurrentLag(const CompassSampler& sampler, const CompassRows& rows, Chann
   }
 }
 
-// throttle_hard_iron: d·throttle^r, r profiled over kThrottleExponents.
+// throttle_hard_iron: d·throttle^r, r profiled over kThrottleExponents (replay_util.h: its physical range).
 void AddThrottleIron(const CompassRows& rows, bool has_throttle, ChannelData* ch) {
   const size_t n = ch->t.size();
   bool throttle_ok = has_throttle && n > 0;
