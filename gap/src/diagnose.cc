@@ -248,6 +248,7 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
   ro.current_shift_s = shift_s;
   ro.member_shift_s =
       stale.ok() && plausibility::IsPlausible("current_staleness", stale.value_s) ? stale.value_s : 0.0;
+  ro.member_shifts_s = internal::AlignedMemberShifts(stale, rr.inputs);
   ChannelData ch = internal::ReplayCompass(log, vehicle, c, rr.inputs, B_N, ro);
   const internal::CompassMinimum least = internal::CompassMinSamples(ch);
   if (!terms.ok() && static_cast<int>(ch.t.size()) < least.samples) {

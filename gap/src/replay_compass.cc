@@ -20,6 +20,7 @@
 
 #include "channels.h"
 #include "compass_sampler.h"
+#include "hexsim/common/plausibility.h"
 #include "hexsim/common/rotation.h"
 #include "hexsim/magnetics/compass_model.h"
 #include "hexsim/magnetics/flight_fit.h"
@@ -49,19 +50,36 @@ CompassMinimum CompassMinSamples(const ChannelData& ch) {
                       magnetics::kEquationsPerSample, kTrainingBlocks, kMinAnalysisBlocks);
   return m;
 }
+std::vector<double> AlignedMemberShifts(const realdata::LagEstimate& stale, const LogInputs& in) {
+  if (!stale.ok() || !plausibility::IsPlausible("current_staleness", stale.value_s)) return {};
+  std::vector<double> gaps;
+  for (size_t k = 1; k < in.current_samples_t.size(); ++k) gaps.push_back(in.current_samples_t[k] - in.current_samples_t[k - 1]);
+  const double period = MedianFinite(gaps);
+  // The staleness's physical range (plausibility table row current_staleness).
+  const plausibility::PhysicalRange* range = plausibility::FindRange("current_staleness");
+  if (!(period > 0) || range == nullptr) return {stale.value_s};
+  const double range_hi = range->hi;
+  std::vector<double> shifts;
+  const double lo = std::max(0.0, stale.ci95_s[0] - period), hi = std::min(range_hi, stale.ci95_s[1] + period);
+  const double step = 0.25 * period;
+  for (double s = lo; s <= hi + 1e-9; s += step) shifts.push_back(s);
+  shifts.push_back(stale.value_s);
+  std::sort(shifts.begin(), shifts.end());
+  return shifts;
+}
+
 namespace {
 
 // ArduPilot's per-motor compensation scales each motor's field by output^exp (COMPASS_PMOT_EXP,
 // default 0.65).
 constexpr double kPerMotorExponent = 0.65;
-// throttle^r (pymavlink magfit_compassmot fits r): the grid the throttle family is profiled over.
-constexpr double kThrottleExponents[] = {0.5, 1.0, 1.5, 2.0, 3.0};
 
 // Per replayed sample, what the candidates' regressors are built from.
 struct CompassRows {
   std::vector<Vec3> h;                     // predicted field before hard iron, sensor frame
   std::vector<Eigen::Matrix3d> Msens, Rt;  // R_SB·scale·K(I), R_NBᵀ
   std::vector<double> I_log, I_mem, u, temp;
+  std::vector<double> t_meas;              // when the field was measured (stamp − latency)
   std::vector<std::vector<double>> mu;     // per-motor outputs
   std::vector<magnetics::Currents> currents;
 };
@@ -98,6 +116,7 @@ void SampleCompass(CompassSampler* sampler, const LogInputs& in, const CompassRe
     rows->Rt.emplace_back(R_NB.transpose());
     rows->I_log.push_back(ls.i_logged);
     rows->I_mem.push_back(ls.i_member);
+    rows->t_meas.push_back(s.t - o.latency_s);
     rows->u.push_back(thr);
     if (!o.baseline_only) {
       rows->mu.push_back(std::move(motors));
@@ -131,11 +150,36 @@ void AddLibraryFree(const CompassRows& rows, bool has_current, ChannelData* ch) 
   }
 }
 
-// current_hard_iron and current_soft_iron, each with the logged current and (when a staleness is
-// applied) the aligned member.
-void AddCurrentIron(const CompassRows& rows, const CompassReplayOptions& o, ChannelData* ch) {
-  for (int aligned = 0; aligned < 2; ++aligned) {
-    if (aligned == 1 && o.member_shift_s == 0) break;
+// The logged current at the measurement times shifted by shift_s (NaN outside the log).
+std::vector<double> ShiftedCurrent(const std::vector<double>& t_row, const std::vector<double>& current,
+                                   const std::vector<double>& t_meas, double shift_s) {
+  std::vector<double> out(t_meas.size(), std::nan(""));
+  RowCursor cur{t_row};
+  double w = 0;
+  for (size_t k = 0; k < t_meas.size(); ++k) {
+    if (cur.Seek(t_meas[k] + shift_s, &w)) out[k] = Lerp(current, cur.i, w);
+  }
+  return out;
+}
+
+// current_hard_iron and current_soft_iron, each with the logged current (current_aligned 0) and
+// the current aligned by each of the member shifts (current_aligned: the shift, s).
+void AddCurrentIron(const CompassRows& rows, const CompassReplayOptions& o, const std::vector<double>& t_row,
+                    const std::vector<double>& current, ChannelData* ch) {
+  std::vector<double> shifts = {0.0};
+  if (!o.member_shifts_s.empty()) {
+    for (double s : o.member_shifts_s) {
+      if (s != 0.0) shifts.push_back(s);
+    }
+  } else if (o.member_shift_s != 0) {
+    shifts.push_back(o.member_shift_s);
+  }
+  for (double shift : shifts) {
+    std::vector<double> I = shift == 0.0 ? rows.I_log : shift == o.member_shift_s ? rows.I_mem
+                                                                                  : ShiftedCurrent(t_row, current, rows.t_meas, shift);
+    bool finite = true;
+    for (double x : I) finite = finite && std::isfinite(x);
+    if (!finite) continue;  // a shift that runs past the log's end: not every sample has a current
     Candidate chi = MakeCandidate("current_hard_iron", {"d_x_uT_per_A", "d_y_uT_per_A", "d_z_uT_per_A"}, {1, 1, 1},
                                   "uT/A", "current_A");
     Candidate csi = MakeCandidate("current_soft_iron",
@@ -143,9 +187,9 @@ void AddCurrentIron(const CompassRows& rows, const CompassReplayOptions& o, Chan
                                    "dK_yz_per_A", "dK_zx_per_A", "dK_zy_per_A", "dK_zz_per_A"},
                                   std::vector<double>(9, 1.0), "1/A", "current_A");
     chi.grid_name = csi.grid_name = "current_aligned";
-    chi.grid_value = csi.grid_value = aligned;
+    chi.grid_value = csi.grid_value = shift;
     for (size_t k = 0; k < ch->t.size(); ++k) {
-      const double Ik = aligned ? rows.I_mem[k] : rows.I_log[k];
+      const double Ik = I[k];
       chi.X.push_back(Diag3(Ik));
       chi.regressor.push_back(Ik);
       Mat3X x = Mat3X::Zero(3, 9);
@@ -212,7 +256,7 @@ void AddCurrentLag(const CompassSampler& sampler, const CompassRows& rows, Chann
   }
 }
 
-// throttle_hard_iron: d·throttle^r, r profiled over kThrottleExponents.
+// throttle_hard_iron: d·throttle^r, r profiled over kThrottleExponents (replay_util.h: its physical range).
 void AddThrottleIron(const CompassRows& rows, bool has_throttle, ChannelData* ch) {
   const size_t n = ch->t.size();
   bool throttle_ok = has_throttle && n > 0;
@@ -339,7 +383,7 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
   for (size_t k = 0; k < n; ++k) mis.X.emplace_back(-Skew(rows.h[k]));  // φ × h = −[h]×·φ
   ch.candidates.push_back(std::move(mis));
   if (has_current) {
-    AddCurrentIron(rows, o, &ch);
+    AddCurrentIron(rows, o, log.Column("t_s"), *in.current, &ch);
     AddCurrentLag(sampler, rows, &ch);
     AddLaggedCurrentField(&ch);
   } else {

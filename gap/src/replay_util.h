@@ -23,6 +23,16 @@ inline constexpr double kLagGrid_s[] = {0.01, 0.02, 0.03, 0.05, 0.07, 0.1, 0.14,
 // so a field that grows faster fits there and is refused as a model mismatch.
 inline constexpr double kLagExponentLo = 1.0, kLagExponentHi = 2.0;
 inline constexpr double kLagExponents[] = {1.0, 1.25, 1.5, 1.75, 2.0, 2.5};
+// The exponent r of a throttle-driven field, B ∝ throttle^r (throttle_hard_iron; pymavlink's
+// magfit_compassmot fits r). Physical range 1..3: ArduPilot's COMPASS_MOTCT 1 compensates a field
+// linear in the throttle (a lead carrying the throttle's own signal, r = 1), and a field carried by
+// the motors' current grows as that current does, faster than the throttle (hexsim's quad reads r = 2,
+// a motor's DC power ∝ ω³ bounds it at 3); no throttle-driven source grows slower than the throttle.
+// The grid's first point lies below the range, so a field that grows slower (a current field that
+// saturates: the out-of-library tanh form fits r = 0.5 in every flight) fits there and is refused as
+// a model mismatch instead of being named throttle_hard_iron.
+inline constexpr double kThrottleExponentLo = 1.0, kThrottleExponentHi = 3.0;
+inline constexpr double kThrottleExponents[] = {0.5, 1.0, 1.5, 2.0, 3.0};
 
 inline const std::vector<double>* Col(const logs::FlightLog& log, const std::string& name) {
   return log.Has(name) ? &log.Column(name) : nullptr;

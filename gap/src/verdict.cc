@@ -355,12 +355,23 @@ std::string MaterialWhy(bool by_noise, const CandidateResult& r, const HeadingTu
   return "";
 }
 
-// current_lag's free member: its exponent inside its physical range too (kLagExponentLo..Hi).
-void LagExponentRange(CandidateResult* r) {
+// A profiled exponent inside its physical range too: current_lag's free member (kLagExponentLo..Hi)
+// and throttle_hard_iron (kThrottleExponentLo..Hi).
+void ExponentRange(CandidateResult* r) {
   const auto ex = r->params.find("exponent");
-  if (r->id != Effect::kCurrentLag || ex == r->params.end()) return;
-  r->plausible = r->plausible && ex->second >= kLagExponentLo && ex->second <= kLagExponentHi;
-  r->physical_range += fmt::format(", exponent {:g}..{:g}", kLagExponentLo, kLagExponentHi);
+  if (ex == r->params.end()) return;
+  double lo = 0, hi = 0;
+  if (r->id == Effect::kCurrentLag) {
+    lo = kLagExponentLo;
+    hi = kLagExponentHi;
+  } else if (r->id == Effect::kThrottleHardIron) {
+    lo = kThrottleExponentLo;
+    hi = kThrottleExponentHi;
+  } else {
+    return;
+  }
+  r->plausible = r->plausible && ex->second >= lo && ex->second <= hi;
+  r->physical_range += fmt::format(", exponent {:g}..{:g}", lo, hi);
 }
 
 }  // namespace
@@ -392,7 +403,7 @@ ChannelResult AnalyzeCompass(const ChannelData& ch_in, const logs::FlightLog& lo
     ScaleSpread(&r);
     r.plausible = plausibility::IsPlausible(r.effect, r.magnitude);
     r.physical_range = plausibility::RangeText(r.effect);
-    LagExponentRange(&r);
+    ExponentRange(&r);
   }
   double flex_p = 1.0, flex_gain_ms = 0.0;
   LibraryFreeTest(ch, an, &flex_p, &flex_gain_ms);
