@@ -4,6 +4,7 @@
 
 #include <Eigen/LU>
 
+#include "hexsim/common/rotation.h"
 #include "stats.h"
 #include "verdict.h"
 
@@ -46,9 +47,8 @@ HeadingTurn HeadingTurnOf(const ChannelData& ch, const Analyzer& an, const Evalu
   const Eigen::VectorXd grad = H * beta / rms;
   const double sd = std::sqrt(std::max(0.0, grad.dot(V * grad)));
   const double t975 = StudentT975(static_cast<double>(an.G() - 1));
-  constexpr double kDeg = 180.0 / 3.14159265358979323846;
-  h.deg = kDeg * rms;
-  h.lo_deg = kDeg * std::max(0.0, rms - t975 * sd);
+  h.deg = kRadToDeg * rms;
+  h.lo_deg = kRadToDeg * std::max(0.0, rms - t975 * sd);
   return h;
 }
 
