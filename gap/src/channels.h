@@ -123,10 +123,11 @@ inline bool HasWiring(const vehicle::VehicleParams& v) { return !v.wiring.segmen
 struct CompassReplayOptions {
   double latency_s = 0.0;        // the sample stamped t measured the field at t − latency_s
   double current_shift_s = 0.0;  // the prediction's current is I(t − latency_s + current_shift_s)
-  double member_shift_s = 0.0;   // the candidates' aligned current member: I(t − latency_s + member_shift_s)
-  // current_hard_iron's and current_soft_iron's aligned members, one per shift (AlignedMemberShifts);
-  // empty: the one member at member_shift_s.
+  // current_hard_iron's and current_soft_iron's members: the logged current I(t − latency_s) and,
+  // for each shift here (ascending; the in-flight model's grid, realdata::CurrentShiftGrid), the
+  // current aligned by it, I(t − latency_s + shift). Empty: the logged current only.
   std::vector<double> member_shifts_s;
+  double LongestMemberShift_s() const { return member_shifts_s.empty() ? 0.0 : member_shifts_s.back(); }
   double share_exponent = kShareExponent;  // the motors' current split (see kShareExponent), in [0, 3]
   const std::vector<realdata::RowKind>* row_kind = nullptr;  // null: every row
   realdata::RowKind want = realdata::RowKind::kFlight;
@@ -134,16 +135,6 @@ struct CompassReplayOptions {
   bool library_free = true;     // build the library-free set (detection)
   bool calibrated_log = false;  // the autopilot calibrated the logged values: no configured hard/soft iron
 };
-
-// The shifts of the current-driven families' aligned members: the current's staleness profiled on
-// the compass itself, over the throttle scan's 95 % interval widened by the current's update period
-// on each side (clipped to the staleness's physical range), in steps of a quarter period, the scan's
-// point estimate among them. A sample-and-hold current's staleness is resolved against the throttle
-// only to within its update period (the real profile's 5 Hz current: the scan reads 30-90 ms short
-// of the injected staleness, outside its own interval in some flights), and a current field read
-// through a current misaligned by that much is fitted better by the fresh throttle (the throttle
-// form was named in 3 of 10 one-effect current_hard_iron trials). Empty without a resolved staleness.
-std::vector<double> AlignedMemberShifts(const realdata::LagEstimate& stale, const LogInputs& in);
 
 // current_lag's free member: a field the vehicle file does not model that follows the current
 // through a first-order lag and may grow faster than linearly,

@@ -97,7 +97,7 @@ std::vector<CompassSample> NewSamples(const logs::FlightLog& log, const std::str
 CompassSampler::CompassSampler(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
                                const Vec3& B_N_uT, bool calibrated_log, double share_exponent)
     : share_exponent_(std::clamp(share_exponent, kShareExponentLo, kShareExponentHi)),
-      in_(in), v_(v), t_row_(log.Column("t_s")), B_N_uT_(B_N_uT), cur_{t_row_}, cur_i_{t_row_}, cur_m_{t_row_} {
+      in_(in), v_(v), t_row_(log.Column("t_s")), B_N_uT_(B_N_uT), cur_{t_row_}, cur_i_{t_row_}, cur_r_{t_row_} {
   const vehicle::CompassParams& cp = v.compasses[c];
   wiring_ = v.wiring;
   if (cp.current_lag_tau_s >= 0) wiring_.lag_tau_s = cp.current_lag_tau_s;
@@ -163,11 +163,11 @@ bool CompassSampler::SharesAt(size_t i, double w) {
   return true;
 }
 
-void CompassSampler::Begin(double latency_s, double current_shift_s, double member_shift_s) {
+void CompassSampler::Begin(double latency_s, double current_shift_s, double reach_s) {
   latency_s_ = latency_s;
   current_shift_s_ = current_shift_s;
-  member_shift_s_ = member_shift_s;
-  cur_.i = cur_i_.i = cur_m_.i = 0;
+  reach_s_ = reach_s;
+  cur_.i = cur_i_.i = cur_r_.i = 0;
   lag_ = magnetics::CurrentLagState();
   first_ = true;
   prev_t_ = 0;
@@ -175,8 +175,8 @@ void CompassSampler::Begin(double latency_s, double current_shift_s, double memb
 
 bool CompassSampler::Locate(const CompassSample& s, LocatedSample* out) {
   const double ta = s.t - latency_s_;  // when the field was measured
-  double w = 0, wi = 0, wm = 0;
-  if (!cur_.Seek(ta, &w) || !cur_i_.Seek(ta + current_shift_s_, &wi) || !cur_m_.Seek(ta + member_shift_s_, &wm)) {
+  double w = 0, wi = 0, wr = 0;
+  if (!cur_.Seek(ta, &w) || !cur_i_.Seek(ta + current_shift_s_, &wi) || !cur_r_.Seek(ta + reach_s_, &wr)) {
     return false;
   }
   const size_t i = cur_.i;
@@ -212,8 +212,8 @@ bool CompassSampler::Locate(const CompassSample& s, LocatedSample* out) {
     }
   }
   out->i_logged = has_current ? Lerp(*in_.current, i, w) : 0.0;
-  out->i_member = has_current ? Lerp(*in_.current, cur_m_.i, wm) : 0.0;
-  bool ok = std::isfinite(cu.battery_A) && std::isfinite(out->i_logged) && std::isfinite(out->i_member);
+  const double i_reach = has_current ? Lerp(*in_.current, cur_r_.i, wr) : 0.0;
+  bool ok = std::isfinite(cu.battery_A) && std::isfinite(out->i_logged) && std::isfinite(i_reach);
   if (has_current && wi > 0 && std::fabs((*in_.current)[ic + 1] - (*in_.current)[ic]) > kMaxCurrentStep_A) return false;
   if (shares && w > 0) {
     const double motors_A = std::max(0.0, cu.battery_A - v_.avionics_current_A);

@@ -33,7 +33,7 @@ struct LocatedSample {
   double w = 0;
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();  // attitude at t − L (finite)
   magnetics::Currents currents;  // at t − L + S, split over the motors as at t − L
-  double i_logged = 0, i_member = 0;
+  double i_logged = 0;
 };
 
 class CompassSampler {
@@ -51,7 +51,9 @@ class CompassSampler {
   bool has_current() const { return in_.current != nullptr; }
 
   // Starts a pass over the samples (ascending time) at this timing: cursors and current lag reset.
-  void Begin(double latency_s, double current_shift_s, double member_shift_s);
+  // reach_s: a sample is located only where the logged current has a finite value at t − L + reach_s
+  // (the current-driven families' longest member shift: every member then has a current).
+  void Begin(double latency_s, double current_shift_s, double reach_s);
   // Locates sample s on the pass's timing; false when it is left out. Allocation-free after the
   // first samples.
   bool Locate(const CompassSample& s, LocatedSample* out);
@@ -83,8 +85,8 @@ class CompassSampler {
   std::vector<double> share_step_;
   std::vector<double> share_;  // the interpolated shares of the sample being located
   // The pass.
-  double latency_s_ = 0, current_shift_s_ = 0, member_shift_s_ = 0;
-  RowCursor cur_, cur_i_, cur_m_;
+  double latency_s_ = 0, current_shift_s_ = 0, reach_s_ = 0;
+  RowCursor cur_, cur_i_, cur_r_;
   magnetics::CurrentLagState lag_;
   bool first_ = true;
   double prev_t_ = 0;

@@ -104,6 +104,8 @@ Result<CompassTerms> FitCompassTerms(const logs::FlightLog& log, const vehicle::
   t.latency_s = cf->latency_s;
   t.latency_applied = cf->latency_applied;
   t.current_shift_s = cf->current_shift_s;
+  t.current_shift_range_s[0] = cf->current_shift_range_s[0];
+  t.current_shift_range_s[1] = cf->current_shift_range_s[1];
   t.timing_note = realdata::TimingNote(*cf);
   t.windows_note = cf->windows_note;
   t.samples = f.samples_used;
@@ -163,6 +165,7 @@ nlohmann::json CompassTermsJson(const CompassTerms& t) {
                       {"timing", {{"latency_s", t.latency_s},
                                   {"latency_applied", t.latency_applied},
                                   {"current_shift_s", t.current_shift_s},
+                                  {"current_shift_range_s", {t.current_shift_range_s[0], t.current_shift_range_s[1]}},
                                   {"note", t.timing_note}}}};
   const bool throttle = t.form == "throttle";
   nlohmann::json term = {{"fitted", t.term_fitted},

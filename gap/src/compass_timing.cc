@@ -42,7 +42,7 @@ std::vector<std::vector<double>> LatencyProfile(CompassSampler* sampler, const C
   // The samples usable at every trial latency.
   std::vector<int> usable(ns, 0);
   for (double L : grid) {
-    sampler->Begin(L, shift_s, base.member_shift_s);
+    sampler->Begin(L, shift_s, base.LongestMemberShift_s());
     for (size_t k = 0; k < ns; ++k) {
       if (wanted(samples[k]) && sampler->Locate(samples[k], &ls)) ++usable[k];
     }
@@ -56,7 +56,7 @@ std::vector<std::vector<double>> LatencyProfile(CompassSampler* sampler, const C
   std::vector<Vec3> y(common);
   for (size_t g = 0; g < grid.size(); ++g) {
     // Every sample usable at this latency advances the configured current lag, as in the replay.
-    sampler->Begin(grid[g], shift_s, base.member_shift_s);
+    sampler->Begin(grid[g], shift_s, base.LongestMemberShift_s());
     ScanA A = ScanA::Zero(p, p);
     ScanV rhs = ScanV::Zero(p);
     size_t m = 0;
@@ -139,12 +139,12 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
     hi.latency_s = timing.latency_ci95_s[1];
     pairs.emplace_back(lo, hi);
   }
-  if (stale.ok() && (used.current_shift_s > 0 || used.member_shift_s > 0)) {
+  // The current-driven families choose their own member shift (their interval holds that choice);
+  // the prediction's current shift is a plug-in.
+  if (stale.ok() && used.current_shift_s > 0) {
     CompassReplayOptions lo = used, hi = used;
-    lo.current_shift_s = used.current_shift_s > 0 ? std::max(0.0, stale.ci95_s[0]) : 0.0;
-    hi.current_shift_s = used.current_shift_s > 0 ? std::max(0.0, stale.ci95_s[1]) : 0.0;
-    lo.member_shift_s = used.member_shift_s > 0 ? std::max(0.0, stale.ci95_s[0]) : 0.0;
-    hi.member_shift_s = used.member_shift_s > 0 ? std::max(0.0, stale.ci95_s[1]) : 0.0;
+    lo.current_shift_s = std::max(0.0, stale.ci95_s[0]);
+    hi.current_shift_s = std::max(0.0, stale.ci95_s[1]);
     pairs.emplace_back(lo, hi);
   }
   // The split matters only where the replay splits a battery current over configured motor wiring.

@@ -246,9 +246,8 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
   const bool align = timing.latency_ok && (timing.latency_ci95_s[0] > 0 || timing.latency_ci95_s[1] < 0);
   ro.latency_s = align ? timing.latency_s : 0.0;
   ro.current_shift_s = shift_s;
-  ro.member_shift_s =
-      stale.ok() && plausibility::IsPlausible("current_staleness", stale.value_s) ? stale.value_s : 0.0;
-  ro.member_shifts_s = internal::AlignedMemberShifts(stale, rr.inputs);
+  // The current-driven families' members: the in-flight model's shift grid (one definition).
+  ro.member_shifts_s = realdata::CurrentShiftGrid(stale, realdata::UpdatePeriod_s(rr.inputs.current_samples_t));
   ChannelData ch = internal::ReplayCompass(log, vehicle, c, rr.inputs, B_N, ro);
   const internal::CompassMinimum least = internal::CompassMinSamples(ch);
   if (!terms.ok() && static_cast<int>(ch.t.size()) < least.samples) {

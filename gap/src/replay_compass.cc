@@ -5,9 +5,10 @@
 // Timing: a compass sample stamped t measured the field at t − L (L: compass latency against the
 // attitude); the current logged at t is the current of t − S (S: its staleness beyond the configured
 // vehicle's own throttle-to-current response). The prediction uses the attitude at t − L and the
-// aligned current I(t − L + S); the candidates' current regressors come in two members, the logged
-// current and the one aligned by the whole measured staleness against throttle, and the better
-// member wins its family (the data decide how much of that staleness the field sees).
+// aligned current I(t − L + S); the current-driven candidates' regressors come in members, the
+// logged current and the current at each shift of the in-flight model's grid (realdata::
+// CurrentShiftGrid, bounded by the staleness against the throttle), and the better member wins its
+// family (the data decide how much of that staleness the field sees).
 // Baseline (always fitted, never a finding by itself): r = β + M·R_NBᵀ·δB_N, a constant offset β in
 // the sensor frame and a correction δB_N of the NED Earth field (WMM prior), which also absorbs a
 // uniform scale of the sensor.
@@ -50,23 +51,6 @@ CompassMinimum CompassMinSamples(const ChannelData& ch) {
                       magnetics::kEquationsPerSample, kTrainingBlocks, kMinAnalysisBlocks);
   return m;
 }
-std::vector<double> AlignedMemberShifts(const realdata::LagEstimate& stale, const LogInputs& in) {
-  if (!stale.ok() || !plausibility::IsPlausible("current_staleness", stale.value_s)) return {};
-  std::vector<double> gaps;
-  for (size_t k = 1; k < in.current_samples_t.size(); ++k) gaps.push_back(in.current_samples_t[k] - in.current_samples_t[k - 1]);
-  const double period = MedianFinite(gaps);
-  // The staleness's physical range (plausibility table row current_staleness).
-  const plausibility::PhysicalRange* range = plausibility::FindRange("current_staleness");
-  if (!(period > 0) || range == nullptr) return {stale.value_s};
-  const double range_hi = range->hi;
-  std::vector<double> shifts;
-  const double lo = std::max(0.0, stale.ci95_s[0] - period), hi = std::min(range_hi, stale.ci95_s[1] + period);
-  const double step = 0.25 * period;
-  for (double s = lo; s <= hi + 1e-9; s += step) shifts.push_back(s);
-  shifts.push_back(stale.value_s);
-  std::sort(shifts.begin(), shifts.end());
-  return shifts;
-}
 
 namespace {
 
@@ -78,7 +62,7 @@ constexpr double kPerMotorExponent = 0.65;
 struct CompassRows {
   std::vector<Vec3> h;                     // predicted field before hard iron, sensor frame
   std::vector<Eigen::Matrix3d> Msens, Rt;  // R_SB·scale·K(I), R_NBᵀ
-  std::vector<double> I_log, I_mem, u, temp;
+  std::vector<double> I_log, u, temp;
   std::vector<double> t_meas;              // when the field was measured (stamp − latency)
   std::vector<std::vector<double>> mu;     // per-motor outputs
   std::vector<magnetics::Currents> currents;
@@ -88,7 +72,7 @@ struct CompassRows {
 // rows, current and throttle, and the rows' regressor inputs.
 void SampleCompass(CompassSampler* sampler, const LogInputs& in, const CompassReplayOptions& o, ChannelData* ch,
                    CompassRows* rows) {
-  sampler->Begin(o.latency_s, o.current_shift_s, o.member_shift_s);
+  sampler->Begin(o.latency_s, o.current_shift_s, o.LongestMemberShift_s());
   LocatedSample ls;
   for (const CompassSample& s : sampler->samples()) {
     if (o.row_kind && (*o.row_kind)[static_cast<size_t>(s.row)] != o.want) continue;
@@ -115,7 +99,6 @@ void SampleCompass(CompassSampler* sampler, const LogInputs& in, const CompassRe
     rows->Msens.push_back(p.M);
     rows->Rt.emplace_back(R_NB.transpose());
     rows->I_log.push_back(ls.i_logged);
-    rows->I_mem.push_back(ls.i_member);
     rows->t_meas.push_back(s.t - o.latency_s);
     rows->u.push_back(thr);
     if (!o.baseline_only) {
@@ -167,16 +150,11 @@ std::vector<double> ShiftedCurrent(const std::vector<double>& t_row, const std::
 void AddCurrentIron(const CompassRows& rows, const CompassReplayOptions& o, const std::vector<double>& t_row,
                     const std::vector<double>& current, ChannelData* ch) {
   std::vector<double> shifts = {0.0};
-  if (!o.member_shifts_s.empty()) {
-    for (double s : o.member_shifts_s) {
-      if (s != 0.0) shifts.push_back(s);
-    }
-  } else if (o.member_shift_s != 0) {
-    shifts.push_back(o.member_shift_s);
+  for (double s : o.member_shifts_s) {
+    if (s != 0.0) shifts.push_back(s);
   }
   for (double shift : shifts) {
-    std::vector<double> I = shift == 0.0 ? rows.I_log : shift == o.member_shift_s ? rows.I_mem
-                                                                                  : ShiftedCurrent(t_row, current, rows.t_meas, shift);
+    std::vector<double> I = shift == 0.0 ? rows.I_log : ShiftedCurrent(t_row, current, rows.t_meas, shift);
     bool finite = true;
     for (double x : I) finite = finite && std::isfinite(x);
     if (!finite) continue;  // a shift that runs past the log's end: not every sample has a current

@@ -1,5 +1,6 @@
 // The current-driven families' aligned members: the current's staleness profiled on the compass
-// itself, around what the throttle scan read (channels.h AlignedMemberShifts).
+// itself, over the in-flight model's shift grid (realdata::CurrentShiftGrid, bounded by what the
+// throttle scan read; its own test is in realdata/test/compass_flight_test.cc).
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -14,37 +15,6 @@
 
 namespace hexsim::gap {
 namespace {
-
-realdata::LagEstimate Staleness(double value_s, double lo_s, double hi_s) {
-  realdata::LagEstimate s;
-  s.value_s = value_s;
-  s.ci95_s[0] = lo_s;
-  s.ci95_s[1] = hi_s;
-  return s;
-}
-
-internal::LogInputs FiveHzCurrent() {
-  internal::LogInputs in;
-  for (int k = 0; k < 50; ++k) in.current_samples_t.push_back(0.2 * k);
-  return in;
-}
-
-TEST(GapCurrentAlignment, GivenAResolvedStaleness_WhenShiftsAreMade_ThenTheyCoverItsIntervalWidenedByTheUpdatePeriod) {
-  const std::vector<double> s = internal::AlignedMemberShifts(Staleness(0.171, 0.142, 0.230), FiveHzCurrent());
-  ASSERT_FALSE(s.empty());
-  EXPECT_TRUE(std::is_sorted(s.begin(), s.end()));
-  // [0.142 − 0.2 → 0, 0.230 + 0.2] in quarter periods (50 ms), the scan's estimate among them.
-  EXPECT_DOUBLE_EQ(s.front(), 0.0);
-  EXPECT_NEAR(s.back(), 0.4, 1e-9);
-  EXPECT_NE(std::find(s.begin(), s.end(), 0.171), s.end());
-  for (size_t k = 1; k < s.size(); ++k) EXPECT_LE(s[k] - s[k - 1], 0.05 + 1e-9);
-  // Never past the staleness's physical range (plausibility row current_staleness, 0..1 s).
-  const std::vector<double> late = internal::AlignedMemberShifts(Staleness(0.95, 0.9, 0.99), FiveHzCurrent());
-  ASSERT_FALSE(late.empty());
-  EXPECT_LE(late.back(), 1.0 + 1e-9);
-  // No resolved staleness: no aligned members beyond the logged current.
-  EXPECT_TRUE(internal::AlignedMemberShifts(realdata::LagEstimate(), FiveHzCurrent()).empty());
-}
 
 // A real-profile flight whose 5 Hz current is 248 ms stale: the scan against the throttle reads
 // 171 ms [142, 230], and the current aligned by it carries the field 77 ms late, so the fresh

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 
 #include <Eigen/Cholesky>
@@ -25,36 +26,41 @@ double Regressor(const FlightFitSample& s, FlightTermForm form) {
   return form == FlightTermForm::kCurrent ? s.current_A : s.throttle;
 }
 
-// Rows of sample i for θ = [B_N, c, d]: y = Rᵀ·B_N + c + d·r.
-MatrixXd Design(const FlightFitSample& s, double r, int p) {
-  MatrixXd X = MatrixXd::Zero(3, p);
+// Rows of sample i for θ = [B_N, c, d]: y = Rᵀ·B_N + c + d·r (at most 9 columns: on the stack).
+using DesignRows = Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kFlightFitUnknowns>;
+DesignRows Design(const FlightFitSample& s, double r, int p) {
+  DesignRows X = DesignRows::Zero(3, p);
   X.block<3, 3>(0, 0) = s.R_NB.transpose();
   X.block<3, 3>(0, 3) = Matrix3d::Identity();
   if (p == 9) X.block<3, 3>(0, 6) = r * Matrix3d::Identity();
   return X;
 }
 
+// The fit's data: the samples and the regressor's members (one when the alignment is not profiled).
 struct Problem {
   const std::vector<FlightFitSample>& s;
-  std::vector<double> r;  // regressor per sample
+  std::vector<std::vector<double>> r;  // r[m][i]: sample i's regressor in member m (0 where p = 6)
+  std::vector<double> shift_s;         // member m's shift
   int p = 6;
   const FlightFitOptions& o;
 };
 
 struct Solve {
   VectorXd theta;
-  MatrixXd N_inv;  // inverse of the weighted normal matrix (prior included)
+  MatrixXd N_inv;          // inverse of the weighted normal matrix (prior included)
+  double objective = 0.0;  // −θᵀ·rhs: the weighted SSE with the prior, less a part no member changes
+  size_t member = 0;
 };
 
-// Weighted least squares with the Gaussian prior on B_N; `use[i]` selects the samples.
-Result<Solve> SolveWeighted(const Problem& pr, const std::vector<char>& use, double sigma_m) {
+// Weighted least squares of member m with the Gaussian prior on B_N; `use[i]` selects the samples.
+Result<Solve> SolveWeighted(const Problem& pr, size_t m, const std::vector<char>& use, double sigma_m) {
   const int p = pr.p;
   MatrixXd N = MatrixXd::Zero(p, p);
   VectorXd rhs = VectorXd::Zero(p);
   const double wm = 1.0 / (sigma_m * sigma_m), wp = 1.0 / (pr.o.prior_sigma_uT * pr.o.prior_sigma_uT);
   for (size_t i = 0; i < pr.s.size(); ++i) {
     if (use[i] == 0) continue;
-    const MatrixXd X = Design(pr.s[i], pr.r[i], p);
+    const DesignRows X = Design(pr.s[i], pr.r[m][i], p);
     N.noalias() += wm * X.transpose() * X;
     rhs.noalias() += wm * X.transpose() * pr.s[i].y_uT;
   }
@@ -72,17 +78,34 @@ Result<Solve> SolveWeighted(const Problem& pr, const std::vector<char>& use, dou
   Solve out;
   out.N_inv = d.asDiagonal() * ldlt.solve(MatrixXd::Identity(p, p)) * d.asDiagonal();
   out.theta = out.N_inv * rhs;
+  out.objective = -out.theta.dot(rhs);
+  out.member = m;
   return out;
 }
 
-double RmsPerAxis(const Problem& pr, const std::vector<char>& use, const VectorXd& theta,
+// The member whose fit has the smallest objective on the samples `use` selects (the profile of the
+// regressor's shift); a member whose system is singular is passed over.
+Result<Solve> SolveBest(const Problem& pr, const std::vector<char>& use, double sigma_m) {
+  Result<Solve> best = Status::Numerical("flight fit: no regressor member");
+  for (size_t m = 0; m < pr.r.size(); ++m) {
+    Result<Solve> sol = SolveWeighted(pr, m, use, sigma_m);
+    if (!sol.ok()) {
+      if (!best.ok()) best = sol.status();
+      continue;
+    }
+    if (!best.ok() || sol->objective < best->objective) best = std::move(sol);
+  }
+  return best;
+}
+
+double RmsPerAxis(const Problem& pr, size_t m, const std::vector<char>& use, const VectorXd& theta,
                   std::vector<double>* norms = nullptr) {
   double ss = 0.0;
   int n = 0;
   if (norms != nullptr) norms->assign(pr.s.size(), 0.0);
   for (size_t i = 0; i < pr.s.size(); ++i) {
     if (use[i] == 0) continue;
-    const Vector3d e = pr.s[i].y_uT - Design(pr.s[i], pr.r[i], pr.p) * theta;
+    const Vector3d e = pr.s[i].y_uT - Design(pr.s[i], pr.r[m][i], pr.p) * theta;
     if (norms != nullptr) (*norms)[i] = e.norm();
     ss += e.squaredNorm();
     n += 3;
@@ -97,36 +120,47 @@ double Quantile(std::vector<double> v, double q) {
   return v[static_cast<size_t>(k)];
 }
 
-// Decides whether d is fitted (p = 9) and which samples carry it; fills the span and the note.
-int ChooseTerm(const std::vector<FlightFitSample>& samples, const FlightFitOptions& o, std::vector<double>* r,
-               std::vector<char>* use, FlightFit* fit) {
-  std::vector<double> known;
-  for (const auto& s : samples) {
-    const double v = Regressor(s, o.form);
-    r->push_back(v);
-    if (std::isfinite(v)) known.push_back(v);
+// Decides whether d is fitted (p = 9) and which samples carry it (those with a value in every
+// member: the members are compared on the same samples); fills the span (the smallest member's) and
+// the note. Without d the members collapse to the first, its values zero.
+int ChooseTerm(const FlightFitOptions& o, Problem* pr, std::vector<char>* use, FlightFit* fit) {
+  const size_t n = pr->s.size();
+  std::vector<char> known(n, 1);
+  for (const std::vector<double>& r : pr->r) {
+    for (size_t i = 0; i < n; ++i) known[i] = known[i] != 0 && std::isfinite(r[i]) ? 1 : 0;
+  }
+  const auto n_known = static_cast<size_t>(std::count(known.begin(), known.end(), 1));
+  fit->regressor_span = std::numeric_limits<double>::infinity();
+  for (const std::vector<double>& r : pr->r) {
+    std::vector<double> v;
+    v.reserve(n_known);
+    for (size_t i = 0; i < n; ++i) {
+      if (known[i] != 0) v.push_back(r[i]);
+    }
+    fit->regressor_span = std::min(fit->regressor_span, v.empty() ? 0.0 : Quantile(v, 0.95) - Quantile(v, 0.05));
   }
   const bool current = o.form == FlightTermForm::kCurrent;
   const char* what = current ? "current" : "throttle";
-  fit->regressor_span = known.empty() ? 0.0 : Quantile(known, 0.95) - Quantile(known, 0.05);
   const double need = current ? o.min_current_span_A : o.min_throttle_span;
-  if (static_cast<int>(known.size()) < o.min_samples) {
-    fit->term_note = Format("%s known at %zu samples, needs %d", what, known.size(), o.min_samples);
+  if (static_cast<int>(n_known) < o.min_samples) {
+    fit->term_note = Format("%s known at %zu samples, needs %d", what, n_known, o.min_samples);
   } else if (fit->regressor_span < need) {
     fit->term_note = current ? Format("the current spans %.1f A (5-95 %%), needs %.1f A to separate its field from the offset",
                                       fit->regressor_span, need)
                              : Format("the throttle spans %.3f (5-95 %%), needs %.3f to separate its field from the offset",
                                       fit->regressor_span, need);
   } else {
-    for (size_t i = 0; i < samples.size(); ++i) {
-      if (!std::isfinite((*r)[i])) {
+    for (size_t i = 0; i < n; ++i) {
+      if (known[i] == 0) {
         (*use)[i] = 0;
         ++fit->without_regressor;
       }
     }
     return 9;
   }
-  for (double& v : *r) v = 0.0;
+  pr->r.resize(1);
+  pr->shift_s.resize(1);
+  pr->r[0].assign(n, 0.0);
   return 6;
 }
 
@@ -155,45 +189,69 @@ void DropOutliers(const std::vector<double>& norms, double outlier_sigma, std::v
 // current field at a nominal 5 %; the jackknife is the conservative (CR3-like) form of it.
 Result<MatrixXd> JackknifeCov(const Problem& pr, const std::vector<char>& use, double sigma_m, FlightFit* fit) {
   const int p = pr.p;
+  const size_t members = pr.r.size();
   const double t0 = pr.s.front().t_s;
   const double wm = 1.0 / (sigma_m * sigma_m);
   struct Block {
     MatrixXd N;
     VectorXd r;
   };
-  std::map<long, Block> blocks;
-  MatrixXd N = MatrixXd::Zero(p, p);
-  VectorXd rhs = VectorXd::Zero(p);
+  // blocks[g][m]: block g's normal equations in member m.
+  std::map<long, std::vector<Block>> blocks;
   for (size_t i = 0; i < pr.s.size(); ++i) {
     if (use[i] == 0) continue;
     const auto g = static_cast<long>(std::floor((pr.s[i].t_s - t0) / pr.o.block_s));
-    const MatrixXd X = Design(pr.s[i], pr.r[i], p);
     auto it = blocks.find(g);
-    if (it == blocks.end()) it = blocks.emplace(g, Block{MatrixXd::Zero(p, p), VectorXd::Zero(p)}).first;
-    it->second.N.noalias() += wm * X.transpose() * X;
-    it->second.r.noalias() += wm * X.transpose() * pr.s[i].y_uT;
+    if (it == blocks.end()) it = blocks.emplace(g, std::vector<Block>(members, Block{MatrixXd::Zero(p, p), VectorXd::Zero(p)})).first;
+    for (size_t m = 0; m < members; ++m) {
+      const DesignRows X = Design(pr.s[i], pr.r[m][i], p);
+      it->second[m].N.noalias() += wm * X.transpose() * X;
+      it->second[m].r.noalias() += wm * X.transpose() * pr.s[i].y_uT;
+    }
   }
   fit->blocks = static_cast<int>(blocks.size());
   if (fit->samples_used < pr.o.min_samples || fit->blocks < pr.o.min_blocks) {
     return Status::BadInput(Format("flight fit: %d samples in %d blocks of %.0f s after outliers, needs %d samples in %d blocks",
                                    fit->samples_used, fit->blocks, pr.o.block_s, pr.o.min_samples, pr.o.min_blocks));
   }
-  for (const auto& [g, b] : blocks) {
-    N += b.N;
-    rhs += b.r;
-  }
+  std::vector<MatrixXd> N(members, MatrixXd::Zero(p, p));
+  std::vector<VectorXd> rhs(members, VectorXd::Zero(p));
   const double wp = 1.0 / (pr.o.prior_sigma_uT * pr.o.prior_sigma_uT);
-  if (!pr.o.field_free) {
-    N.block<3, 3>(0, 0) += wp * Matrix3d::Identity();
-    rhs.head<3>() += wp * pr.o.prior_field_N_uT;
+  for (size_t m = 0; m < members; ++m) {
+    for (const auto& [g, b] : blocks) {
+      N[m] += b[m].N;
+      rhs[m] += b[m].r;
+    }
+    if (!pr.o.field_free) {
+      N[m].block<3, 3>(0, 0) += wp * Matrix3d::Identity();
+      rhs[m].head<3>() += wp * pr.o.prior_field_N_uT;
+    }
   }
+  // Each delete-one-block fit takes the member with the smallest objective on its own blocks.
   std::vector<VectorXd> leave_out;
   VectorXd mean = VectorXd::Zero(p);
+  fit->regressor_shift_range_s[0] = std::numeric_limits<double>::infinity();
+  fit->regressor_shift_range_s[1] = -std::numeric_limits<double>::infinity();
   for (const auto& [g, b] : blocks) {
-    Eigen::LDLT<MatrixXd> ldlt(N - b.N);
-    if (ldlt.info() != Eigen::Success) return Status::Numerical("flight fit: a leave-one-block-out system is singular");
-    leave_out.emplace_back(ldlt.solve(rhs - b.r));
-    mean += leave_out.back();
+    VectorXd best;
+    double best_objective = 0.0, best_shift = 0.0;
+    for (size_t m = 0; m < members; ++m) {
+      const VectorXd r = rhs[m] - b[m].r;
+      Eigen::LDLT<MatrixXd> ldlt(N[m] - b[m].N);
+      if (ldlt.info() != Eigen::Success) continue;
+      VectorXd theta = ldlt.solve(r);
+      const double objective = -theta.dot(r);
+      if (best.size() == 0 || objective < best_objective) {
+        best = std::move(theta);
+        best_objective = objective;
+        best_shift = pr.shift_s[m];
+      }
+    }
+    if (best.size() == 0) return Status::Numerical("flight fit: a leave-one-block-out system is singular");
+    fit->regressor_shift_range_s[0] = std::min(fit->regressor_shift_range_s[0], best_shift);
+    fit->regressor_shift_range_s[1] = std::max(fit->regressor_shift_range_s[1], best_shift);
+    mean += best;
+    leave_out.push_back(std::move(best));
   }
   mean /= static_cast<double>(fit->blocks);
   MatrixXd cov = MatrixXd::Zero(p, p);
@@ -275,7 +333,9 @@ double FlightFitness_uT(const FlightFit& fit, const std::vector<FlightFitSample>
   return n > 0 ? std::sqrt(ss / n) : 0.0;
 }
 
-Result<FlightFit> FitFlightCompass(const std::vector<FlightFitSample>& samples, const FlightFitOptions& o) {
+namespace {
+
+Status CheckInput(const std::vector<FlightFitSample>& samples, const FlightFitOptions& o) {
   for (const auto& s : samples) {
     if (!s.y_uT.allFinite() || !s.R_NB.allFinite() || !std::isfinite(s.t_s)) {
       return Status::BadInput("flight fit: a sample holds a non-finite field, attitude or time");
@@ -291,27 +351,34 @@ Result<FlightFit> FitFlightCompass(const std::vector<FlightFitSample>& samples, 
     return Status::BadInput("flight fit: no place and date for the Earth field (no GPS fix) and an attitude that never "
                             "changes: the field cannot be told from the offset");
   }
+  return Status::Ok();
+}
+
+// The fit of FitFlightCompass and FitFlightCompassProfiled on `pr` (its members filled).
+Result<FlightFit> FitMembers(Problem pr) {
+  const FlightFitOptions& o = pr.o;
   FlightFit fit;
   fit.form = o.form;
-  std::vector<char> use(samples.size(), 1);
-  Problem pr{samples, {}, 6, o};
-  pr.p = ChooseTerm(samples, o, &pr.r, &use, &fit);
+  std::vector<char> use(pr.s.size(), 1);
+  pr.p = ChooseTerm(o, &pr, &use, &fit);
   const int p = pr.p;
+  fit.regressor_members = static_cast<int>(pr.r.size());
   VectorXd theta0 = VectorXd::Zero(p);
   if (!o.field_free) theta0.head<3>() = o.prior_field_N_uT;
-  fit.rms_prior_uT = RmsPerAxis(pr, use, theta0);
+  fit.rms_prior_uT = RmsPerAxis(pr, 0, use, theta0);
 
-  // Pass 1 at a nominal noise, pass 2 at the measured one with outliers dropped, pass 3 final.
+  // Pass 1 at a nominal noise, pass 2 at the measured one with outliers dropped, pass 3 final; each
+  // on the member whose objective is smallest.
   double sigma_m = 1.0;
-  Result<Solve> sol = SolveWeighted(pr, use, sigma_m);
+  Result<Solve> sol = SolveBest(pr, use, sigma_m);
   if (!sol.ok()) return sol.status();
   std::vector<double> norms;
-  sigma_m = std::max(RmsPerAxis(pr, use, sol->theta, &norms), 1e-3);
+  sigma_m = std::max(RmsPerAxis(pr, sol->member, use, sol->theta, &norms), 1e-3);
   DropOutliers(norms, o.outlier_sigma, &use, &fit.outliers);
   for (int pass = 0; pass < 2; ++pass) {
-    sol = SolveWeighted(pr, use, sigma_m);
+    sol = SolveBest(pr, use, sigma_m);
     if (!sol.ok()) return sol.status();
-    sigma_m = std::max(RmsPerAxis(pr, use, sol->theta), 1e-3);
+    sigma_m = std::max(RmsPerAxis(pr, sol->member, use, sol->theta), 1e-3);
   }
   const VectorXd& th = sol->theta;
   fit.rms_after_uT = sigma_m;
@@ -319,6 +386,8 @@ Result<FlightFit> FitFlightCompass(const std::vector<FlightFitSample>& samples, 
   fit.used = use;
   fit.field_N_uT = th.segment<3>(0);
   fit.offset_y_uT = th.segment<3>(3);
+  fit.regressor_shift_s = pr.shift_s[sol->member];
+  fit.regressor_shift_range_s[0] = fit.regressor_shift_range_s[1] = fit.regressor_shift_s;
   if (p == 9) {
     fit.term_fitted = true;
     fit.term_uT = th.segment<3>(6);
@@ -329,6 +398,29 @@ Result<FlightFit> FitFlightCompass(const std::vector<FlightFitSample>& samples, 
   if (!cov.ok()) return cov.status();
   FillIntervals(*cov, p, &fit);
   return fit;
+}
+
+}  // namespace
+
+Result<FlightFit> FitFlightCompass(const std::vector<FlightFitSample>& samples, const FlightFitOptions& o) {
+  if (Status st = CheckInput(samples, o); !st.ok()) return st;
+  Problem pr{samples, {{}}, {0.0}, 6, o};
+  pr.r[0].reserve(samples.size());
+  for (const auto& s : samples) pr.r[0].push_back(Regressor(s, o.form));
+  return FitMembers(std::move(pr));
+}
+
+Result<FlightFit> FitFlightCompassProfiled(const std::vector<FlightFitSample>& samples, const RegressorMembers& members,
+                                           const FlightFitOptions& o) {
+  if (Status st = CheckInput(samples, o); !st.ok()) return st;
+  if (members.shift_s.empty() || members.value.size() != members.shift_s.size() ||
+      !std::is_sorted(members.shift_s.begin(), members.shift_s.end())) {
+    return Status::BadInput("flight fit: the regressor's members need one ascending shift each");
+  }
+  for (const std::vector<double>& v : members.value) {
+    if (v.size() != samples.size()) return Status::BadInput("flight fit: a regressor member does not hold one value per sample");
+  }
+  return FitMembers(Problem{samples, members.value, members.shift_s, 6, o});
 }
 
 }  // namespace hexsim::magnetics

@@ -199,5 +199,108 @@ TEST(FlightFit, GivenATermWhoseEveryAxisHoldsZero_WhenItsNormIntervalIsTaken_The
   EXPECT_NEAR(clear[0], Eigen::Vector3d(0.3, -0.09, 0.09).norm() - 0.1, 1e-12);
 }
 
+// 10 Hz samples over 150 s (the slow yaw sweep and manoeuvres of Fly) with a current swinging at
+// 0.3-0.7 Hz (throttle bursts) whose field the compass sees at once, and the current logged stale_s
+// late, given to the fit at the trial shifts 0, 0.05, ..., 0.4 s: member m holds the logged current
+// at t + shift_m.
+std::vector<FlightFitSample> FlyStaleCurrent(const SynthFlight& f, uint64_t seed, double stale_s, RegressorMembers* m) {
+  auto current = [](double t) {
+    return 15.0 + 5.0 * std::sin(2 * M_PI * 0.45 * t) + 3.0 * std::sin(2 * M_PI * 0.31 * t + 1.0) +
+           2.0 * std::sin(2 * M_PI * 0.7 * t + 2.0);
+  };
+  SynthFlight g = f;
+  g.d_uT_per_A.setZero();
+  std::vector<FlightFitSample> s = Fly(g, seed);
+  for (FlightFitSample& x : s) x.y_uT += f.d_uT_per_A * current(x.t_s);
+  m->shift_s.clear();
+  m->value.clear();
+  for (int k = 0; k <= 8; ++k) {
+    m->shift_s.push_back(0.05 * k);
+    std::vector<double> v;
+    for (const FlightFitSample& x : s) v.push_back(current(x.t_s + 0.05 * k - stale_s));  // logged(t) = I(t − stale)
+    m->value.push_back(std::move(v));
+  }
+  return s;
+}
+
+// The current's staleness profiled by the fit's own objective: the member at the staleness is chosen,
+// and the field's interval covers the truth; the plain fit on that member gives the same point.
+TEST(FlightFit, GivenAStaleCurrentAtTrialShifts_WhenProfiled_ThenTheStalenessIsChosenAndTheFieldIsCovered) {
+  const SynthFlight f;
+  int chosen = 0, covered = 0;
+  const int seeds = 10;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    RegressorMembers m;
+    std::vector<FlightFitSample> s = FlyStaleCurrent(f, 40 + static_cast<uint64_t>(seed), 0.2, &m);
+    auto fit = FitFlightCompassProfiled(s, m, Options(f));
+    ASSERT_TRUE(fit.ok()) << fit.status().message();
+    ASSERT_TRUE(fit->term_fitted);
+    EXPECT_EQ(fit->regressor_members, 9);
+    chosen += std::fabs(fit->regressor_shift_s - 0.2) < 1e-9;
+    const double truth = f.d_uT_per_A.norm();
+    covered += fit->term_norm_ci95[0] <= truth && truth <= fit->term_norm_ci95[1];
+    EXPECT_LE(fit->regressor_shift_range_s[0], fit->regressor_shift_s);
+    EXPECT_GE(fit->regressor_shift_range_s[1], fit->regressor_shift_s);
+    // The plain fit on the chosen member: the same point.
+    const auto k = static_cast<size_t>(std::lround(fit->regressor_shift_s / 0.05));
+    for (size_t i = 0; i < s.size(); ++i) s[i].current_A = m.value[k][i];
+    auto plain = FitFlightCompass(s, Options(f));
+    ASSERT_TRUE(plain.ok());
+    EXPECT_NEAR((plain->term_uT - fit->term_uT).norm(), 0.0, 1e-9);
+  }
+  EXPECT_GE(chosen, seeds * 8 / 10);
+  EXPECT_GE(covered, seeds * 8 / 10);
+}
+
+// A current that changes slowly (Fly's, over tens of seconds) tells its shift poorly: the
+// delete-one-block fits choose different members, and the interval holds that choice (wider than the
+// chosen member's own interval, which takes the shift as known).
+TEST(FlightFit, GivenAShiftTheDataTellPoorly_WhenProfiled_ThenTheIntervalHoldsTheChoice) {
+  SynthFlight f;
+  f.noise_uT = 2.0;
+  int spread = 0, wider = 0;
+  const int seeds = 10;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    std::vector<FlightFitSample> s = Fly(f, 60 + static_cast<uint64_t>(seed));
+    RegressorMembers m;
+    for (int k = 0; k <= 10; ++k) {
+      m.shift_s.push_back(0.1 * k);
+      std::vector<double> v;
+      for (const FlightFitSample& x : s) {
+        const double t = x.t_s + 0.1 * k - 0.3;  // logged 0.3 s late
+        v.push_back(14.0 + 6.0 * std::sin(t / 7.0) * std::cos(t / 2.3));
+      }
+      m.value.push_back(std::move(v));
+    }
+    auto fit = FitFlightCompassProfiled(s, m, Options(f));
+    ASSERT_TRUE(fit.ok()) << fit.status().message();
+    const auto k = static_cast<size_t>(std::lround(fit->regressor_shift_s / 0.1));
+    for (size_t i = 0; i < s.size(); ++i) s[i].current_A = m.value[k][i];
+    auto fixed = FitFlightCompass(s, Options(f));
+    ASSERT_TRUE(fixed.ok());
+    const bool chose_several = fit->regressor_shift_range_s[1] > fit->regressor_shift_range_s[0];
+    spread += chose_several;
+    const double w = fit->term_norm_ci95[1] - fit->term_norm_ci95[0];
+    const double w_fixed = fixed->term_norm_ci95[1] - fixed->term_norm_ci95[0];
+    wider += chose_several && w > w_fixed;
+  }
+  EXPECT_GE(spread, seeds / 2);
+  EXPECT_EQ(wider, spread);
+}
+
+// Members that do not match the samples are bad input.
+TEST(FlightFit, GivenMembersThatDoNotMatchTheSamples_WhenProfiled_ThenBadInput) {
+  const SynthFlight f;
+  RegressorMembers m;
+  std::vector<FlightFitSample> s = FlyStaleCurrent(f, 3, 0.1, &m);
+  m.value[2].pop_back();
+  auto fit = FitFlightCompassProfiled(s, m, Options(f));
+  ASSERT_FALSE(fit.ok());
+  EXPECT_EQ(fit.status().code(), StatusCode::kBadInput);
+  FlyStaleCurrent(f, 3, 0.1, &m);
+  std::swap(m.shift_s[0], m.shift_s[1]);
+  EXPECT_FALSE(FitFlightCompassProfiled(s, m, Options(f)).ok());
+}
+
 }  // namespace
 }  // namespace hexsim::magnetics

@@ -143,6 +143,36 @@ std::vector<magnetics::FlightFitSample> Build(const logs::MagInput& in, const st
   return out;
 }
 
+// The current at every trial shift of `grid` for the samples of `pick` on latency latency_s.
+magnetics::RegressorMembers CurrentMembers(const logs::MagInput& in, const std::vector<size_t>& pick, const Inputs& x,
+                                           double latency_s, const std::vector<double>& grid) {
+  magnetics::RegressorMembers m;
+  m.shift_s = grid;
+  for (double shift : grid) {
+    std::vector<double> v;
+    v.reserve(pick.size());
+    size_t cur = 0;
+    for (size_t i : pick) v.push_back(SampleAt(x.current, in.t_s[i] - latency_s + shift, &cur));
+    m.value.push_back(std::move(v));
+  }
+  return m;
+}
+
+// The model on latency latency_s: with the current's shift profiled over `grid` where there is one
+// (the samples then carry the chosen member's current), else on `shift_s`.
+Result<magnetics::FlightFit> FitOnLatency(const logs::MagInput& in, const std::vector<size_t>& pick, const Inputs& x,
+                                          double latency_s, const std::vector<double>& grid, double shift_s,
+                                          const magnetics::FlightFitOptions& fo, std::vector<magnetics::FlightFitSample>* s) {
+  if (grid.size() < 2) {
+    *s = Build(in, pick, x, latency_s, shift_s);
+    return magnetics::FitFlightCompass(*s, fo);
+  }
+  *s = Build(in, pick, x, latency_s, grid.front());
+  auto fit = magnetics::FitFlightCompassProfiled(*s, CurrentMembers(in, pick, x, latency_s, grid), fo);
+  if (fit.ok()) *s = Build(in, pick, x, latency_s, fit->term_fitted ? fit->regressor_shift_s : shift_s);
+  return fit;
+}
+
 // Per-block SSE of the model fitted at each trial latency, over the samples the unshifted fit used.
 LagEstimate ScanLatency(const logs::MagInput& in, const std::vector<size_t>& pick, const Inputs& x, double shift_s,
                         const magnetics::FlightFitOptions& fo, const std::vector<char>& used0, const CompassFlightOptions& o) {
@@ -255,8 +285,17 @@ std::string TimingNote(const CompassFlight& f) {
                                                f.latency_applied ? "applied" : "not applied (not resolved from 0 or implausible)")
                                  : std::string("compass latency not scanned");
   if (f.staleness.ok()) {
-    s += fmt::format("; current staleness {:.0f} ms [{:.0f}, {:.0f}], shifted by {:.0f} ms", 1000 * f.staleness.value_s,
-                     1000 * f.staleness.ci95_s[0], 1000 * f.staleness.ci95_s[1], 1000 * f.current_shift_s);
+    s += fmt::format("; current against throttle {:.0f} ms [{:.0f}, {:.0f}] (staleness plus the motors' response)",
+                     1000 * f.staleness.value_s, 1000 * f.staleness.ci95_s[0], 1000 * f.staleness.ci95_s[1]);
+  }
+  const std::vector<double>& g = f.current_shift_grid_s;
+  if (g.size() >= 2 && f.fit.term_fitted) {
+    s += fmt::format("; current shifted by {:.0f} ms, chosen by the compass fit over {:.0f}-{:.0f} ms in {:.0f} ms steps "
+                     "(delete-one-block fits chose {:.0f}-{:.0f} ms)",
+                     1000 * f.current_shift_s, 1000 * g.front(), 1000 * g.back(), 1000 * (g[1] - g[0]),
+                     1000 * f.current_shift_range_s[0], 1000 * f.current_shift_range_s[1]);
+  } else if (f.staleness.ok()) {
+    s += fmt::format("; current shifted by {:.0f} ms", 1000 * f.current_shift_s);
   }
   return s;
 }
@@ -293,9 +332,26 @@ LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::vector<RowKi
   return StalenessScan(tu, u, held.t, held.v, options);
 }
 
-double AppliedCurrentShift_s(const LagEstimate& s) {
-  return s.ok() && !s.at_grid_edge && plausibility::IsPlausible("current_staleness", s.value_s) ? std::max(0.0, s.value_s)
-                                                                                                : 0.0;
+bool StalenessResolved(const LagEstimate& s) {
+  return s.ok() && !s.at_grid_edge && plausibility::IsPlausible("current_staleness", s.value_s);
+}
+
+double AppliedCurrentShift_s(const LagEstimate& s) { return StalenessResolved(s) ? std::max(0.0, s.value_s) : 0.0; }
+
+double UpdatePeriod_s(const std::vector<double>& sample_t) {
+  std::vector<double> gaps;
+  for (size_t k = 1; k < sample_t.size(); ++k) gaps.push_back(sample_t[k] - sample_t[k - 1]);
+  return Median(gaps);
+}
+
+std::vector<double> CurrentShiftGrid(const LagEstimate& staleness, double update_period_s) {
+  const plausibility::PhysicalRange* range = plausibility::FindRange("current_staleness");
+  const double range_hi = range != nullptr ? range->hi : 1.0;
+  const bool period_known = std::isfinite(update_period_s) && update_period_s > 0;
+  double hi = range_hi;
+  if (StalenessResolved(staleness) && period_known) hi = std::min(range_hi, staleness.ci95_s[1] + update_period_s);
+  const double step = period_known ? std::clamp(0.25 * update_period_s, kMinShiftStep_s, kMaxShiftStep_s) : kMaxShiftStep_s;
+  return LagGrid(0.0, hi, step);
 }
 
 Result<CompassFlight> FitCompassInFlight(const logs::FlightLog& log, const logs::MagInput& in, const FlightWindows& w,
@@ -340,7 +396,9 @@ Result<CompassFlight> FitCompassInFlight(const logs::FlightLog& log, const logs:
     so.seed = o.seed;
     so.resamples = o.resamples;
     out.staleness = CurrentStaleness(log, w.row_kind, so);
+    // The scan's point shift until the profile has chosen (the airborne check's current).
     out.current_shift_s = AppliedCurrentShift_s(out.staleness);
+    if (!throttle) out.current_shift_grid_s = CurrentShiftGrid(out.staleness, UpdatePeriod_s(x.current.t));
   }
   std::vector<magnetics::FlightFitSample> s = Build(in, pick, x, 0.0, out.current_shift_s);
   if (x.use_current && out.flight_only) {
@@ -353,23 +411,29 @@ Result<CompassFlight> FitCompassInFlight(const logs::FlightLog& log, const logs:
     }
   }
   if (static_cast<int>(pick.size()) < o.fit.min_samples) return TooFew(in, pick.size(), o, out, MotorCount(log));
+  const std::vector<double>& grid = out.current_shift_grid_s;
   if (o.scan_latency && static_cast<int>(pick.size()) >= o.fit.min_samples) {
     magnetics::FlightFitOptions trial = out.options;
     trial.intervals = false;
-    auto fit0 = magnetics::FitFlightCompass(s, trial);
+    auto fit0 = FitOnLatency(in, pick, x, 0.0, grid, out.current_shift_s, trial, &s);
+    if (fit0.ok() && fit0->term_fitted) out.current_shift_s = fit0->regressor_shift_s;
     if (fit0.ok()) out.latency = ScanLatency(in, pick, x, out.current_shift_s, out.options, fit0->used, o);
     // Align only a resolved latency (its interval clear of zero) inside its physical range.
     out.latency_applied = out.latency.ok() && !out.latency.at_grid_edge &&
                           (out.latency.ci95_s[0] > 0 || out.latency.ci95_s[1] < 0) &&
                           plausibility::IsPlausible("latency", out.latency.value_s);
-    if (out.latency_applied) {
-      out.latency_s = out.latency.value_s;
-      s = Build(in, pick, x, out.latency_s, out.current_shift_s);
-    }
+    if (out.latency_applied) out.latency_s = out.latency.value_s;
   }
-  auto fit = magnetics::FitFlightCompass(s, out.options);
+  auto fit = FitOnLatency(in, pick, x, out.latency_s, grid, out.current_shift_s, out.options, &s);
   if (!fit.ok()) return fit.status();
   out.fit = std::move(*fit);
+  if (grid.size() >= 2 && out.fit.term_fitted) {
+    out.current_shift_s = out.fit.regressor_shift_s;
+    out.current_shift_range_s[0] = out.fit.regressor_shift_range_s[0];
+    out.current_shift_range_s[1] = out.fit.regressor_shift_range_s[1];
+  } else {
+    out.current_shift_range_s[0] = out.current_shift_range_s[1] = out.current_shift_s;
+  }
   if (out.current_usable && x.use_current) out.current_per_throttle_A = CurrentPerThrottle(s);
   out.samples = std::move(s);
   for (size_t i : pick) out.index.push_back(i);

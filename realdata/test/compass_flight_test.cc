@@ -134,5 +134,107 @@ TEST(CompassFlight, GivenALogWithoutAPlace_WhenFitted_ThenTheEarthFieldIsFittedF
   EXPECT_GE(f->fit.term_norm_ci95[1], truth);
 }
 
+// The trial shifts of the logged current (CurrentShiftGrid): from 0 to the throttle scan's upper
+// bound plus one update period, in quarter periods within [10, 50] ms, never past the staleness's
+// physical range (plausibility row current_staleness, 0..1 s); the whole range without a scan.
+TEST(CompassFlight, GivenAThrottleScan_WhenTheCurrentsShiftsAreMade_ThenTheyRunFromZeroToItsUpperBoundPlusAPeriod) {
+  LagEstimate scan;
+  scan.value_s = 0.38;
+  scan.ci95_s[0] = 0.34;
+  scan.ci95_s[1] = 0.42;
+  const std::vector<double> g = CurrentShiftGrid(scan, 0.2);  // a 5 Hz current
+  ASSERT_GE(g.size(), 2u);
+  EXPECT_DOUBLE_EQ(g.front(), 0.0);  // below the scan's own interval: the motors' response is in it
+  EXPECT_NEAR(g.back(), 0.6, 1e-9);
+  for (size_t k = 1; k < g.size(); ++k) EXPECT_NEAR(g[k] - g[k - 1], 0.05, 1e-9);
+  EXPECT_NEAR(CurrentShiftGrid(scan, 0.02)[1], kMinShiftStep_s, 1e-12);  // a 50 Hz current
+  scan.value_s = 0.95;
+  scan.ci95_s[0] = 0.9;
+  scan.ci95_s[1] = 0.99;
+  EXPECT_LE(CurrentShiftGrid(scan, 0.2).back(), 1.0 + 1e-9);
+  const std::vector<double> none = CurrentShiftGrid(LagEstimate(), 0.1);
+  EXPECT_DOUBLE_EQ(none.front(), 0.0);
+  EXPECT_NEAR(none.back(), 1.0, 1e-9);
+  EXPECT_NEAR(UpdatePeriod_s({0.0, 0.2, 0.4, 0.6, 0.9}), 0.2, 1e-12);
+}
+
+// 50 Hz rows over 150 s of a yawing quad whose battery current swings at 0.27-0.7 Hz (throttle
+// bursts); the current follows the throttle through the motors' response (0.2 s) and is logged at
+// 10 Hz, each sample 0.1 s old. The scan against the throttle reads the two together (~0.3 s).
+logs::FlightLog StaleCurrentFlight() {
+  const double lat = 48.1, lon = 11.6, alt = 500.0, year = 2023.5;
+  const Vector3d B_N = magnetics::EvaluateWmm({lat, lon, alt}, year, true)->B_N_uT;
+  constexpr double kMotorResponse_s = 0.2, kStale_s = 0.1, kPeriod_s = 0.1;
+  auto current = [](double t) {
+    return 15.0 + 5.0 * std::sin(2 * M_PI * 0.45 * t) + 3.0 * std::sin(2 * M_PI * 0.27 * t + 1.0) +
+           2.0 * std::sin(2 * M_PI * 0.7 * t + 2.0);
+  };
+  logs::FlightLog log;
+  for (const char* c : {"t_s", "q_w", "q_x", "q_y", "q_z", "mag_x_uT", "mag_y_uT", "mag_z_uT", "mag_t_s", "current_A",
+                        "batt_t_s", "control_u"}) {
+    log.AddColumn(c);
+  }
+  unsigned noise = 777;
+  auto uniform = [&noise] {
+    noise = noise * 1103515245u + 12345u;
+    return static_cast<double>((noise >> 8) & 0xFFFF) / 65535.0 - 0.5;
+  };
+  Vector3d m = Vector3d::Zero();
+  double mag_t = 0.0;
+  for (int i = 0; i < 7500; ++i) {
+    const double t = 0.02 * i;
+    const Eigen::Quaterniond q = Eigen::AngleAxisd(2 * M_PI * t / 25.0, Vector3d::UnitZ()) *
+                                 Eigen::AngleAxisd(0.26 * std::cos(t / 5.0), Vector3d::UnitY()) *
+                                 Eigen::AngleAxisd(0.26 * std::sin(t / 3.0), Vector3d::UnitX());
+    if (i % 5 == 0) {  // a 10 Hz compass
+      m = q.toRotationMatrix().transpose() * B_N + kOffset_uT + kCurrentField_uT_per_A * current(t) +
+          2.0 * Vector3d(uniform(), uniform(), uniform());
+      mag_t = t;
+    }
+    const double update = kPeriod_s * std::floor(t / kPeriod_s + 1e-9);
+    log.AppendRow();
+    log.Set("t_s", t);
+    log.Set("q_w", q.w());
+    log.Set("q_x", q.x());
+    log.Set("q_y", q.y());
+    log.Set("q_z", q.z());
+    log.Set("mag_x_uT", m(0));
+    log.Set("mag_y_uT", m(1));
+    log.Set("mag_z_uT", m(2));
+    log.Set("mag_t_s", mag_t);
+    log.Set("current_A", current(update - kStale_s));
+    log.Set("batt_t_s", update);
+    log.Set("control_u", 300.0 + 20.0 * current(t + kMotorResponse_s));  // the current follows it 0.2 s later
+  }
+  log.meta = {{"location", {{"lat_deg", lat}, {"lon_deg", lon}, {"alt_m", alt}}},
+              {"date_decimal_year", year},
+              {"motor_count", 4},
+              {"current_usable", true}};
+  return log;
+}
+
+// The scan against the throttle holds the motors' response: the current shifted by it (0.3 s where
+// the field sees it 0.1 s late) read k a sixth low, its interval short of the truth. The shift profiled by the compass fit lands
+// on the staleness, and k's interval covers the truth.
+TEST(CompassFlight, GivenACurrentStalerAgainstTheThrottleThanAgainstTheField_WhenFitted_ThenTheCompassChoosesItsShift) {
+  const logs::FlightLog log = StaleCurrentFlight();
+  auto in = logs::MagInputFromFlightLog(log, "synthetic", "mag");
+  ASSERT_TRUE(in.ok()) << in.status().message();
+  CompassFlightOptions o;
+  o.scan_latency = false;
+  auto f = FitCompassInFlight(log, *in, WindowsFromRange(log, 0.0, 200.0), o);
+  ASSERT_TRUE(f.ok()) << f.status().message();
+  ASSERT_TRUE(f->staleness.ok());
+  EXPECT_GT(f->staleness.value_s, 0.2) << TimingNote(*f);  // the case: the scan reads the motors' response too
+  ASSERT_TRUE(f->fit.term_fitted) << f->fit.term_note;
+  EXPECT_NEAR(f->current_shift_s, 0.1, 0.025 + 1e-9) << TimingNote(*f);
+  EXPECT_LE(f->current_shift_range_s[0], f->current_shift_s);
+  EXPECT_GE(f->current_shift_range_s[1], f->current_shift_s);
+  const double truth = kCurrentField_uT_per_A.norm();
+  EXPECT_LE(f->fit.term_norm_ci95[0], truth) << TimingNote(*f);
+  EXPECT_GE(f->fit.term_norm_ci95[1], truth) << TimingNote(*f);
+  EXPECT_NE(TimingNote(*f).find("chosen by the compass fit"), std::string::npos) << TimingNote(*f);
+}
+
 }  // namespace
 }  // namespace hexsim::realdata

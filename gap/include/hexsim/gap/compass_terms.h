@@ -50,7 +50,9 @@ struct CompassTerms {
   Eigen::Vector3d gap_uT_per_A = Eigen::Vector3d::Zero();
   double gap_norm_uT_per_A = 0.0, gap_norm_ci95_uT_per_A[2] = {0.0, 0.0};
   // Timing as applied, the fit's size, and how the interval was computed.
-  double latency_s = 0.0, current_shift_s = 0.0;
+  // current_shift_s: the current's shift the model chose by its own fit (realdata/compass_flight.h);
+  // current_shift_range_s: the smallest and largest shift its delete-one-block fits chose.
+  double latency_s = 0.0, current_shift_s = 0.0, current_shift_range_s[2] = {0.0, 0.0};
   bool latency_applied = false;
   std::string timing_note, windows_note;
   int samples = 0, blocks = 0, without_regressor = 0;

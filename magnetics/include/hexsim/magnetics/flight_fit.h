@@ -24,11 +24,17 @@
 //         plausibility rows current_hard_iron (≤ 5 µT/A) and throttle_hard_iron (≤ 60 µT).
 //         Samples without a regressor value (a current sensor's first rows) are left out of the
 //         fit when d is fitted; the term is never dropped for the whole log because some lack it.
+// The regressor's alignment (FitFlightCompassProfiled): a logged current trails the field it causes
+// by its logging staleness, which the log does not state. The fit is then given the regressor at
+// several trial shifts (members) and takes the member whose fit has the smallest objective (the
+// weighted SSE with the prior), on the samples every member has a value for: the shift is profiled
+// by the compass's own residual, as the latency is (realdata/compass_flight.h chooses the grid).
 // Intervals (the one interval method of the in-flight model): the delete-one-block jackknife over
 // contiguous time blocks (`block_s`; the residual of a real log is serially correlated, so
 // per-sample standard errors would be far too narrow), with Student-t quantiles at (blocks − 1)
-// degrees of freedom. Samples whose residual is far from the rest (more than `outlier_sigma` robust
-// standard deviations) are dropped once and counted.
+// degrees of freedom. Each delete-one-block fit chooses its own member by its own objective, so the
+// intervals hold the uncertainty of the alignment too. Samples whose residual is far from the rest
+// (more than `outlier_sigma` robust standard deviations) are dropped once and counted.
 #pragma once
 
 #include <array>
@@ -114,6 +120,12 @@ struct FlightFit {
   double rms_after_uT = 0.0;  // after the fit
   int samples_used = 0, outliers = 0, blocks = 0;
   std::vector<char> used;     // per input sample: in the final fit
+  // The regressor's alignment (FitFlightCompassProfiled; FitFlightCompass: one member, shift 0, the
+  // samples' own regressor): the chosen member's shift, the smallest and largest shift the
+  // delete-one-block fits chose (their spread is in the intervals), and how many members were tried.
+  double regressor_shift_s = 0.0;
+  double regressor_shift_range_s[2] = {0.0, 0.0};
+  int regressor_members = 1;
 
   // The model's prediction at a sample (d·r only where the sample has a regressor value).
   Eigen::Vector3d Predict(const FlightFitSample& s) const;
@@ -135,5 +147,18 @@ std::array<double, 2> TermNormInterval(const Eigen::Vector3d& term, const Eigen:
 // BadInput: too few samples or blocks (the message names the minimum), non-finite input.
 // Numerical: a singular normal matrix (the attitude never changed).
 Result<FlightFit> FitFlightCompass(const std::vector<FlightFitSample>& samples, const FlightFitOptions& options);
+
+// The regressor at trial shifts: value[m][i] is sample i's regressor (A or throttle, as the form;
+// NaN: unknown) shifted by shift_s[m] (s, ascending).
+struct RegressorMembers {
+  std::vector<double> shift_s;
+  std::vector<std::vector<double>> value;
+};
+// The model with its regressor's member profiled (see the top of this file). The samples' own
+// current_A/throttle is not read (the members' values are); Predict and FlightFitness_uT take
+// samples that carry the chosen member's values. BadInput also for members that do not match the
+// samples (a size) or a grid that is not ascending.
+Result<FlightFit> FitFlightCompassProfiled(const std::vector<FlightFitSample>& samples, const RegressorMembers& members,
+                                           const FlightFitOptions& options);
 
 }  // namespace hexsim::magnetics

@@ -7,13 +7,17 @@
 //              samples tilted beyond max_tilt_deg are left out (a flip or a crashed vehicle), and,
 //              where the current is used, samples whose current is under min_current_per_motor_A per
 //              motor (motors stopped: on the ground, whatever a window's hysteresis says).
-//   staleness  the logged current trails the throttle by its logging staleness S (CurrentStaleness:
-//              StalenessScan of the current's own samples against control_u over the flight rows);
-//              applied as the scan's point estimate, at least 0, when it is resolved inside its
-//              plausible range (plausibility row current_staleness).
+//   staleness  the logged current trails the field it causes by its logging staleness S. The scan of
+//              the current against the throttle (CurrentStaleness: StalenessScan over the flight rows)
+//              reads S plus the motors' response to the throttle (the simulator's quad: ~0.18 s), so
+//              it only bounds S; S itself is profiled by the compass fit's own objective over
+//              CurrentShiftGrid (flight_fit.h FitFlightCompassProfiled), each jackknife replicate
+//              choosing its own, and applied as the chosen member's shift. The throttle form has no
+//              staleness (the commanded throttle is logged when it is commanded).
 //   latency    a compass sample stamped t measured the field at t − L; L is scanned over
 //              [latency_lo_s, latency_hi_s] by the model's own residual (per-block SSE, ProfileLag's
 //              block bootstrap) and applied when its interval is clear of zero and plausible.
+//              L is scanned with the current at the profile's choice at L = 0, then S profiled at L.
 //   regressor  the battery current at t − L + S (its samples, linearly interpolated; rows outside
 //              its samples carry none and are skipped by the fit); where the current is unusable
 //              (the import's `current_usable` false, none logged, or its flight median under
@@ -63,8 +67,10 @@ struct CompassFlight {
   LagEstimate latency;
   double latency_s = 0.0;  // applied
   bool latency_applied = false;
-  LagEstimate staleness;
-  double current_shift_s = 0.0;  // applied
+  LagEstimate staleness;              // the scan against the throttle (it bounds the shift grid)
+  std::vector<double> current_shift_grid_s;  // the shifts profiled (CurrentShiftGrid); empty: none
+  double current_shift_s = 0.0;       // applied: the profile's choice
+  double current_shift_range_s[2] = {0.0, 0.0};  // the delete-one-block fits' choices, smallest and largest
   bool current_usable = false;
   std::string current_note;       // why the current is unusable (empty when usable)
   // dI/du, the log's current against throttle over the flight samples (A per unit throttle), NaN
@@ -92,8 +98,27 @@ std::string TimingNote(const CompassFlight& f);
 
 // How stale the logged current is against the throttle (see above), over the rows of kind kFlight.
 LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::vector<RowKind>& kinds, const StalenessOptions& options);
+// Whether a staleness scan resolved its estimate: finite, not at the grid's edge, inside its
+// physical range (plausibility row current_staleness).
+bool StalenessResolved(const LagEstimate& staleness);
 // The shift the replay applies for a staleness estimate: its point estimate, at least 0, when it is
-// resolved (not at the grid's edge) and plausible; else 0.
+// resolved; else 0.
 double AppliedCurrentShift_s(const LagEstimate& staleness);
+
+// The trial shifts of the logged current against the field it causes (the in-flight model's profile
+// and gap's current-driven members), ascending. Physical range: from 0 (a logged current is never
+// earlier than the current that flowed) to the throttle scan's upper 95 % bound plus one update
+// period (that scan's delay holds the motors' response on top of the logging staleness, so it bounds
+// the staleness from above; a sample-and-hold current resolves it only to its update period), capped
+// by current_staleness's range (1 s); without a resolved scan, the whole range. Steps of a quarter
+// update period, within [kMinShiftStep_s, kMaxShiftStep_s]. An update period that is not positive
+// and finite: the largest step.
+constexpr double kMinShiftStep_s = 0.01;  // the compass latency's grid: no finer than the timing itself
+// Half of it, 25 ms, is a sixth of the motors' 0.1-0.2 s response, which shapes the current's
+// fastest changes: k moves little within it.
+constexpr double kMaxShiftStep_s = 0.05;
+std::vector<double> CurrentShiftGrid(const LagEstimate& staleness, double update_period_s);
+// The median interval of a sample-and-hold channel's samples (HeldSamples::t); NaN under 2 samples.
+double UpdatePeriod_s(const std::vector<double>& sample_t);
 
 }  // namespace hexsim::realdata
