@@ -127,6 +127,9 @@ Status PrepareFlightFit(const logs::MagInput& input, const std::string& compass,
   p.tilted = cf->tilted;
   p.outside = cf->outside;
   p.timing_note = realdata::TimingNote(*cf);
+  p.current_shift_s = cf->current_shift_s;
+  p.current_shift_range_s[0] = cf->current_shift_range_s[0];
+  p.current_shift_range_s[1] = cf->current_shift_range_s[1];
   p.current_note = cf->current_note;
   p.current_per_throttle_A = cf->current_per_throttle_A;
   fc->prepared = std::move(p);

@@ -309,7 +309,8 @@ TEST(CalibrateCli, GivenTheRealArduPilotLog_WhenCalibratedAndDiagnosed_ThenBothR
   const std::string log = std::string(HEXSIM_SOURCE_DIR) + "/data/real/ardupilot_copter_log171.bin";
   CliRun r = Hexsim("calibrate " + log + " --method flight --compass mag2 --out " + (d / "cal" / "c.yaml").string());
   ASSERT_EQ(r.code, 0) << r.out << r.err;
-  const auto cal = nlohmann::json::parse(Slurp(d / "cal" / "c.report.json"))["flight_fit"]["current"];
+  const auto cal_fit = nlohmann::json::parse(Slurp(d / "cal" / "c.report.json"))["flight_fit"];
+  const auto& cal = cal_fit["current"];
   r = Hexsim("import " + log + " --out " + (d / "l.csv").string());
   ASSERT_EQ(r.code, 0) << r.err;
   r = Hexsim("gap diagnose --real " + (d / "l.csv").string() + " --sim quad_x --out " + (d / "gap").string());
@@ -324,6 +325,15 @@ TEST(CalibrateCli, GivenTheRealArduPilotLog_WhenCalibratedAndDiagnosed_ThenBothR
   EXPECT_NEAR(term["norm_mG_per_A"].get<double>(), cal["norm_mG_per_A"].get<double>(), 1e-9);
   EXPECT_NEAR(term["norm_ci95_mG_per_A"][0].get<double>(), cal["norm_ci95_mG_per_A"][0].get<double>(), 1e-9);
   EXPECT_NEAR(term["norm_ci95_mG_per_A"][1].get<double>(), cal["norm_ci95_mG_per_A"][1].get<double>(), 1e-9);
+  // The same current shift, chosen by the model's own fit inside current_staleness's range (0..1 s).
+  const auto& timing = (*mag2)["absolute_terms"]["timing"];
+  const double shift = cal_fit["current_shift_s"].get<double>();
+  EXPECT_NEAR(timing["current_shift_s"].get<double>(), shift, 1e-9);
+  EXPECT_GE(shift, 0.0);
+  EXPECT_LE(shift, 1.0);
+  EXPECT_LE(cal_fit["current_shift_range_s"][0].get<double>(), shift);
+  EXPECT_GE(cal_fit["current_shift_range_s"][1].get<double>(), shift);
+  EXPECT_EQ(timing["current_shift_range_s"], cal_fit["current_shift_range_s"]);
   // The same parameter lines for MAG2's compensation (a real internal compass, resolved).
   auto line = [](const std::string& text, const std::string& name) {
     const size_t at = text.find("\n" + name + " ");

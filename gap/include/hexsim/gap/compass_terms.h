@@ -16,6 +16,7 @@
 #include <Eigen/Core>
 
 #include "hexsim/magnetics/autopilot_params.h"
+#include "hexsim/magnetics/flight_fit.h"
 
 namespace hexsim::gap {
 
@@ -57,7 +58,7 @@ struct CompassTerms {
   std::string timing_note, windows_note;
   int samples = 0, blocks = 0, without_regressor = 0;
   double block_s = 0.0, rms_before_uT = 0.0, rms_after_uT = 0.0;
-  std::string interval_method = "delete-one-block jackknife, Student-t at blocks - 1";
+  std::string interval_method = magnetics::kFlightIntervalMethod;
   std::string held_out = "absolute terms fitted on every flight block (as hexsim calibrate); candidates' shares on "
                          "held-out blocks";
   // Parameters to paste (autopilot_params.h): offsets where plausible, the compensation where resolved

@@ -58,6 +58,10 @@ struct FlightFitSample {
 
 enum class FlightTermForm { kCurrent, kThrottle };
 
+// The interval method above, as the reports name it.
+constexpr const char* kFlightIntervalMethod =
+    "delete-one-block jackknife, each delete-one-block fit choosing its own current shift, Student-t at blocks - 1";
+
 constexpr int kFlightFitUnknowns = 9;     // B_N (3), c (3), d (3)
 constexpr int kEquationsPerUnknown = 10;  // see FlightFitOptions::min_samples
 constexpr int kEquationsPerSample = 3;

@@ -33,6 +33,9 @@ struct PreparedFlightFit {
   bool flight_only = true;
   int tilted = 0, outside = 0;
   std::string timing_note;    // compass latency and current staleness as applied
+  // The current's shift as applied (chosen by the fit over the caller's grid, or fixed), and the
+  // smallest and largest shift the delete-one-block fits chose.
+  double current_shift_s = 0.0, current_shift_range_s[2] = {0.0, 0.0};
   std::string current_note;   // why the current is unusable (empty when usable)
   double current_per_throttle_A = std::nan("");
 };
