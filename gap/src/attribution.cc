@@ -6,6 +6,7 @@
 #include <numeric>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 
 #include "replay_util.h"
@@ -435,6 +436,31 @@ void Describe(const Evaluated& e, const GridPicks& picks, CandidateResult* r) {
   r->magnitude_ci95[1] = mag + t975 * sd;
 }
 
+double EffectiveTests(const std::vector<const Candidate*>& members) {
+  const size_t k = members.size();
+  if (k < 2) return static_cast<double>(k);
+  const size_t n = members.front()->X.size();
+  Eigen::MatrixXd S(3 * static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(k));
+  for (size_t m = 0; m < k; ++m) {
+    if (members[m]->X.size() != n) return static_cast<double>(k);
+    for (size_t i = 0; i < n; ++i) {
+      S.block(3 * static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(m), 3, 1) = members[m]->X[i].rowwise().sum();
+    }
+  }
+  S.rowwise() -= S.colwise().mean();
+  const Eigen::VectorXd norm = S.colwise().norm();
+  if (!(norm.minCoeff() > 0)) return static_cast<double>(k);
+  S = S * norm.cwiseInverse().asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(S.transpose() * S, Eigen::EigenvaluesOnly);
+  if (eig.info() != Eigen::Success) return static_cast<double>(k);
+  double tests = 0;
+  for (Eigen::Index i = 0; i < eig.eigenvalues().size(); ++i) {
+    const double l = std::fabs(eig.eigenvalues()[i]);
+    tests += (l >= 1.0 ? 1.0 : 0.0) + (l - std::floor(l));
+  }
+  return std::clamp(tests, 1.0, static_cast<double>(k));
+}
+
 Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseOptions& o, RngStream* rng,
                       double noise_sse) {
   Attribution at;
@@ -475,6 +501,9 @@ Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseO
     }
     at.fam_names.push_back(name);
     at.fam_best.push_back(best);
+    std::vector<const Candidate*> cands;
+    for (size_t m : members) cands.push_back(at.all[m].cand);
+    at.fam_tests.push_back(EffectiveTests(cands));
   }
   const size_t F = at.fam_names.size();
   // Block bootstrap: which family wins the information criterion on resampled blocks (the baseline

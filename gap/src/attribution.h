@@ -118,10 +118,20 @@ struct Attribution {
   std::vector<Evaluated> all;
   std::vector<std::string> fam_names;
   std::vector<size_t> fam_best;  // index into all
+  // Per family (fam_names order), the effective number of independent tests among its members
+  // (EffectiveTests): the family-wise correction of the reported member's p-value.
+  std::vector<double> fam_tests;
   std::map<std::string, std::vector<size_t>> family;
   std::vector<CandidateResult> results;  // per family, in fam_names order
   std::vector<size_t> order;             // families by held-out shrink, best first
 };
+// The effective number of independent tests among candidates that differ only by a profiled grid
+// value (a current shift, an exponent, a lag): Li and Ji's (2005) count over the eigenvalues λ of
+// the members' correlation matrix, Σ [λ ≥ 1] + (λ − ⌊λ⌋), in [1, members]. Each member's signature
+// is its regressors' summed columns, stacked over samples and axes and centred. Members that are
+// one regressor shifted by a fraction of its own correlation time test nearly the same hypothesis:
+// a Bonferroni factor of their count would hide a field every member resolves.
+double EffectiveTests(const std::vector<const Candidate*>& members);
 // noise_sse: the noise floor's share of the baseline's held-out SSE (nested channels: explained
 // shares are of the held-out residual above it).
 Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseOptions& o, RngStream* rng,

@@ -191,14 +191,15 @@ void LibraryFreeTest(const ChannelData& ch, const Analyzer& an, double* p, doubl
   *gain_ms = std::max(0.0, an.baseline().full.sse - ef.full.sse) / an.total_n();
 }
 
-// Family-corrected p-values. A current-driven soft iron must depend on the current: over a constant
+// Family-corrected p-values: Bonferroni over the families and over each family's effective number of
+// member tests (EffectiveTests). A current-driven soft iron must depend on the current: over a constant
 // field matrix its partial Wald test must still be significant (a nearly constant current makes a
 // constant matrix look the same).
 void FamilyPValues(const Analyzer& an, const Candidate& field_matrix, Attribution* at) {
   const size_t F = at->fam_names.size();
   for (size_t f = 0; f < F; ++f) {
     const Evaluated& e = at->all[at->fam_best[f]];
-    double pf = std::min(1.0, e.wald_p * static_cast<double>(at->family[at->fam_names[f]].size()) * static_cast<double>(F));
+    double pf = std::min(1.0, e.wald_p * at->fam_tests[f] * static_cast<double>(F));
     if (e.cand->id == Effect::kCurrentSoftIron && field_matrix.p() > 0) {
       const Evaluated ej = an.Evaluate(Join(field_matrix, *e.cand));
       if (ej.full.ok && ej.cov.size() > 0) {

@@ -59,7 +59,7 @@ void Decide(const Analyzer& an, double noise_var, const DiagnoseOptions& o, Attr
   for (size_t f = 0; f < F; ++f) {
     const Evaluated& e = at->all[at->fam_best[f]];
     CandidateResult& r = at->results[f];
-    r.p_value = std::min(1.0, e.wald_p * static_cast<double>(at->family[at->fam_names[f]].size()) * static_cast<double>(F));
+    r.p_value = std::min(1.0, e.wald_p * at->fam_tests[f] * static_cast<double>(F));
     material[f] = r.explained_share >= o.min_effect_share && IsMaterial(an, e, cv0, noise_var, o);
     if (material[f]) p_cand = std::min(p_cand, r.p_value);
   }
