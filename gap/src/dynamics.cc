@@ -389,23 +389,20 @@ std::vector<Vec3> ThrustAtKept(const vehicle::VehicleParams& v, const ChannelDat
   return F;
 }
 
-// motor_time_constant: the rotors respond slower than configured; the replay with every rotor's
-// inertia scaled by (1 + κ) (τ ∝ J at a given speed), fitted by Gauss–Newton with secant Jacobians
-// over replays; its columns (no regressor yet) give the extra time constant at hover Δτ = κ·τ_hover.
-Candidate MotorTimeConstant(const PowertrainReplay& replay, const vehicle::VehicleParams& v, const ChannelData& ch,
-                            const Airborne& air) {
-  Candidate mt = MakeCandidate("motor_time_constant", {"tau_extra_s"}, {1.0}, "s", "dthrust_dt_N_per_s");
-  const double tau_h = HoverRotorTimeConstant_s(v);
-  if (!(tau_h > 0)) return mt;
+// A one-parameter effect computed by replays, g(θ) (the specific force it adds at the kept samples,
+// g(0) = 0), fitted by the secant method through replays: θ minimises Σ|y − (g(θ) − mean)|² (the
+// mean removed where the channel has a bias nuisance), starting from the secant through 0 and
+// θ_start. Returns θ and g(θ); the candidate's regressor is then g(θ)/θ, the secant through the
+// fit, so the linear coefficient equals the physical parameter there (a fixed secant point would
+// bias the fit of an effect that is nonlinear in θ towards that point).
+struct SecantFit {
+  double theta = 0.0;
+  std::vector<Vec3> g;
+};
+
+template <typename Effect>
+SecantFit FitBySecant(const ChannelData& ch, const Effect& effect, double theta_start, double lo, double hi) {
   const size_t n = ch.t.size();
-  std::vector<std::vector<double>> w_k;
-  std::vector<bool> ok_k;
-  auto effect = [&](double kappa) {
-    replay.Run(1.0 + kappa, 0.0, &w_k, &ok_k);
-    std::vector<Vec3> F = ThrustAtKept(v, ch, w_k, ok_k);
-    for (size_t k = 0; k < n; ++k) F[k] = (F[k] - air.F_T[k]) / air.mass[k];
-    return F;
-  };
   auto demeaned_dot = [&](const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
     Vec3 ma = Vec3::Zero(), mb = Vec3::Zero();
     if (ch.bias_nuisance) {
@@ -420,29 +417,51 @@ Candidate MotorTimeConstant(const PowertrainReplay& replay, const vehicle::Vehic
     for (size_t k = 0; k < n; ++k) s += (a[k] - ma).dot(b[k] - mb);
     return s;
   };
-  constexpr double kKappaMin = -0.8, kKappaMax = 10.0;
-  double ka = 0.0, kb = 1.0;
-  std::vector<Vec3> ga(n, Vec3::Zero()), gb = effect(kb);
+  double ta = 0.0, tb = theta_start;
+  std::vector<Vec3> ga(n, Vec3::Zero()), gb = effect(tb);
+  const double tol = 1e-4 * std::fabs(theta_start);
   for (int it = 0; it < 8; ++it) {
     std::vector<Vec3> J(n), r(n);
     for (size_t k = 0; k < n; ++k) {
-      J[k] = (gb[k] - ga[k]) / (kb - ka);
+      J[k] = (gb[k] - ga[k]) / (tb - ta);
       r[k] = ch.y[k] - gb[k];
     }
     const double jj = demeaned_dot(J, J);
     if (!(jj > 0)) break;
-    const double kn = std::clamp(kb + demeaned_dot(J, r) / jj, kKappaMin, kKappaMax);
-    if (std::fabs(kn - kb) < 1e-4) break;
-    ka = kb;
+    const double tn = std::clamp(tb + demeaned_dot(J, r) / jj, lo, hi);
+    if (std::fabs(tn - tb) < tol) break;
+    ta = tb;
     ga = std::move(gb);
-    kb = kn;
-    gb = effect(kb);
+    tb = tn;
+    gb = effect(tb);
   }
-  if (std::fabs(kb) < 0.05) {  // secant through a visible lag so the regressor is not noise
-    kb = 0.5;
-    gb = effect(kb);
+  return {tb, std::move(gb)};
+}
+
+// motor_time_constant: the rotors respond slower than configured; the replay with every rotor's
+// inertia scaled by (1 + κ) (τ ∝ J at a given speed), fitted by the secant method over replays;
+// its columns (no regressor yet) give the extra time constant at hover Δτ = κ·τ_hover.
+Candidate MotorTimeConstant(const PowertrainReplay& replay, const vehicle::VehicleParams& v, const ChannelData& ch,
+                            const Airborne& air) {
+  Candidate mt = MakeCandidate("motor_time_constant", {"tau_extra_s"}, {1.0}, "s", "dthrust_dt_N_per_s");
+  const double tau_h = HoverRotorTimeConstant_s(v);
+  if (!(tau_h > 0)) return mt;
+  const size_t n = ch.t.size();
+  std::vector<std::vector<double>> w_k;
+  std::vector<bool> ok_k;
+  auto effect = [&](double kappa) {
+    replay.Run(1.0 + kappa, 0.0, &w_k, &ok_k);
+    std::vector<Vec3> F = ThrustAtKept(v, ch, w_k, ok_k);
+    for (size_t k = 0; k < n; ++k) F[k] = (F[k] - air.F_T[k]) / air.mass[k];
+    return F;
+  };
+  constexpr double kKappaMin = -0.8, kKappaMax = 10.0;
+  SecantFit fit = FitBySecant(ch, effect, 1.0, kKappaMin, kKappaMax);
+  if (std::fabs(fit.theta) < 0.05) {  // secant through a visible lag so the regressor is not noise
+    fit.theta = 0.5;
+    fit.g = effect(fit.theta);
   }
-  for (size_t k = 0; k < n; ++k) mt.X.emplace_back(gb[k] / (kb * tau_h));  // coefficient = Δτ at the fit
+  for (size_t k = 0; k < n; ++k) mt.X.emplace_back(fit.g[k] / (fit.theta * tau_h));  // coefficient = Δτ at the fit
   return mt;
 }
 
@@ -472,8 +491,8 @@ void AddThrustCandidates(const PowertrainReplay& replay, const vehicle::VehicleP
   if (!mt.X.empty()) ch->candidates.push_back(std::move(mt));
 }
 
-// battery_sag: the ESCs see V − ΔR·I; the secant over a replay with the ESC voltage lowered by δ·I
-// (rotor dynamics included).
+// battery_sag: the ESCs see V − ΔR·I; the secant through the fitted ΔR over replays with the ESC
+// voltage lowered by ΔR·I (rotor dynamics included).
 void AddBatterySag(const PowertrainReplay& replay, const DynamicsInputs& in, const vehicle::VehicleParams& v,
                    const Airborne& air, ChannelData* ch) {
   bool current_ok = in.I != nullptr && in.current_usable;
@@ -483,14 +502,28 @@ void AddBatterySag(const PowertrainReplay& replay, const DynamicsInputs& in, con
                                                      : "battery_sag (no usable power monitor)");
     return;
   }
-  constexpr double kDeltaR_ohm = 0.05;
+  // The thrust lost to a lower ESC voltage is not linear in ΔR (T ∝ ω² while ω follows the
+  // voltage: the loss per ohm shrinks as ΔR grows, by ~I/(2V) relative per ohm, ~0.5 % per 10 mΩ
+  // at hover), so the regressor is the secant through the fitted ΔR (FitBySecant), not through a
+  // fixed point. Range: the plausibility table's battery_sag (0..1 Ω) widened to negative values
+  // so that a fit near 0 is not pinned at the bound.
+  constexpr double kDeltaRStart_ohm = 0.05, kDeltaRMin_ohm = -0.5, kDeltaRMax_ohm = 1.0;
   std::vector<std::vector<double>> w_s;
   std::vector<bool> ok_s;
-  replay.Run(1.0, kDeltaR_ohm, &w_s, &ok_s);
-  const std::vector<Vec3> F_s = ThrustAtKept(v, *ch, w_s, ok_s);
+  auto effect = [&](double delta_R_ohm) {
+    replay.Run(1.0, delta_R_ohm, &w_s, &ok_s);
+    std::vector<Vec3> F = ThrustAtKept(v, *ch, w_s, ok_s);
+    for (size_t k = 0; k < F.size(); ++k) F[k] = (F[k] - air.F_T[k]) / air.mass[k];
+    return F;
+  };
+  SecantFit fit = FitBySecant(*ch, effect, kDeltaRStart_ohm, kDeltaRMin_ohm, kDeltaRMax_ohm);
+  if (std::fabs(fit.theta) < 0.2 * kDeltaRStart_ohm) {  // a secant through a visible sag, not through noise
+    fit.theta = kDeltaRStart_ohm;
+    fit.g = effect(fit.theta);
+  }
   Candidate bs = MakeCandidate("battery_sag", {"delta_R_ohm"}, {1.0}, "ohm", "current_A");
   for (size_t k = 0; k < ch->t.size(); ++k) {
-    bs.X.emplace_back((F_s[k] - air.F_T[k]) / (kDeltaR_ohm * air.mass[k]));
+    bs.X.emplace_back(fit.g[k] / fit.theta);
     bs.regressor.push_back(air.current[k]);
   }
   ch->candidates.push_back(std::move(bs));
