@@ -123,6 +123,22 @@ INSTANTIATE_TEST_SUITE_P(Effects, DynamicsEffect,
                                            DynCase{"battery_sag", 0.05, 313}, DynCase{"motor_time_constant", 0.05, 314},
                                            DynCase{"wind", 3.5, 315}));
 
+// A ground effect of large rotors (R = 0.45 m): the simulator applies it per rotor, at each hub's
+// height above the ground (CG height from the landing gear, rotor positions turned by the attitude),
+// clamped at R/2 (0.225 m, above the hubs' 0.195 m at rest). A replay with one height for all rotors
+// and another floor reads another radius; the replay applying the simulator's geometry holds it.
+TEST(GapDynamics, GivenAGroundEffectOfLargeRotorsWhenDiagnosedThenTheReplaysGeometryMatchesTheSimulatorsAndHoldsTheRadius) {
+  Flown f = FlyTrialWith({{"ground_effect", 0.45}}, 312);
+  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* d = FindChannel(*rep, "dynamics");
+  ASSERT_NE(d, nullptr) << Summary(*rep);
+  const CandidateResult* k = FindCandidate(*d, "ground_effect");
+  ASSERT_NE(k, nullptr) << Candidates(*d);
+  EXPECT_LE(k->magnitude_ci95[0], 0.45) << Candidates(*d);
+  EXPECT_GE(k->magnitude_ci95[1], 0.45) << Candidates(*d);
+}
+
 // A battery sag far larger than the one the replay's regressor was first formed at (0.05 Ω): the
 // thrust lost per ohm shrinks as ΔR grows (T ∝ ω², ω following the voltage), so a regressor through
 // a fixed ΔR reads a 0.15 Ω sag about 4 % low, outside its interval; the secant through the fit holds it.
