@@ -179,6 +179,35 @@ TEST(GapDynamics, GivenASaggingBatteryWhenACleanLogIsReplayedThenTheBusSagsWithT
   EXPECT_FALSE(d->gap_detected) << Summary(*rep) << Candidates(*d);
 }
 
+// A vehicle file that is not this aircraft (a real log diagnosed with --sim quad_x on another
+// airframe): the configured thrust at the logged outputs is three times what holds the aircraft
+// up, a thrust_scale far outside its physical range. No library effect is reported (a battery sag or
+// any other fit only describes the mismatch); the channel says the vehicle file does not match. A
+// k_T 25 % off is inside the range and stays a finding.
+TEST(GapDynamics, GivenAVehicleFileOfAnotherAirframeWhenDiagnosedThenTheDynamicsChannelSaysModelMismatchAndReportsNoEffect) {
+  Flown f = FlyTrialWith({}, 220);
+  vehicle::VehicleParams other = f.trial.configured;
+  for (auto& r : other.rotors) r.k_T_Nprps2 *= 3.0;
+  auto rep = Diagnose(f.log, other, gaptest::IdealOptions());
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* d = FindChannel(*rep, "dynamics");
+  ASSERT_NE(d, nullptr) << Summary(*rep);
+  EXPECT_EQ(d->verdict, "unexplained") << Summary(*rep) << Candidates(*d);
+  EXPECT_NE(d->explanation.find("model mismatch"), std::string::npos) << d->explanation;
+  EXPECT_TRUE(d->effects.empty()) << Summary(*rep);
+  for (const auto& k : d->candidates) EXPECT_FALSE(k.selected) << k.effect;
+
+  vehicle::VehicleParams near = f.trial.configured;
+  for (auto& r : near.rotors) r.k_T_Nprps2 *= 1.25;
+  auto rep2 = Diagnose(f.log, near, gaptest::IdealOptions());
+  ASSERT_TRUE(rep2.ok()) << rep2.status().message();
+  const ChannelResult* d2 = FindChannel(*rep2, "dynamics");
+  ASSERT_NE(d2, nullptr) << Summary(*rep2);
+  EXPECT_TRUE(d2->gap_detected) << Summary(*rep2);
+  EXPECT_EQ(d2->explanation.find("model mismatch"), std::string::npos) << d2->explanation;
+  EXPECT_FALSE(d2->effects.empty()) << Summary(*rep2) << Candidates(*d2);
+}
+
 TEST(GapDynamics, GivenALogWithoutMotorOutputsWhenDiagnosedThenOneLineSaysWhatIsMissingAndTheCompassIsStillDiagnosed) {
   Flown f = FlyTrialWith({}, 216);
   // A log whose motor outputs were not recorded: motor_1_u has no data.
