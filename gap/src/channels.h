@@ -195,7 +195,7 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
 // The open-loop dynamics channel ("dynamics": accelerometer against the specific force predicted
 // from motor commands, bus voltage, attitude and velocity); appends it or a not_diagnosed line.
 double HoverRotorTimeConstant_s(const vehicle::VehicleParams& vehicle);
-void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, const DiagnoseOptions& options,
+void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle,
                     const std::vector<realdata::RowKind>& row_kind, ReplayResult* out);
 
 }  // namespace hexsim::gap::internal

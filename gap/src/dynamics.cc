@@ -5,7 +5,7 @@
 //   f_B = (Σ_i k_T·ω_i²·a_i + F_drag(v_B)) / m,   v_B = R_NBᵀ·v_N (no wind configured)
 // and the residual accel − f_B is explained by the rotor/airframe candidates:
 //   rotor_drag           −k·(Σω)·(v_x, v_y, 0)/m                         k  [N/((rad/s)(m/s))]
-//   ground_effect        F_T/m·(1/(1 − R²/(16 z²)) − 1)                   R  [m] (Cheeseman–Bennett, ρ = 1)
+//   ground_effect        Σ_i T_i·a_i/m·(1/(1 − R²/(16 z_i²)) − 1)          R  [m] (Cheeseman–Bennett per rotor, z_i ≥ R/2)
 //   battery_sag          (F_T at V − ΔR·I) − F_T, per unit ΔR (secant)    ΔR [Ω]
 //   motor_time_constant  F_T with rotor inertia ×(1 + Δτ/τ_hover) − F_T   Δτ [s] (slower rotors)
 //   wind                 (F_drag(v_B − R_NBᵀ w) − F_drag(v_B))/m          w_N, w_E [m/s]
@@ -27,6 +27,7 @@
 #include "hexsim/common/plausibility.h"
 #include "hexsim/common/rotation.h"
 #include "hexsim/realdata/velocity_check.h"
+#include "hexsim/sim/simulation.h"
 #include "hexsim/vehicle/powertrain.h"
 
 namespace hexsim::gap::internal {
@@ -35,7 +36,6 @@ namespace {
 constexpr double kSubstep_s = 0.001;       // powertrain integration step between log rows
 constexpr double kMaxRowGap_s = 0.1;       // larger gaps restart the rotors at steady state
 constexpr double kMinHeight_m = 0.15;      // CG height above the take-off point: clear of the ground
-constexpr double kMinGroundZ_m = 0.1;      // ground-effect height floor
 
 bool HasData(const logs::FlightLog& log, const std::string& name) {
   if (!log.Has(name)) return false;
@@ -328,6 +328,7 @@ class PowertrainReplay {
 // The kept (airborne, in-flight) samples' quantities besides the channel's residual.
 struct Airborne {
   std::vector<Vec3> F_T, v_B;  // thrust force, body velocity
+  std::vector<std::vector<double>> omega;  // rotor speeds
   std::vector<double> mass, omega_sum, current, height;
   std::vector<Eigen::Matrix3d> Rt;  // R_BN
   size_t dropped_ground = 0;
@@ -367,6 +368,7 @@ void CollectAirborne(const DynamicsInputs& in, const vehicle::VehicleParams& v,
     ch->y.emplace_back(meas - pred);
     ch->row.push_back(static_cast<int>(i));
     air->F_T.push_back(Ft);
+    air->omega.push_back(omega[i]);
     air->v_B.push_back(vb);
     air->mass.push_back(m_kg);
     air->omega_sum.push_back(wsum);
@@ -387,23 +389,20 @@ std::vector<Vec3> ThrustAtKept(const vehicle::VehicleParams& v, const ChannelDat
   return F;
 }
 
-// motor_time_constant: the rotors respond slower than configured; the replay with every rotor's
-// inertia scaled by (1 + κ) (τ ∝ J at a given speed), fitted by Gauss–Newton with secant Jacobians
-// over replays; its columns (no regressor yet) give the extra time constant at hover Δτ = κ·τ_hover.
-Candidate MotorTimeConstant(const PowertrainReplay& replay, const vehicle::VehicleParams& v, const ChannelData& ch,
-                            const Airborne& air) {
-  Candidate mt = MakeCandidate("motor_time_constant", {"tau_extra_s"}, {1.0}, "s", "dthrust_dt_N_per_s");
-  const double tau_h = HoverRotorTimeConstant_s(v);
-  if (!(tau_h > 0)) return mt;
+// A one-parameter effect computed by replays, g(θ) (the specific force it adds at the kept samples,
+// g(0) = 0), fitted by the secant method through replays: θ minimises Σ|y − (g(θ) − mean)|² (the
+// mean removed where the channel has a bias nuisance), starting from the secant through 0 and
+// θ_start. Returns θ and g(θ); the candidate's regressor is then g(θ)/θ, the secant through the
+// fit, so the linear coefficient equals the physical parameter there (a fixed secant point would
+// bias the fit of an effect that is nonlinear in θ towards that point).
+struct SecantFit {
+  double theta = 0.0;
+  std::vector<Vec3> g;
+};
+
+template <typename Effect>
+SecantFit FitBySecant(const ChannelData& ch, const Effect& effect, double theta_start, double lo, double hi) {
   const size_t n = ch.t.size();
-  std::vector<std::vector<double>> w_k;
-  std::vector<bool> ok_k;
-  auto effect = [&](double kappa) {
-    replay.Run(1.0 + kappa, 0.0, &w_k, &ok_k);
-    std::vector<Vec3> F = ThrustAtKept(v, ch, w_k, ok_k);
-    for (size_t k = 0; k < n; ++k) F[k] = (F[k] - air.F_T[k]) / air.mass[k];
-    return F;
-  };
   auto demeaned_dot = [&](const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
     Vec3 ma = Vec3::Zero(), mb = Vec3::Zero();
     if (ch.bias_nuisance) {
@@ -418,29 +417,51 @@ Candidate MotorTimeConstant(const PowertrainReplay& replay, const vehicle::Vehic
     for (size_t k = 0; k < n; ++k) s += (a[k] - ma).dot(b[k] - mb);
     return s;
   };
-  constexpr double kKappaMin = -0.8, kKappaMax = 10.0;
-  double ka = 0.0, kb = 1.0;
-  std::vector<Vec3> ga(n, Vec3::Zero()), gb = effect(kb);
+  double ta = 0.0, tb = theta_start;
+  std::vector<Vec3> ga(n, Vec3::Zero()), gb = effect(tb);
+  const double tol = 1e-4 * std::fabs(theta_start);
   for (int it = 0; it < 8; ++it) {
     std::vector<Vec3> J(n), r(n);
     for (size_t k = 0; k < n; ++k) {
-      J[k] = (gb[k] - ga[k]) / (kb - ka);
+      J[k] = (gb[k] - ga[k]) / (tb - ta);
       r[k] = ch.y[k] - gb[k];
     }
     const double jj = demeaned_dot(J, J);
     if (!(jj > 0)) break;
-    const double kn = std::clamp(kb + demeaned_dot(J, r) / jj, kKappaMin, kKappaMax);
-    if (std::fabs(kn - kb) < 1e-4) break;
-    ka = kb;
+    const double tn = std::clamp(tb + demeaned_dot(J, r) / jj, lo, hi);
+    if (std::fabs(tn - tb) < tol) break;
+    ta = tb;
     ga = std::move(gb);
-    kb = kn;
-    gb = effect(kb);
+    tb = tn;
+    gb = effect(tb);
   }
-  if (std::fabs(kb) < 0.05) {  // secant through a visible lag so the regressor is not noise
-    kb = 0.5;
-    gb = effect(kb);
+  return {tb, std::move(gb)};
+}
+
+// motor_time_constant: the rotors respond slower than configured; the replay with every rotor's
+// inertia scaled by (1 + κ) (τ ∝ J at a given speed), fitted by the secant method over replays;
+// its columns (no regressor yet) give the extra time constant at hover Δτ = κ·τ_hover.
+Candidate MotorTimeConstant(const PowertrainReplay& replay, const vehicle::VehicleParams& v, const ChannelData& ch,
+                            const Airborne& air) {
+  Candidate mt = MakeCandidate("motor_time_constant", {"tau_extra_s"}, {1.0}, "s", "dthrust_dt_N_per_s");
+  const double tau_h = HoverRotorTimeConstant_s(v);
+  if (!(tau_h > 0)) return mt;
+  const size_t n = ch.t.size();
+  std::vector<std::vector<double>> w_k;
+  std::vector<bool> ok_k;
+  auto effect = [&](double kappa) {
+    replay.Run(1.0 + kappa, 0.0, &w_k, &ok_k);
+    std::vector<Vec3> F = ThrustAtKept(v, ch, w_k, ok_k);
+    for (size_t k = 0; k < n; ++k) F[k] = (F[k] - air.F_T[k]) / air.mass[k];
+    return F;
+  };
+  constexpr double kKappaMin = -0.8, kKappaMax = 10.0;
+  SecantFit fit = FitBySecant(ch, effect, 1.0, kKappaMin, kKappaMax);
+  if (std::fabs(fit.theta) < 0.05) {  // secant through a visible lag so the regressor is not noise
+    fit.theta = 0.5;
+    fit.g = effect(fit.theta);
   }
-  for (size_t k = 0; k < n; ++k) mt.X.emplace_back(gb[k] / (kb * tau_h));  // coefficient = Δτ at the fit
+  for (size_t k = 0; k < n; ++k) mt.X.emplace_back(fit.g[k] / (fit.theta * tau_h));  // coefficient = Δτ at the fit
   return mt;
 }
 
@@ -470,8 +491,8 @@ void AddThrustCandidates(const PowertrainReplay& replay, const vehicle::VehicleP
   if (!mt.X.empty()) ch->candidates.push_back(std::move(mt));
 }
 
-// battery_sag: the ESCs see V − ΔR·I; the secant over a replay with the ESC voltage lowered by δ·I
-// (rotor dynamics included).
+// battery_sag: the ESCs see V − ΔR·I; the secant through the fitted ΔR over replays with the ESC
+// voltage lowered by ΔR·I (rotor dynamics included).
 void AddBatterySag(const PowertrainReplay& replay, const DynamicsInputs& in, const vehicle::VehicleParams& v,
                    const Airborne& air, ChannelData* ch) {
   bool current_ok = in.I != nullptr && in.current_usable;
@@ -481,47 +502,94 @@ void AddBatterySag(const PowertrainReplay& replay, const DynamicsInputs& in, con
                                                      : "battery_sag (no usable power monitor)");
     return;
   }
-  constexpr double kDeltaR_ohm = 0.05;
+  // The thrust lost to a lower ESC voltage is not linear in ΔR (T ∝ ω² while ω follows the
+  // voltage: the loss per ohm shrinks as ΔR grows, by ~I/(2V) relative per ohm, ~0.5 % per 10 mΩ
+  // at hover), so the regressor is the secant through the fitted ΔR (FitBySecant), not through a
+  // fixed point. Range: the plausibility table's battery_sag (0..1 Ω) widened to negative values
+  // so that a fit near 0 is not pinned at the bound.
+  constexpr double kDeltaRStart_ohm = 0.05, kDeltaRMin_ohm = -0.5, kDeltaRMax_ohm = 1.0;
   std::vector<std::vector<double>> w_s;
   std::vector<bool> ok_s;
-  replay.Run(1.0, kDeltaR_ohm, &w_s, &ok_s);
-  const std::vector<Vec3> F_s = ThrustAtKept(v, *ch, w_s, ok_s);
+  auto effect = [&](double delta_R_ohm) {
+    replay.Run(1.0, delta_R_ohm, &w_s, &ok_s);
+    std::vector<Vec3> F = ThrustAtKept(v, *ch, w_s, ok_s);
+    for (size_t k = 0; k < F.size(); ++k) F[k] = (F[k] - air.F_T[k]) / air.mass[k];
+    return F;
+  };
+  SecantFit fit = FitBySecant(*ch, effect, kDeltaRStart_ohm, kDeltaRMin_ohm, kDeltaRMax_ohm);
+  if (std::fabs(fit.theta) < 0.2 * kDeltaRStart_ohm) {  // a secant through a visible sag, not through noise
+    fit.theta = kDeltaRStart_ohm;
+    fit.g = effect(fit.theta);
+  }
   Candidate bs = MakeCandidate("battery_sag", {"delta_R_ohm"}, {1.0}, "ohm", "current_A");
   for (size_t k = 0; k < ch->t.size(); ++k) {
-    bs.X.emplace_back((F_s[k] - air.F_T[k]) / (kDeltaR_ohm * air.mass[k]));
+    bs.X.emplace_back(fit.g[k] / fit.theta);
     bs.regressor.push_back(air.current[k]);
   }
   ch->candidates.push_back(std::move(bs));
 }
 
-// ground_effect: gain(a, z) − 1 = 1/(1 − a/(16 z²)) − 1, a = R², z the rotor height above ground.
-void AddGroundEffect(const DiagnoseOptions& options, const Airborne& air, ChannelData* ch) {
-  const size_t n = ch->t.size();
-  const double z_rest = options.rotor_height_at_rest_m;
-  double h_min = 1e300;
-  for (double h : air.height) h_min = std::min(h_min, h);
-  if (!(h_min + z_rest < 1.0)) {
-    ch->not_available.emplace_back("ground_effect (no airborne samples within 1 m of the ground)");
+// ground_effect, per rotor as the simulator applies it (vehicle::RotorAeroWrench): rotor i's thrust
+// T_i = k_T·ω_i² along its axis gains 1/(1 − a/(16 z_i²)) − 1, a = R², z_i its hub's height above
+// the ground, clamped at R/2 (a·u_i ≤ 1/4), with
+//   z_i = h_rest + h − (R_NB·r_i)_D,   h the CG height above the take-off point,
+// h_rest the CG height when the landing gear stands on the ground (the simulator's gear for this
+// vehicle file, sim::BodyParamsFor) and r_i the rotor's position: one rotor height for all rotors
+// (the CG's plus a constant) puts the tilted vehicle's low rotors too high and its high rotors too low.
+void AddGroundEffect(const vehicle::VehicleParams& v, const Airborne& air, ChannelData* ch) {
+  const size_t n = ch->t.size(), n_rot = v.rotors.size();
+  const double h_rest = sim::RestingHeight_m(sim::BodyParamsFor(v, sim::WorldParams{}, 0.0));
+  // u[k][i] = 1/(16 z_i²) at the hub heights of sample k; the rotors' thrust vectors T_i·axis_i.
+  std::vector<std::vector<double>> u(n, std::vector<double>(n_rot));
+  std::vector<std::vector<Vec3>> T(n, std::vector<Vec3>(n_rot));
+  double z_min = 1e300;
+  for (size_t k = 0; k < n; ++k) {
+    for (size_t i = 0; i < n_rot; ++i) {
+      const auto& r = v.rotors[i];
+      const double z = h_rest + air.height[k] - (air.Rt[k].transpose() * r.position_B_m).z();
+      z_min = std::min(z_min, z);
+      u[k][i] = z > 0 ? 1.0 / (16.0 * z * z) : std::numeric_limits<double>::infinity();
+      T[k][i] = r.k_T_Nprps2 * air.omega[k][i] * air.omega[k][i] * r.axis_B / air.mass[k];
+    }
+  }
+  if (!(z_min < 1.0)) {
+    ch->not_available.emplace_back("ground_effect (no airborne samples with a rotor within 1 m of the ground)");
     return;
   }
-  std::vector<double> u(n);  // 1/(16 z²)
-  for (size_t k = 0; k < n; ++k) {
-    const double z = std::max(kMinGroundZ_m, air.height[k] + z_rest);
-    u[k] = 1.0 / (16.0 * z * z);
-  }
-  const double a_max = 0.8 * 16.0 * kMinGroundZ_m * kMinGroundZ_m;  // keeps a·u ≤ 0.8
-  auto model = [&](size_t k, const Eigen::VectorXd& th, Vec3* g, Mat3X* J) {
-    const double au = th[0] * u[k];
-    *g = air.F_T[k] / air.mass[k] * (1.0 / (1.0 - au) - 1.0);
-    *J = air.F_T[k] / air.mass[k] * (u[k] / ((1.0 - au) * (1.0 - au)));
+  // Gain − 1 of one rotor and its derivative in a; at or below the clamp z = R/2 (a·u ≥ 1/4) the
+  // gain is 4/3 whatever a is.
+  auto extra = [](double a, double uk, double* d_da) {
+    const double au = a * uk;
+    if (!(au < 0.25)) {
+      *d_da = 0.0;
+      return 1.0 / 0.75 - 1.0;
+    }
+    *d_da = uk / ((1.0 - au) * (1.0 - au));
+    return 1.0 / (1.0 - au) - 1.0;
   };
+  auto sum = [&](size_t k, double a, Vec3* d_da) {
+    Vec3 g = Vec3::Zero();
+    d_da->setZero();
+    for (size_t i = 0; i < n_rot; ++i) {
+      double d = 0;
+      g += T[k][i] * extra(a, u[k][i], &d);
+      *d_da += T[k][i] * d;
+    }
+    return g;
+  };
+  auto model = [&](size_t k, const Eigen::VectorXd& th, Vec3* g, Mat3X* J) {
+    Vec3 d;
+    *g = sum(k, th[0], &d);
+    *J = d;
+  };
+  // R up to the plausibility table's 1 m (a ≤ 1 m²).
   const Eigen::VectorXd a0 =
-      GaussNewton(ch->y, ch->bias_nuisance, 1, model, Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, a_max));
+      GaussNewton(ch->y, ch->bias_nuisance, 1, model, Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, 1.0));
   const double a = std::max(a0[0], 1e-4);  // secant point; tangent at a → 0
   Candidate ge = MakeCandidate("ground_effect", {"radius_sq_m2"}, {1.0}, "m", "height_m");
   for (size_t k = 0; k < n; ++k) {
-    const double au = a * u[k];
-    ge.X.emplace_back(air.F_T[k] / air.mass[k] * ((1.0 / (1.0 - au) - 1.0) / a));
+    Vec3 d;
+    ge.X.emplace_back(sum(k, a, &d) / a);
     ge.regressor.push_back(air.height[k]);
   }
   ch->candidates.push_back(std::move(ge));
@@ -564,8 +632,8 @@ void AddWind(const vehicle::VehicleParams& v, const Airborne& air, ChannelData* 
 
 }  // namespace
 
-void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v, const DiagnoseOptions& options,
-                    const std::vector<realdata::RowKind>& row_kind, ReplayResult* out) {
+void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v, const std::vector<realdata::RowKind>& row_kind,
+                    ReplayResult* out) {
   const char* kName = "dynamics";
   auto skip = [&](const std::string& why) { out->not_diagnosed.emplace_back(kName, why); };
   if (const std::string missing = MissingInputs(log, v.rotors.size()); !missing.empty()) {
@@ -602,7 +670,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
   }
   AddThrustCandidates(replay, v, air, &ch);
   AddBatterySag(replay, in, v, air, &ch);
-  AddGroundEffect(options, air, &ch);
+  AddGroundEffect(v, air, &ch);
   AddWind(v, air, &ch);
   if (!ch.bias_nuisance) {
     Candidate off = MakeCandidate("bias", {"b_x", "b_y", "b_z"}, {1, 1, 1}, "m/s^2", "");

@@ -286,7 +286,7 @@ ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& v,
                                       [&](const ChannelData& ch) { return !wanted(ch.name); }),
                        out.channels.end());
   }
-  if (wanted("dynamics")) ReplayDynamics(log, v, options, row_kind, &out);
+  if (wanted("dynamics")) ReplayDynamics(log, v, row_kind, &out);
   out.not_diagnosed.erase(std::remove_if(out.not_diagnosed.begin(), out.not_diagnosed.end(),
                                          [&](const auto& nd) { return !wanted(nd.first); }),
                           out.not_diagnosed.end());

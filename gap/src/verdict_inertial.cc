@@ -117,6 +117,40 @@ void Decide(const Analyzer& an, double noise_var, const DiagnoseOptions& o, Attr
   res->candidates = OrderCandidates(res->effects, std::move(all));
 }
 
+// The vehicle file must hold this aircraft up. thrust_scale is the factor that matches the
+// configured thrust at the logged motor outputs to the measured specific force; its physical range
+// (plausibility table: 0.5..2, a thrust coefficient or mass within a factor of two) bounds every
+// error the vehicle file can carry and still describe the airframe. When its whole 95 % interval
+// lies outside that range, the replay predicts another aircraft (another frame, motors, propellers
+// or mass): every library effect fitted against that residual describes the mismatch, not the
+// aircraft, so none is reported (a battery sag of 0.15 Ω fitted on such a log explains part of it).
+void StateVehicleMismatch(ChannelResult* res) {
+  if (!res->gap_detected) return;
+  const auto ts = std::find_if(res->candidates.begin(), res->candidates.end(),
+                               [](const CandidateResult& k) { return k.id == Effect::kThrustScale; });
+  if (ts == res->candidates.end() ||
+      plausibility::IntervalPlausible(ts->effect, ts->magnitude_ci95[0], ts->magnitude_ci95[1])) {
+    return;
+  }
+  const plausibility::PhysicalRange* range = plausibility::FindRange(ts->effect);
+  if (!range) return;
+  res->verdict = "unexplained";
+  res->partial = false;
+  res->effects.clear();
+  for (CandidateResult& k : res->candidates) k.selected = false;
+  res->explained_share = 0.0;
+  res->heldout_shrink = 0.0;
+  res->residual_after = res->residual_before;
+  res->chosen_regressor.clear();
+  res->chosen_regressor_name.clear();
+  res->explanation = fmt::format(
+      "model mismatch: the vehicle file does not describe this aircraft: its thrust at the logged motor outputs must "
+      "be scaled by {:.3g} [{:.3g}, {:.3g}] to match the accelerometer, outside thrust_scale's physical range {:.3g}..{:.3g} "
+      "(a thrust coefficient or mass within a factor of two); no dynamics effect is reported: give the vehicle "
+      "file of this airframe (frame, motors, propellers, mass)",
+      ts->magnitude, ts->magnitude_ci95[0], ts->magnitude_ci95[1], range->lo, range->hi);
+}
+
 }  // namespace
 
 ChannelResult AnalyzeInertial(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
@@ -172,6 +206,7 @@ ChannelResult AnalyzeInertial(const ChannelData& ch, const logs::FlightLog& log,
     r.physical_range = plausibility::RangeText(r.effect);
   }
   Decide(an, noise_var, o, &at, &res);
+  StateVehicleMismatch(&res);
   res.where = Locate(ch, an.y(), log, phases);
   if (res.gap_detected) {
     res.residual_left = DescribeLeft(ch.t, res.residual_after, 1.0 - std::max(0.0, res.explained_share),

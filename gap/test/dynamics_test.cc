@@ -123,6 +123,37 @@ INSTANTIATE_TEST_SUITE_P(Effects, DynamicsEffect,
                                            DynCase{"battery_sag", 0.05, 313}, DynCase{"motor_time_constant", 0.05, 314},
                                            DynCase{"wind", 3.5, 315}));
 
+// A ground effect of large rotors (R = 0.45 m): the simulator applies it per rotor, at each hub's
+// height above the ground (CG height from the landing gear, rotor positions turned by the attitude),
+// clamped at R/2 (0.225 m, above the hubs' 0.195 m at rest). A replay with one height for all rotors
+// and another floor reads another radius; the replay applying the simulator's geometry holds it.
+TEST(GapDynamics, GivenAGroundEffectOfLargeRotorsWhenDiagnosedThenTheReplaysGeometryMatchesTheSimulatorsAndHoldsTheRadius) {
+  Flown f = FlyTrialWith({{"ground_effect", 0.45}}, 312);
+  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* d = FindChannel(*rep, "dynamics");
+  ASSERT_NE(d, nullptr) << Summary(*rep);
+  const CandidateResult* k = FindCandidate(*d, "ground_effect");
+  ASSERT_NE(k, nullptr) << Candidates(*d);
+  EXPECT_LE(k->magnitude_ci95[0], 0.45) << Candidates(*d);
+  EXPECT_GE(k->magnitude_ci95[1], 0.45) << Candidates(*d);
+}
+
+// A battery sag far larger than the one the replay's regressor was first formed at (0.05 Ω): the
+// thrust lost per ohm shrinks as ΔR grows (T ∝ ω², ω following the voltage), so a regressor through
+// a fixed ΔR reads a 0.15 Ω sag about 4 % low, outside its interval; the secant through the fit holds it.
+TEST(GapDynamics, GivenALargeBatterySagWhenDiagnosedThenItsIntervalHoldsTheTruth) {
+  Flown f = FlyTrialWith({{"battery_sag", 0.15}}, 313);
+  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* d = FindChannel(*rep, "dynamics");
+  ASSERT_NE(d, nullptr) << Summary(*rep);
+  const CandidateResult* k = FindCandidate(*d, "battery_sag");
+  ASSERT_NE(k, nullptr) << Candidates(*d);
+  EXPECT_LE(k->magnitude_ci95[0], 0.15) << Candidates(*d);
+  EXPECT_GE(k->magnitude_ci95[1], 0.15) << Candidates(*d);
+}
+
 // A battery whose bus sags hard with the current (internal resistance 0.25 Ω, a worn or undersized
 // pack): each command step's current spike pulls the bus down within the same autopilot tick. A
 // replay that interpolates the logged bus between rows gives the ESCs the voltage of before the
@@ -146,6 +177,35 @@ TEST(GapDynamics, GivenASaggingBatteryWhenACleanLogIsReplayedThenTheBusSagsWithT
   // Hover τ is ≈ 50 ms: a lead of the bus reads as +2..5 ms; within ±1 ms is the replay's resolution.
   EXPECT_LT(std::fabs(k->magnitude), 1e-3) << Candidates(*d);
   EXPECT_FALSE(d->gap_detected) << Summary(*rep) << Candidates(*d);
+}
+
+// A vehicle file that is not this aircraft (a real log diagnosed with --sim quad_x on another
+// airframe): the configured thrust at the logged outputs is three times what holds the aircraft
+// up, a thrust_scale far outside its physical range. No library effect is reported (a battery sag or
+// any other fit only describes the mismatch); the channel says the vehicle file does not match. A
+// k_T 25 % off is inside the range and stays a finding.
+TEST(GapDynamics, GivenAVehicleFileOfAnotherAirframeWhenDiagnosedThenTheDynamicsChannelSaysModelMismatchAndReportsNoEffect) {
+  Flown f = FlyTrialWith({}, 220);
+  vehicle::VehicleParams other = f.trial.configured;
+  for (auto& r : other.rotors) r.k_T_Nprps2 *= 3.0;
+  auto rep = Diagnose(f.log, other, gaptest::IdealOptions());
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* d = FindChannel(*rep, "dynamics");
+  ASSERT_NE(d, nullptr) << Summary(*rep);
+  EXPECT_EQ(d->verdict, "unexplained") << Summary(*rep) << Candidates(*d);
+  EXPECT_NE(d->explanation.find("model mismatch"), std::string::npos) << d->explanation;
+  EXPECT_TRUE(d->effects.empty()) << Summary(*rep);
+  for (const auto& k : d->candidates) EXPECT_FALSE(k.selected) << k.effect;
+
+  vehicle::VehicleParams near = f.trial.configured;
+  for (auto& r : near.rotors) r.k_T_Nprps2 *= 1.25;
+  auto rep2 = Diagnose(f.log, near, gaptest::IdealOptions());
+  ASSERT_TRUE(rep2.ok()) << rep2.status().message();
+  const ChannelResult* d2 = FindChannel(*rep2, "dynamics");
+  ASSERT_NE(d2, nullptr) << Summary(*rep2);
+  EXPECT_TRUE(d2->gap_detected) << Summary(*rep2);
+  EXPECT_EQ(d2->explanation.find("model mismatch"), std::string::npos) << d2->explanation;
+  EXPECT_FALSE(d2->effects.empty()) << Summary(*rep2) << Candidates(*d2);
 }
 
 TEST(GapDynamics, GivenALogWithoutMotorOutputsWhenDiagnosedThenOneLineSaysWhatIsMissingAndTheCompassIsStillDiagnosed) {

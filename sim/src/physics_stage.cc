@@ -10,8 +10,6 @@ namespace hexsim::sim {
 
 namespace {
 
-double RestingHeight_m(const RigidBodyParams& p) { return p.gear_offset_B_m.z() + 0.5 * p.gear_size_m.z(); }
-
 bool Finite(const BodyState& s) {
   return s.p_N_m.allFinite() && s.v_N_mps.allFinite() && s.q_NB.coeffs().allFinite() && s.w_B_radps.allFinite();
 }
@@ -24,6 +22,8 @@ std::string NonFiniteQuantity(const BodyState& s) {
 }
 
 }  // namespace
+
+double RestingHeight_m(const RigidBodyParams& p) { return p.gear_offset_B_m.z() + 0.5 * p.gear_size_m.z(); }
 
 // Landing gear: a box under the centre of mass, as wide as half the rotor circle.
 RigidBodyParams BodyParamsFor(const vehicle::VehicleParams& v, const WorldParams& w, double payload_kg) {

@@ -63,9 +63,6 @@ struct DiagnoseOptions {
   // The compass the attitude reference fused (column prefix, e.g. "mag"); empty: decided from the
   // log meta (sim truth: none; imported log: the primary compass).
   std::string contaminating_compass = "auto";
-  // Dynamics channel: height of the rotor plane above the ground when the vehicle stands on it
-  // (ground effect uses z = CG height above the take-off point + this).
-  double rotor_height_at_rest_m = 0.2;
   // Compass channels. Windows: --from/--to override the flight windows when from_s < to_s.
   // Nuisance terms: "normal" judges them against the plausibility table's normal ranges (real
   // logs); "exact" treats the configured vehicle as the calibrated truth, so any significant offset,

@@ -68,6 +68,9 @@ struct RunOutput {
 // The vehicle's rigid body: mass (vehicle + payload_kg, the one place the total mass is formed),
 // inertia, landing-gear box, ground friction.
 RigidBodyParams BodyParamsFor(const vehicle::VehicleParams& vehicle, const WorldParams& world, double payload_kg);
+// Height of the centre of mass above the ground plane when the landing gear stands on it (the
+// simulator's take-off pose; the gap replay's ground-effect heights start from it).
+double RestingHeight_m(const RigidBodyParams& body);
 
 // Validates cross-file consistency (e.g. the date against the field model) before anything runs.
 Status ValidateRunSetup(const RunSetup& setup);
