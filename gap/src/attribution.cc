@@ -92,6 +92,65 @@ Fit SolveNormal(const MatA& A, const VecG& g, double s, double n, int p) {
 
 Fit SolveSums(const Block& sums, int p) { return SolveNormal(sums.A, sums.g, sums.s, sums.n, p); }
 
+namespace {
+
+// The baseline's normal equations under one set of block weights, factorised once and shared by
+// every member's NestedSse (the bootstrap solves each member over the same baseline sums).
+struct BaseFactor {
+  Eigen::LDLT<SmallA> ldlt;
+  SmallV g;
+  double sse = 0;
+  bool ok = false;
+};
+
+BaseFactor FactorBase(const Block& base_sums, int p0) {
+  BaseFactor bf;
+  const double tr = base_sums.A.trace();
+  if (p0 == 0 || p0 > kSmallP || !(tr > 0)) return bf;
+  bf.ldlt.compute(SmallA(base_sums.A) + SmallA::Identity(p0, p0) * (1e-12 * tr / p0));
+  if (bf.ldlt.info() != Eigen::Success) return bf;
+  bf.g = base_sums.g;
+  const SmallV beta = bf.ldlt.solve(bf.g);
+  bf.sse = std::max(0.0, base_sums.s - beta.dot(bf.g));
+  bf.ok = beta.allFinite();
+  return bf;
+}
+
+// The in-sample SSE of baseline + candidate under weights w, by the Schur complement of the shared
+// baseline factorisation: with Z = A_bb⁻¹·A_bc, S = A_cc − A_cbᵀ·Z and g̃ = g_c − Zᵀ·g_b, the
+// candidate's part solves S·β_c = g̃ and SSE = SSE_baseline − g̃ᵀ·β_c (the same least squares as
+// SolveNested, whose baseline rows are these sums). False where it cannot be solved so.
+bool NestedSse(const std::vector<Block>& blocks, const std::vector<double>& w, int p0, int pc, const BaseFactor& bf,
+               double* sse) {
+  if (!bf.ok || pc <= 0 || pc > kSmallP) return false;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kSmallP, kSmallP> Abc(p0, pc);
+  SmallA Acc(pc, pc);
+  SmallV gc(pc);
+  Abc.setZero();
+  Acc.setZero();
+  gc.setZero();
+  for (size_t b = 0; b < blocks.size(); ++b) {
+    if (w[b] == 0) continue;
+    Abc += w[b] * blocks[b].A.topRightCorner(p0, pc);
+    Acc += w[b] * blocks[b].A.bottomRightCorner(pc, pc);
+    gc += w[b] * blocks[b].g.tail(pc);
+  }
+  const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kSmallP, kSmallP> Z = bf.ldlt.solve(Abc);
+  SmallA S = Acc - Abc.transpose() * Z;
+  const SmallV gt = gc - Z.transpose() * bf.g;
+  const double tr = S.trace();
+  if (!(tr > 0)) return false;
+  S += SmallA::Identity(pc, pc) * (1e-12 * tr / pc);
+  const Eigen::LDLT<SmallA> ldlt(S);
+  if (ldlt.info() != Eigen::Success) return false;
+  const SmallV beta = ldlt.solve(gt);
+  if (!beta.allFinite()) return false;
+  *sse = std::max(0.0, bf.sse - gt.dot(beta));
+  return true;
+}
+
+}  // namespace
+
 Fit Solve(const std::vector<Block>& blocks, const std::vector<double>& w, int p) { return SolveSums(SumBlocks(blocks, w, p), p); }
 
 Eigen::MatrixXd JackknifeCov(const Evaluated& e) {
@@ -521,9 +580,11 @@ Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseO
       base += w[k] * an.base_blocks()[k];
     }
     Block base_sums;
+    BaseFactor factor;
     if (an.nested()) {
       base_sums = SumBlocks(an.baseline().blocks, w, p0);
       base = SolveSums(base_sums, p0).sse;
+      factor = FactorBase(base_sums, p0);
     }
     double best_bic = n_w * std::log(std::max(base, 1e-300) / n_w);
     int winner = -1;
@@ -536,9 +597,13 @@ Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseO
       for (size_t m : at.family[at.fam_names[f]]) {
         const Candidate& c = *at.all[m].cand;
         const int pc = c.p();
-        const Fit fit = an.nested() ? SolveNested(at.all[m].blocks, w, p0 + pc, base_sums) : Solve(at.all[m].blocks, w, p0 + pc);
-        if (!fit.ok) continue;
-        const double bic = n_w * std::log(std::max(fit.sse, 1e-300) / n_w) + pc * std::log(n_w);
+        double sse = 0;
+        if (!(an.nested() && NestedSse(at.all[m].blocks, w, p0, pc, factor, &sse))) {
+          const Fit fit = an.nested() ? SolveNested(at.all[m].blocks, w, p0 + pc, base_sums) : Solve(at.all[m].blocks, w, p0 + pc);
+          if (!fit.ok) continue;
+          sse = fit.sse;
+        }
+        const double bic = n_w * std::log(std::max(sse, 1e-300) / n_w) + pc * std::log(n_w);
         fam_bic = std::min(fam_bic, bic);
         if (c.grid2_name == reported.grid2_name && bic < form_bic) {
           form_bic = bic;

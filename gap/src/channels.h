@@ -1,6 +1,7 @@
 // Replay of a FlightLog into per-channel residuals and the candidate effects' regressors (private).
 #pragma once
 
+#include <cmath>
 #include <memory>
 #include <string>
 #include <utility>
@@ -119,6 +120,13 @@ inline bool SplitsBatteryCurrent(const LogInputs& in, const vehicle::VehiclePara
 // The vehicle file models a current field: any wire segment or motor dipole.
 inline bool HasWiring(const vehicle::VehicleParams& v) { return !v.wiring.segments.empty() || !v.wiring.dipoles.empty(); }
 
+// Which of current_lag's members a replay builds: every member, or the lag profile (every τ) of one
+// form: the configured-wiring member, or the free member at one exponent.
+struct LagMembers {
+  enum class Form { kAll, kWiring, kFree } form = Form::kAll;
+  double exponent = 1.0;  // kFree: the free member's exponent (kLagExponents)
+};
+
 // How a compass is replayed: its timing, which rows, how much is built.
 struct CompassReplayOptions {
   double latency_s = 0.0;        // the sample stamped t measured the field at t − latency_s
@@ -134,6 +142,10 @@ struct CompassReplayOptions {
   bool baseline_only = false;   // the timing scan: baseline and the aligned current_hard_iron only
   bool library_free = true;     // build the library-free set (detection)
   bool calibrated_log = false;  // the autopilot calibrated the logged values: no configured hard/soft iron
+  // Refits of reported members only (PropagatePlugIns): build just these families (empty: every
+  // family), and of current_lag just the reported form's lag profile (LagMembers).
+  std::vector<Effect> only_families;
+  LagMembers lag_members;
 };
 
 // current_lag's free member: a field the vehicle file does not model that follows the current
@@ -142,7 +154,8 @@ struct CompassReplayOptions {
 // I the prediction's aligned current, τ in {0} ∪ kLagGrid_s and p in kLagExponents, both profiled
 // (the unlagged members τ = 0 are the family's no-lag reference: a lag is resolved only where a
 // lagged member beats them, see Attribute). Physical range of the exponent: kLagExponentLo..Hi.
-void AddLaggedCurrentField(ChannelData* ch);
+// `exponent`: only the members of that exponent (NaN: every exponent of kLagExponents).
+void AddLaggedCurrentField(ChannelData* ch, double exponent = std::nan(""));
 
 // Builds every channel the log and the vehicle support; the rest go to not_diagnosed.
 struct ReplayResult {

@@ -158,9 +158,22 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
   // Each reported effect's magnitude on a replay at the given timing: the reported member of its
   // family (a profiled lag τ, the magnitude itself, profiled again); the nuisance terms from the
   // baseline.
+  // The refits need the reported families only, and of current_lag the reported form's lag profile.
+  std::vector<Effect> families;
+  LagMembers lag_members;
+  for (const CandidateResult& k : res->candidates) {
+    if (k.nuisance_term || k.id == Effect::kLatency || k.id == Effect::kNone) continue;
+    families.push_back(k.id);
+    if (k.id != Effect::kCurrentLag) continue;
+    const auto ex = k.params.find("exponent");
+    lag_members.form = ex == k.params.end() ? LagMembers::Form::kWiring : LagMembers::Form::kFree;
+    if (ex != k.params.end()) lag_members.exponent = ex->second;
+  }
   auto magnitudes = [&](CompassReplayOptions ro) {
     std::map<std::string, double> m;
     ro.library_free = false;  // not a reported effect
+    ro.only_families = families;
+    ro.lag_members = lag_members;
     const ChannelData ch = ReplayCompass(log, v, c, in, B_N_uT, ro);
     if (static_cast<int>(ch.t.size()) < CompassMinSamples(ch).samples) return m;
     const Analyzer an(ch, o);

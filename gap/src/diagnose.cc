@@ -256,7 +256,7 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
     return std::nullopt;
   }
   RngStream rng(options.seed, "gap_bootstrap/" + name);
-  ChannelResult r = internal::AnalyzeCompass(ch, log, run.phases, options, timing, &rng);
+  ChannelResult r = internal::AnalyzeCompass(&ch, log, run.phases, options, timing, &rng);
   if (options.timing_scan) {
     internal::PropagatePlugIns(log, vehicle, c, rr.inputs, B_N, ro, timing, stale, options, &r);
   }

@@ -46,7 +46,7 @@ std::vector<double> Lag(const std::vector<double>& t, const std::vector<double>&
 
 }  // namespace
 
-void AddLaggedCurrentField(ChannelData* ch) {
+void AddLaggedCurrentField(ChannelData* ch, double exponent) {
   const size_t n = ch->t.size();
   const double I_ref = n == ch->current_A.size() ? MedianPositive(ch->current_A) : 0.0;
   if (!(n > 0 && I_ref >= kMinMedianCurrent_A)) {
@@ -58,6 +58,7 @@ void AddLaggedCurrentField(ChannelData* ch) {
   for (double tau : taus) {
     const std::vector<double> lagged = Lag(ch->t, ch->current_A, tau);
     for (double p : kLagExponents) {
+      if (!std::isnan(exponent) && p != exponent) continue;
       // d: the field at the flight's median current over that current (µT/A), so that p = 1, τ = 0
       // is current_hard_iron's k·I.
       Candidate c = MakeCandidate("current_lag", {"d_x_uT_per_A", "d_y_uT_per_A", "d_z_uT_per_A"}, {1, 1, 1}, "s",

@@ -355,21 +355,30 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
     return ch;
   }
   if (o.library_free) AddLibraryFree(rows, has_current, &ch);
-  // Misalignment only (scale and latency are the baseline's and the timing scan's).
-  Candidate mis = MakeCandidate("misalignment", {"phi_x_deg", "phi_y_deg", "phi_z_deg"}, {kRadToDeg, kRadToDeg, kRadToDeg},
-                                "deg");
-  for (size_t k = 0; k < n; ++k) mis.X.emplace_back(-Skew(rows.h[k]));  // φ × h = −[h]×·φ
-  ch.candidates.push_back(std::move(mis));
+  const auto want = [&o](Effect e) {
+    return o.only_families.empty() || std::find(o.only_families.begin(), o.only_families.end(), e) != o.only_families.end();
+  };
+  if (want(Effect::kMisalignment)) {
+    // Misalignment only (scale and latency are the baseline's and the timing scan's).
+    Candidate mis = MakeCandidate("misalignment", {"phi_x_deg", "phi_y_deg", "phi_z_deg"},
+                                  {kRadToDeg, kRadToDeg, kRadToDeg}, "deg");
+    for (size_t k = 0; k < n; ++k) mis.X.emplace_back(-Skew(rows.h[k]));  // φ × h = −[h]×·φ
+    ch.candidates.push_back(std::move(mis));
+  }
   if (has_current) {
-    AddCurrentIron(rows, o, log.Column("t_s"), *in.current, &ch);
-    AddCurrentLag(sampler, rows, &ch);
-    AddLaggedCurrentField(&ch);
+    if (want(Effect::kCurrentHardIron) || want(Effect::kCurrentSoftIron)) AddCurrentIron(rows, o, log.Column("t_s"), *in.current, &ch);
+    using Form = LagMembers::Form;
+    const Form lag = o.lag_members.form;
+    if (want(Effect::kCurrentLag) && lag != Form::kFree) AddCurrentLag(sampler, rows, &ch);
+    if (want(Effect::kCurrentLag) && lag != Form::kWiring) {
+      AddLaggedCurrentField(&ch, lag == Form::kFree ? o.lag_members.exponent : std::nan(""));
+    }
   } else {
     ch.not_available.emplace_back("current_hard_iron, current_soft_iron, current_lag (no current_A column)");
   }
-  AddThrottleIron(rows, has_throttle, &ch);
-  AddPerMotorIron(rows, in.motor_u.size(), &ch);
-  AddTemperatureDrift(rows, in.temp != nullptr, &ch);
+  if (want(Effect::kThrottleHardIron)) AddThrottleIron(rows, has_throttle, &ch);
+  if (want(Effect::kPerMotorCurrentHardIron)) AddPerMotorIron(rows, in.motor_u.size(), &ch);
+  if (want(Effect::kTemperatureDrift)) AddTemperatureDrift(rows, in.temp != nullptr, &ch);
   return ch;
 }
 

@@ -377,10 +377,10 @@ void ExponentRange(CandidateResult* r) {
 
 }  // namespace
 
-ChannelResult AnalyzeCompass(const ChannelData& ch_in, const logs::FlightLog& log, const std::vector<std::string>& phases,
+ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, const std::vector<std::string>& phases,
                              const DiagnoseOptions& o, const CompassTiming& timing, RngStream* rng) {
-  ChannelData ch = ch_in;
-  ch.candidates.push_back(AxisScale(ch));
+  ch_io->candidates.push_back(AxisScale(*ch_io));
+  const ChannelData& ch = *ch_io;
   ChannelResult res;
   res.channel = ch.name;
   res.unit = ch.unit;

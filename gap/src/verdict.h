@@ -113,8 +113,9 @@ bool LeavesPart(const Analyzer& an, const Evaluated& model, const Candidate& ext
 std::string CouplingFinding(const ChannelData& ch, const Analyzer& an, const Evaluated& model, double noise_var,
                             const DiagnoseOptions& o);
 
-// The rule of compass channels (verdict.cc).
-ChannelResult AnalyzeCompass(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
+// The rule of compass channels (verdict.cc). Appends the static per-axis scale family (scale_error,
+// built from the library-free set's field matrix) to ch's candidates, then analyses them all.
+ChannelResult AnalyzeCompass(ChannelData* ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
                              const DiagnoseOptions& o, const CompassTiming& timing, RngStream* rng);
 
 }  // namespace hexsim::gap::internal
