@@ -54,6 +54,52 @@ TEST(GapCurrentAlignment, GivenAStaleCurrentTheThrottleScanReadsShort_WhenDiagno
   EXPECT_GE(chi->magnitude_ci95[1], truth) << Summary(*rep);
 }
 
+// The same flight with its throttle logged 0.5 s earlier against the current (as a slow motor
+// response puts it): the throttle scan reads the staleness plus that lead. The members the families
+// were tried on sat around the scan's interval (widened by one update period), all later than the
+// staleness; they now run from 0 (realdata::CurrentShiftGrid), and the current-driven family and the
+// in-flight model's absolute terms both land on the staleness.
+TEST(GapCurrentAlignment, GivenAThrottleLeadingTheCurrentByMoreThanItsStaleness_WhenDiagnosed_ThenTheCurrentIsStillAlignedOnTheCompass) {
+  constexpr uint64_t kSeed = 1207;
+  constexpr double kLead_s = 0.5;
+  RngStream rng(kSeed, "real_profile_test");
+  const double injected = 0.2 + 0.6 * rng.Uniform();
+  SelftestOptions so;
+  so.mission = "selftest_flight";
+  auto trial = MakeTrial(so, kSeed, {{"current_hard_iron", injected}}, &rng);
+  ASSERT_TRUE(trial.ok()) << trial.status().message();
+  auto flown = FlyTrial(&*trial, &rng);
+  ASSERT_TRUE(flown.ok()) << flown.status().message();
+  internal::RealLogTruth lt;
+  auto log = internal::DegradeToRealLog(*flown, trial->configured, &rng, &lt);
+  ASSERT_TRUE(log.ok()) << log.status().message();
+  {
+    const std::vector<double>& t = log->Column("t_s");
+    std::vector<double>& u = log->MutableColumn(log->AddColumn("control_u"));
+    const std::vector<double> u0 = u;
+    for (size_t i = 0; i < t.size(); ++i) {  // u(t) = u0(t + lead), the last value held
+      const auto it = std::lower_bound(t.begin(), t.end(), t[i] + kLead_s);
+      u[i] = it == t.end() ? u0.back() : u0[static_cast<size_t>(it - t.begin())];
+    }
+  }
+  DiagnoseOptions opt;
+  opt.channels = {"mag2"};
+  opt.compass_latency_s = lt.latency_s;
+  auto rep = Diagnose(*log, trial->configured, opt);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr) << Summary(*rep);
+  // The case: the scan's interval, less one update period (0.2 s), lies above the staleness.
+  ASSERT_TRUE(mag2->timing.current_staleness.present);
+  ASSERT_GT(mag2->timing.current_staleness.ci95_s.lo - 0.2, lt.staleness_s + 0.1) << Summary(*rep);
+  const CandidateResult* chi = gaptest::FindCandidate(*mag2, "current_hard_iron");
+  ASSERT_NE(chi, nullptr) << Summary(*rep);
+  ASSERT_EQ(chi->params.count("current_aligned"), 1u);
+  EXPECT_NEAR(chi->params.at("current_aligned"), lt.staleness_s, 0.1) << Summary(*rep);
+  ASSERT_TRUE(mag2->absolute_terms.has_value());
+  EXPECT_NEAR(mag2->absolute_terms->current_shift_s, lt.staleness_s, 0.1) << Summary(*rep);
+}
+
 }  // namespace
 }  // namespace hexsim::gap
 
