@@ -16,27 +16,49 @@
 namespace hexsim::gap {
 namespace {
 
-// A real-profile flight whose 5 Hz current is 248 ms stale: the scan against the throttle reads
-// 171 ms [142, 230], and the current aligned by it carries the field 77 ms late, so the fresh
-// throttle's square fitted it better (throttle_hard_iron, the one-effect miss of the selftest).
-// Aligned on the compass the current lands on the staleness and is named.
-TEST(GapCurrentAlignment, GivenAStaleCurrentTheThrottleScanReadsShort_WhenDiagnosed_ThenTheCurrentIsAlignedOnTheCompassAndNamed) {
+// The real-profile trial both alignment tests diagnose: quad_x with a current field, seed 1207 (its
+// 5 Hz current 248 ms stale).
+struct StaleTrial {
+  Trial trial;
+  logs::FlightLog log;
+  internal::RealLogTruth lt;
+};
+Result<StaleTrial> MakeStaleTrial() {
   constexpr uint64_t kSeed = 1207;
   RngStream rng(kSeed, "real_profile_test");
   const double injected = 0.2 + 0.6 * rng.Uniform();
   SelftestOptions so;
   so.mission = "selftest_flight";
   auto trial = MakeTrial(so, kSeed, {{"current_hard_iron", injected}}, &rng);
-  ASSERT_TRUE(trial.ok()) << trial.status().message();
+  if (!trial.ok()) return trial.status();
   auto flown = FlyTrial(&*trial, &rng);
-  ASSERT_TRUE(flown.ok()) << flown.status().message();
-  internal::RealLogTruth lt;
-  auto log = internal::DegradeToRealLog(*flown, trial->configured, &rng, &lt);
-  ASSERT_TRUE(log.ok()) << log.status().message();
+  if (!flown.ok()) return flown.status();
+  StaleTrial out{std::move(*trial), {}, {}};
+  auto log = internal::DegradeToRealLog(*flown, out.trial.configured, &rng, &out.lt);
+  if (!log.ok()) return log.status();
+  out.log = std::move(*log);
+  return out;
+}
+
+// MAG2 of the trial diagnosed at its known compass latency.
+Result<GapReport> DiagnoseMag2(const logs::FlightLog& log, const Trial& trial, const internal::RealLogTruth& lt) {
   DiagnoseOptions opt;
   opt.channels = {"mag2"};
   opt.compass_latency_s = lt.latency_s;
-  auto rep = Diagnose(*log, trial->configured, opt);
+  return Diagnose(log, trial.configured, opt);
+}
+
+// A real-profile flight whose 5 Hz current is 248 ms stale: the scan against the throttle reads
+// 171 ms [142, 230], and the current aligned by it carries the field 77 ms late, so the fresh
+// throttle's square fitted it better (throttle_hard_iron, the one-effect miss of the selftest).
+// Aligned on the compass the current lands on the staleness and is named.
+TEST(GapCurrentAlignment, GivenAStaleCurrentTheThrottleScanReadsShort_WhenDiagnosed_ThenTheCurrentIsAlignedOnTheCompassAndNamed) {
+  auto st = MakeStaleTrial();
+  ASSERT_TRUE(st.ok()) << st.status().message();
+  const Trial* trial = &st->trial;
+  const internal::RealLogTruth& lt = st->lt;
+  logs::FlightLog* log = &st->log;
+  auto rep = DiagnoseMag2(*log, *trial, lt);
   ASSERT_TRUE(rep.ok()) << rep.status().message();
   const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
   ASSERT_NE(mag2, nullptr) << Summary(*rep);
@@ -60,19 +82,12 @@ TEST(GapCurrentAlignment, GivenAStaleCurrentTheThrottleScanReadsShort_WhenDiagno
 // staleness; they now run from 0 (realdata::CurrentShiftGrid), and the current-driven family and the
 // in-flight model's absolute terms both land on the staleness.
 TEST(GapCurrentAlignment, GivenAThrottleLeadingTheCurrentByMoreThanItsStaleness_WhenDiagnosed_ThenTheCurrentIsStillAlignedOnTheCompass) {
-  constexpr uint64_t kSeed = 1207;
   constexpr double kLead_s = 0.5;
-  RngStream rng(kSeed, "real_profile_test");
-  const double injected = 0.2 + 0.6 * rng.Uniform();
-  SelftestOptions so;
-  so.mission = "selftest_flight";
-  auto trial = MakeTrial(so, kSeed, {{"current_hard_iron", injected}}, &rng);
-  ASSERT_TRUE(trial.ok()) << trial.status().message();
-  auto flown = FlyTrial(&*trial, &rng);
-  ASSERT_TRUE(flown.ok()) << flown.status().message();
-  internal::RealLogTruth lt;
-  auto log = internal::DegradeToRealLog(*flown, trial->configured, &rng, &lt);
-  ASSERT_TRUE(log.ok()) << log.status().message();
+  auto st = MakeStaleTrial();
+  ASSERT_TRUE(st.ok()) << st.status().message();
+  const Trial* trial = &st->trial;
+  const internal::RealLogTruth& lt = st->lt;
+  logs::FlightLog* log = &st->log;
   {
     const std::vector<double>& t = log->Column("t_s");
     std::vector<double>& u = log->MutableColumn(log->AddColumn("control_u"));
@@ -82,10 +97,7 @@ TEST(GapCurrentAlignment, GivenAThrottleLeadingTheCurrentByMoreThanItsStaleness_
       u[i] = it == t.end() ? u0.back() : u0[static_cast<size_t>(it - t.begin())];
     }
   }
-  DiagnoseOptions opt;
-  opt.channels = {"mag2"};
-  opt.compass_latency_s = lt.latency_s;
-  auto rep = Diagnose(*log, trial->configured, opt);
+  auto rep = DiagnoseMag2(*log, *trial, lt);
   ASSERT_TRUE(rep.ok()) << rep.status().message();
   const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
   ASSERT_NE(mag2, nullptr) << Summary(*rep);
