@@ -16,27 +16,49 @@
 namespace hexsim::gap {
 namespace {
 
-// A real-profile flight whose 5 Hz current is 248 ms stale: the scan against the throttle reads
-// 171 ms [142, 230], and the current aligned by it carries the field 77 ms late, so the fresh
-// throttle's square fitted it better (throttle_hard_iron, the one-effect miss of the selftest).
-// Aligned on the compass the current lands on the staleness and is named.
-TEST(GapCurrentAlignment, GivenAStaleCurrentTheThrottleScanReadsShort_WhenDiagnosed_ThenTheCurrentIsAlignedOnTheCompassAndNamed) {
+// The real-profile trial both alignment tests diagnose: quad_x with a current field, seed 1207 (its
+// 5 Hz current 248 ms stale).
+struct StaleTrial {
+  Trial trial;
+  logs::FlightLog log;
+  internal::RealLogTruth lt;
+};
+Result<StaleTrial> MakeStaleTrial() {
   constexpr uint64_t kSeed = 1207;
   RngStream rng(kSeed, "real_profile_test");
   const double injected = 0.2 + 0.6 * rng.Uniform();
   SelftestOptions so;
   so.mission = "selftest_flight";
   auto trial = MakeTrial(so, kSeed, {{"current_hard_iron", injected}}, &rng);
-  ASSERT_TRUE(trial.ok()) << trial.status().message();
+  if (!trial.ok()) return trial.status();
   auto flown = FlyTrial(&*trial, &rng);
-  ASSERT_TRUE(flown.ok()) << flown.status().message();
-  internal::RealLogTruth lt;
-  auto log = internal::DegradeToRealLog(*flown, trial->configured, &rng, &lt);
-  ASSERT_TRUE(log.ok()) << log.status().message();
+  if (!flown.ok()) return flown.status();
+  StaleTrial out{std::move(*trial), {}, {}};
+  auto log = internal::DegradeToRealLog(*flown, out.trial.configured, &rng, &out.lt);
+  if (!log.ok()) return log.status();
+  out.log = std::move(*log);
+  return out;
+}
+
+// MAG2 of the trial diagnosed at its known compass latency.
+Result<GapReport> DiagnoseMag2(const logs::FlightLog& log, const Trial& trial, const internal::RealLogTruth& lt) {
   DiagnoseOptions opt;
   opt.channels = {"mag2"};
   opt.compass_latency_s = lt.latency_s;
-  auto rep = Diagnose(*log, trial->configured, opt);
+  return Diagnose(log, trial.configured, opt);
+}
+
+// A real-profile flight whose 5 Hz current is 248 ms stale: the scan against the throttle reads
+// 171 ms [142, 230], and the current aligned by it carries the field 77 ms late, so the fresh
+// throttle's square fitted it better (throttle_hard_iron, the one-effect miss of the selftest).
+// Aligned on the compass the current lands on the staleness and is named.
+TEST(GapCurrentAlignment, GivenAStaleCurrentTheThrottleScanReadsShort_WhenDiagnosed_ThenTheCurrentIsAlignedOnTheCompassAndNamed) {
+  auto st = MakeStaleTrial();
+  ASSERT_TRUE(st.ok()) << st.status().message();
+  const Trial* trial = &st->trial;
+  const internal::RealLogTruth& lt = st->lt;
+  logs::FlightLog* log = &st->log;
+  auto rep = DiagnoseMag2(*log, *trial, lt);
   ASSERT_TRUE(rep.ok()) << rep.status().message();
   const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
   ASSERT_NE(mag2, nullptr) << Summary(*rep);
@@ -52,6 +74,42 @@ TEST(GapCurrentAlignment, GivenAStaleCurrentTheThrottleScanReadsShort_WhenDiagno
   const double truth = trial->true_magnitude[0] * (1 + lt.scale);
   EXPECT_LE(chi->magnitude_ci95[0], truth) << Summary(*rep);
   EXPECT_GE(chi->magnitude_ci95[1], truth) << Summary(*rep);
+}
+
+// The same flight with its throttle logged 0.5 s earlier against the current (as a slow motor
+// response puts it): the throttle scan reads the staleness plus that lead. The members the families
+// were tried on sat around the scan's interval (widened by one update period), all later than the
+// staleness; they now run from 0 (realdata::CurrentShiftGrid), and the current-driven family and the
+// in-flight model's absolute terms both land on the staleness.
+TEST(GapCurrentAlignment, GivenAThrottleLeadingTheCurrentByMoreThanItsStaleness_WhenDiagnosed_ThenTheCurrentIsStillAlignedOnTheCompass) {
+  constexpr double kLead_s = 0.5;
+  auto st = MakeStaleTrial();
+  ASSERT_TRUE(st.ok()) << st.status().message();
+  const Trial* trial = &st->trial;
+  const internal::RealLogTruth& lt = st->lt;
+  logs::FlightLog* log = &st->log;
+  {
+    const std::vector<double>& t = log->Column("t_s");
+    std::vector<double>& u = log->MutableColumn(log->AddColumn("control_u"));
+    const std::vector<double> u0 = u;
+    for (size_t i = 0; i < t.size(); ++i) {  // u(t) = u0(t + lead), the last value held
+      const auto it = std::lower_bound(t.begin(), t.end(), t[i] + kLead_s);
+      u[i] = it == t.end() ? u0.back() : u0[static_cast<size_t>(it - t.begin())];
+    }
+  }
+  auto rep = DiagnoseMag2(*log, *trial, lt);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr) << Summary(*rep);
+  // The case: the scan's interval, less one update period (0.2 s), lies above the staleness.
+  ASSERT_TRUE(mag2->timing.current_staleness.present);
+  ASSERT_GT(mag2->timing.current_staleness.ci95_s.lo - 0.2, lt.staleness_s + 0.1) << Summary(*rep);
+  const CandidateResult* chi = gaptest::FindCandidate(*mag2, "current_hard_iron");
+  ASSERT_NE(chi, nullptr) << Summary(*rep);
+  ASSERT_EQ(chi->params.count("current_aligned"), 1u);
+  EXPECT_NEAR(chi->params.at("current_aligned"), lt.staleness_s, 0.1) << Summary(*rep);
+  ASSERT_TRUE(mag2->absolute_terms.has_value());
+  EXPECT_NEAR(mag2->absolute_terms->current_shift_s, lt.staleness_s, 0.1) << Summary(*rep);
 }
 
 }  // namespace

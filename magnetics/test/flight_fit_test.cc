@@ -217,6 +217,7 @@ std::vector<FlightFitSample> FlyStaleCurrent(const SynthFlight& f, uint64_t seed
   for (int k = 0; k <= 8; ++k) {
     m->shift_s.push_back(0.05 * k);
     std::vector<double> v;
+    v.reserve(s.size());
     for (const FlightFitSample& x : s) v.push_back(current(x.t_s + 0.05 * k - stale_s));  // logged(t) = I(t − stale)
     m->value.push_back(std::move(v));
   }
@@ -266,6 +267,7 @@ TEST(FlightFit, GivenAShiftTheDataTellPoorly_WhenProfiled_ThenTheIntervalHoldsTh
     for (int k = 0; k <= 10; ++k) {
       m.shift_s.push_back(0.1 * k);
       std::vector<double> v;
+      v.reserve(s.size());
       for (const FlightFitSample& x : s) {
         const double t = x.t_s + 0.1 * k - 0.3;  // logged 0.3 s late
         v.push_back(14.0 + 6.0 * std::sin(t / 7.0) * std::cos(t / 2.3));

@@ -20,6 +20,21 @@ using Eigen::Vector3d;
 const Vector3d kCurrentField_uT_per_A(0.2, -0.3, 0.1);  // |d| = 3.7 mG/A
 const Vector3d kOffset_uT(6.0, -4.0, 12.0);
 
+// Appends a row at t with attitude q, compass reading m stamped mag_t, and the current I.
+void AppendRow(logs::FlightLog* log, double t, const Eigen::Quaterniond& q, const Vector3d& m, double mag_t, double I) {
+  log->AppendRow();
+  log->Set("t_s", t);
+  log->Set("q_w", q.w());
+  log->Set("q_x", q.x());
+  log->Set("q_y", q.y());
+  log->Set("q_z", q.z());
+  log->Set("mag_x_uT", m(0));
+  log->Set("mag_y_uT", m(1));
+  log->Set("mag_z_uT", m(2));
+  log->Set("mag_t_s", mag_t);
+  log->Set("current_A", I);
+}
+
 // 10 Hz rows over 120 s of a quad (4 motors) yawing through full turns with ±15° roll/pitch. The
 // first `ground_s` seconds hold the motors stopped (0 A) where the vehicle stands on the ground, whose
 // local field differs from the airborne one by `ground_anomaly_uT`; the rest fly at 8-20 A.
@@ -46,17 +61,7 @@ logs::FlightLog Flight(double ground_s, const Vector3d& ground_anomaly_uT) {
     Vector3d m = q.toRotationMatrix().transpose() * B_N + kOffset_uT + kCurrentField_uT_per_A * I;
     if (ground) m += ground_anomaly_uT;
     m += 0.6 * Vector3d(uniform(), uniform(), uniform());
-    log.AppendRow();
-    log.Set("t_s", t);
-    log.Set("q_w", q.w());
-    log.Set("q_x", q.x());
-    log.Set("q_y", q.y());
-    log.Set("q_z", q.z());
-    log.Set("mag_x_uT", m(0));
-    log.Set("mag_y_uT", m(1));
-    log.Set("mag_z_uT", m(2));
-    log.Set("mag_t_s", t);
-    log.Set("current_A", I);
+    AppendRow(&log, t, q, m, t, I);
   }
   log.meta = {{"location", {{"lat_deg", lat}, {"lon_deg", lon}, {"alt_m", alt}}},
               {"date_decimal_year", year},
@@ -192,17 +197,7 @@ logs::FlightLog StaleCurrentFlight() {
       mag_t = t;
     }
     const double update = kPeriod_s * std::floor(t / kPeriod_s + 1e-9);
-    log.AppendRow();
-    log.Set("t_s", t);
-    log.Set("q_w", q.w());
-    log.Set("q_x", q.x());
-    log.Set("q_y", q.y());
-    log.Set("q_z", q.z());
-    log.Set("mag_x_uT", m(0));
-    log.Set("mag_y_uT", m(1));
-    log.Set("mag_z_uT", m(2));
-    log.Set("mag_t_s", mag_t);
-    log.Set("current_A", current(update - kStale_s));
+    AppendRow(&log, t, q, m, mag_t, current(update - kStale_s));
     log.Set("batt_t_s", update);
     log.Set("control_u", 300.0 + 20.0 * current(t + kMotorResponse_s));  // the current follows it 0.2 s later
   }
