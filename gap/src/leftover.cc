@@ -1,5 +1,6 @@
 // A description of what a reported compass model leaves (verdict.h, LeftStructure): a cross-axis
-// coupling of the sensor.
+// coupling of the sensor, and a driven field's form outside the physical range.
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -39,6 +40,32 @@ std::string CouplingFinding(const ChannelData& ch, const Analyzer& an, const Eva
   return fmt::format("a cross-axis coupling of the sensor (symmetric off-diagonal gains, {:.0f} % of the noise floor's "
                      "power) that neither a misalignment nor a per-axis scale describes",
                      100 * gain);
+}
+
+std::string RefusedFormFinding(const Analyzer& an, const Attribution& at, const SelectedModel& m, double noise_var,
+                               const DiagnoseOptions& o) {
+  for (size_t f = 0; f < at.results.size(); ++f) {
+    const CandidateResult& r = at.results[f];
+    if (r.plausible || !DrivenByCurrent(r.id) || r.p_value > o.alpha) continue;
+    if (std::find(m.fams.begin(), m.fams.end(), f) != m.fams.end()) continue;
+    const auto ex = r.params.find("exponent");
+    const std::string form = fmt::format("{}{}, a form outside its physical range {},", r.effect,
+                                         ex != r.params.end() ? fmt::format(" at exponent {:.3g}", ex->second) : std::string(),
+                                         r.physical_range);
+    const char* const why = "the field is not in proportion to what drives it (a saturation or a power law)";
+    // Alone, it beats the reported model on held-out blocks by more than one standard error over the
+    // folds (the selection's own rule).
+    const FoldDiff d = Diff(m.eval.fold_sse, at.all[at.fam_best[f]].fold_sse);
+    if (d.sum > d.se) {
+      return fmt::format("{} describes the field better on held-out blocks than the reported model: {}", form, why);
+    }
+    double gain = 0;
+    if (LeavesPart(an, m.eval, *at.all[at.fam_best[f]].cand, noise_var, o, &gain)) {
+      return fmt::format("{} describes a part the reported model leaves ({:.0f} % of the noise floor's power): {}", form,
+                         100 * gain, why);
+    }
+  }
+  return "";
 }
 
 }  // namespace hexsim::gap::internal

@@ -242,10 +242,11 @@ CandidateResult LatencyTerm(const CompassTiming& timing, const DiagnoseOptions& 
 }
 
 // What the reported model leaves, as a finding (never a veto): a line or drift far above the
-// residual's own spectrum, a part that grows with the square of what the model predicts, or a
-// cross-axis coupling of the sensor (CouplingFinding).
-std::string LeftStructure(const ChannelData& ch, const Analyzer& an, const SelectedModel& m, const std::vector<Vec3>& after,
-                          double noise_var, const DiagnoseOptions& o) {
+// residual's own spectrum, a part that grows with the square of what the model predicts, a
+// cross-axis coupling of the sensor (CouplingFinding), or a part that a driven form outside its
+// physical range describes (RefusedFormFinding).
+std::string LeftStructure(const ChannelData& ch, const Analyzer& an, const Attribution& at, const SelectedModel& m,
+                          const std::vector<Vec3>& after, double noise_var, const DiagnoseOptions& o) {
   const Structure left = DetectStructure(ch.t, after, m.eval.cv_sse, o.materiality, 1.0, 0.0, o.alpha);
   std::string found = left.present ? left.found : std::string();
   const std::string reset = ResetFinding(an, m.eval, noise_var, o);
@@ -254,6 +255,8 @@ std::string LeftStructure(const ChannelData& ch, const Analyzer& an, const Selec
   if (!shape.empty()) found += (found.empty() ? "" : "; ") + shape;
   const std::string coupling = CouplingFinding(ch, an, m.eval, noise_var, o);
   if (!coupling.empty()) found += (found.empty() ? "" : "; ") + coupling;
+  const std::string refused = reset.empty() && shape.empty() ? RefusedFormFinding(an, at, m, noise_var, o) : std::string();
+  if (!refused.empty()) found += (found.empty() ? "" : "; ") + refused;
   return found;
 }
 
@@ -469,7 +472,7 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
     cv_after = m.eval.cv_sse;
     res.chosen_regressor_name = m.joint->regressor_name;
     res.chosen_regressor = at.all[at.fam_best[first]].cand->regressor;
-    left_found = LeftStructure(ch, an, m, after, st.noise_var, o);
+    left_found = LeftStructure(ch, an, at, m, after, st.noise_var, o);
     const size_t rival = AmbiguousRival(at, m, eligible);
     if (rival < F) {
       res.verdict = "ambiguous";

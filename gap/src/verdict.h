@@ -113,6 +113,18 @@ bool LeavesPart(const Analyzer& an, const Evaluated& model, const Candidate& ext
 std::string CouplingFinding(const ChannelData& ch, const Analyzer& an, const Evaluated& model, double noise_var,
                             const DiagnoseOptions& o);
 
+// A form the library refuses that the reported model leaves (leftover.cc; empty: none). The form
+// check against driven forms outside the physical range: a family driven by the current or the
+// throttle whose best fit was refused as implausible (its exponent outside the physical range: a
+// throttle^0.5 fits a field that saturates), significant on its own at alpha and not in the model,
+// that alone beats the reported model on held-out blocks by more than one standard error over the
+// folds (the rule that selects and that calls two families ambiguous), or still holds a part over it
+// (LeavesPart: significant over it and material). The refused form is never an effect; that the data
+// prefer it says the field is not in proportion to what drives it, so the reported form is not
+// established.
+std::string RefusedFormFinding(const Analyzer& an, const Attribution& at, const SelectedModel& m, double noise_var,
+                               const DiagnoseOptions& o);
+
 // The rule of compass channels (verdict.cc). Appends the static per-axis scale family (scale_error,
 // built from the library-free set's field matrix) to ch's candidates, then analyses them all.
 ChannelResult AnalyzeCompass(ChannelData* ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
