@@ -123,35 +123,32 @@ INSTANTIATE_TEST_SUITE_P(Effects, DynamicsEffect,
                                            DynCase{"battery_sag", 0.05, 313}, DynCase{"motor_time_constant", 0.05, 314},
                                            DynCase{"wind", 3.5, 315}));
 
+// One withheld dynamics effect of the given size: its candidate's 95 % interval holds the truth.
+void ExpectIntervalHolds(const char* effect, double magnitude, uint64_t seed) {
+  Flown f = FlyTrialWith({{effect, magnitude}}, seed);
+  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* d = FindChannel(*rep, "dynamics");
+  ASSERT_NE(d, nullptr) << Summary(*rep);
+  const CandidateResult* k = FindCandidate(*d, effect);
+  ASSERT_NE(k, nullptr) << Candidates(*d);
+  EXPECT_LE(k->magnitude_ci95[0], magnitude) << Candidates(*d);
+  EXPECT_GE(k->magnitude_ci95[1], magnitude) << Candidates(*d);
+}
+
 // A ground effect of large rotors (R = 0.45 m): the simulator applies it per rotor, at each hub's
 // height above the ground (CG height from the landing gear, rotor positions turned by the attitude),
 // clamped at R/2 (0.225 m, above the hubs' 0.195 m at rest). A replay with one height for all rotors
 // and another floor reads another radius; the replay applying the simulator's geometry holds it.
 TEST(GapDynamics, GivenAGroundEffectOfLargeRotorsWhenDiagnosedThenTheReplaysGeometryMatchesTheSimulatorsAndHoldsTheRadius) {
-  Flown f = FlyTrialWith({{"ground_effect", 0.45}}, 312);
-  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
-  ASSERT_TRUE(rep.ok()) << rep.status().message();
-  const ChannelResult* d = FindChannel(*rep, "dynamics");
-  ASSERT_NE(d, nullptr) << Summary(*rep);
-  const CandidateResult* k = FindCandidate(*d, "ground_effect");
-  ASSERT_NE(k, nullptr) << Candidates(*d);
-  EXPECT_LE(k->magnitude_ci95[0], 0.45) << Candidates(*d);
-  EXPECT_GE(k->magnitude_ci95[1], 0.45) << Candidates(*d);
+  ExpectIntervalHolds("ground_effect", 0.45, 312);
 }
 
 // A battery sag far larger than the one the replay's regressor was first formed at (0.05 Ω): the
 // thrust lost per ohm shrinks as ΔR grows (T ∝ ω², ω following the voltage), so a regressor through
 // a fixed ΔR reads a 0.15 Ω sag about 4 % low, outside its interval; the secant through the fit holds it.
 TEST(GapDynamics, GivenALargeBatterySagWhenDiagnosedThenItsIntervalHoldsTheTruth) {
-  Flown f = FlyTrialWith({{"battery_sag", 0.15}}, 313);
-  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
-  ASSERT_TRUE(rep.ok()) << rep.status().message();
-  const ChannelResult* d = FindChannel(*rep, "dynamics");
-  ASSERT_NE(d, nullptr) << Summary(*rep);
-  const CandidateResult* k = FindCandidate(*d, "battery_sag");
-  ASSERT_NE(k, nullptr) << Candidates(*d);
-  EXPECT_LE(k->magnitude_ci95[0], 0.15) << Candidates(*d);
-  EXPECT_GE(k->magnitude_ci95[1], 0.15) << Candidates(*d);
+  ExpectIntervalHolds("battery_sag", 0.15, 313);
 }
 
 // A battery whose bus sags hard with the current (internal resistance 0.25 Ω, a worn or undersized
@@ -186,26 +183,26 @@ TEST(GapDynamics, GivenASaggingBatteryWhenACleanLogIsReplayedThenTheBusSagsWithT
 // k_T 25 % off is inside the range and stays a finding.
 TEST(GapDynamics, GivenAVehicleFileOfAnotherAirframeWhenDiagnosedThenTheDynamicsChannelSaysModelMismatchAndReportsNoEffect) {
   Flown f = FlyTrialWith({}, 220);
-  vehicle::VehicleParams other = f.trial.configured;
-  for (auto& r : other.rotors) r.k_T_Nprps2 *= 3.0;
-  auto rep = Diagnose(f.log, other, gaptest::IdealOptions());
-  ASSERT_TRUE(rep.ok()) << rep.status().message();
-  const ChannelResult* d = FindChannel(*rep, "dynamics");
-  ASSERT_NE(d, nullptr) << Summary(*rep);
-  EXPECT_EQ(d->verdict, "unexplained") << Summary(*rep) << Candidates(*d);
-  EXPECT_NE(d->explanation.find("model mismatch"), std::string::npos) << d->explanation;
-  EXPECT_TRUE(d->effects.empty()) << Summary(*rep);
-  for (const auto& k : d->candidates) EXPECT_FALSE(k.selected) << k.effect;
+  // The dynamics channel of the log diagnosed against the flown vehicle with k_T scaled.
+  auto dynamics_with_kT = [&](double scale) {
+    vehicle::VehicleParams v = f.trial.configured;
+    for (auto& r : v.rotors) r.k_T_Nprps2 *= scale;
+    auto rep = Diagnose(f.log, v, gaptest::IdealOptions());
+    EXPECT_TRUE(rep.ok()) << rep.status().message();
+    const ChannelResult* d = rep.ok() ? FindChannel(*rep, "dynamics") : nullptr;
+    EXPECT_NE(d, nullptr);
+    return d ? *d : ChannelResult{};
+  };
+  const ChannelResult other = dynamics_with_kT(3.0);
+  EXPECT_EQ(other.verdict, "unexplained") << other.headline << Candidates(other);
+  EXPECT_NE(other.explanation.find("model mismatch"), std::string::npos) << other.explanation;
+  EXPECT_TRUE(other.effects.empty()) << other.headline;
+  for (const auto& k : other.candidates) EXPECT_FALSE(k.selected) << k.effect;
 
-  vehicle::VehicleParams near = f.trial.configured;
-  for (auto& r : near.rotors) r.k_T_Nprps2 *= 1.25;
-  auto rep2 = Diagnose(f.log, near, gaptest::IdealOptions());
-  ASSERT_TRUE(rep2.ok()) << rep2.status().message();
-  const ChannelResult* d2 = FindChannel(*rep2, "dynamics");
-  ASSERT_NE(d2, nullptr) << Summary(*rep2);
-  EXPECT_TRUE(d2->gap_detected) << Summary(*rep2);
-  EXPECT_EQ(d2->explanation.find("model mismatch"), std::string::npos) << d2->explanation;
-  EXPECT_FALSE(d2->effects.empty()) << Summary(*rep2) << Candidates(*d2);
+  const ChannelResult near = dynamics_with_kT(1.25);
+  EXPECT_TRUE(near.gap_detected) << near.headline;
+  EXPECT_EQ(near.explanation.find("model mismatch"), std::string::npos) << near.explanation;
+  EXPECT_FALSE(near.effects.empty()) << near.headline << Candidates(near);
 }
 
 TEST(GapDynamics, GivenALogWithoutMotorOutputsWhenDiagnosedThenOneLineSaysWhatIsMissingAndTheCompassIsStillDiagnosed) {

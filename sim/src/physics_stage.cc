@@ -23,7 +23,7 @@ std::string NonFiniteQuantity(const BodyState& s) {
 
 }  // namespace
 
-double RestingHeight_m(const RigidBodyParams& p) { return p.gear_offset_B_m.z() + 0.5 * p.gear_size_m.z(); }
+double RestingHeight_m(const RigidBodyParams& body) { return body.gear_offset_B_m.z() + 0.5 * body.gear_size_m.z(); }
 
 // Landing gear: a box under the centre of mass, as wide as half the rotor circle.
 RigidBodyParams BodyParamsFor(const vehicle::VehicleParams& v, const WorldParams& w, double payload_kg) {
