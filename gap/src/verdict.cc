@@ -194,7 +194,8 @@ void LibraryFreeTest(const ChannelData& ch, const Analyzer& an, double* p, doubl
 // Family-corrected p-values: Bonferroni over the families and over each family's effective number of
 // member tests (EffectiveTests). A current-driven soft iron must depend on the current: over a constant
 // field matrix its partial Wald test must still be significant (a nearly constant current makes a
-// constant matrix look the same).
+// constant matrix look the same), corrected over the members as the family's own test is (the best of
+// many shifted currents is chosen by the same data).
 void FamilyPValues(const Analyzer& an, const Candidate& field_matrix, Attribution* at) {
   const size_t F = at->fam_names.size();
   for (size_t f = 0; f < F; ++f) {
@@ -204,7 +205,7 @@ void FamilyPValues(const Analyzer& an, const Candidate& field_matrix, Attributio
       const Evaluated ej = an.Evaluate(Join(field_matrix, *e.cand));
       if (ej.full.ok && ej.cov.size() > 0) {
         const double partial = WaldP(ej.full.beta, ej.cov, Range(ej.off + field_matrix.p(), ej.p()), an.G());
-        pf = std::max(pf, std::min(1.0, partial * static_cast<double>(F)));
+        pf = std::max(pf, std::min(1.0, partial * at->fam_tests[f] * static_cast<double>(F)));
       }
     }
     at->results[f].p_value = pf;
