@@ -210,10 +210,10 @@ std::vector<CandidateResult> OrderCandidates(const std::vector<EffectShare>& eff
 }
 
 std::string RefusedFinding(const CandidateResult& k, bool beside_a_model) {
-  // A lagged current field's exponent is a fitted quantity with a range of its own.
+  // A profiled exponent (current_lag's, throttle_hard_iron's) is a fitted quantity with a range of its
+  // own: the finding names it, since it may be what lies outside the range, not the magnitude.
   const auto ex = k.params.find("exponent");
-  const std::string at =
-      k.id == Effect::kCurrentLag && ex != k.params.end() ? fmt::format(" at exponent {:.3g}", ex->second) : std::string();
+  const std::string at = ex != k.params.end() ? fmt::format(" at exponent {:.3g}", ex->second) : std::string();
   return fmt::format("{} fits {:.3g} {}{}, outside its physical range {}: implausible, model mismatch ({})", k.effect,
                      k.magnitude, k.magnitude_unit, at, k.physical_range,
                      beside_a_model ? "refused although it explains more than the reported effects"

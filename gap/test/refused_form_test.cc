@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "../src/selftest_real.h"
+#include "../src/verdict.h"
 #include "hexsim/common/rng.h"
 #include "support/gap_fixtures.h"
 
@@ -49,6 +50,21 @@ TEST(GapRefusedForm, GivenASaturatingCurrentField_WhenARefusedFormFitsBetterHeld
   for (const auto& f : r.findings) all += "\n  " + f;
   EXPECT_TRUE(NotConfident(r)) << all;
   for (const EffectShare& e : r.effects) EXPECT_NE(e.effect, "throttle_hard_iron") << all;
+}
+
+// Given a throttle form refused for its exponent (0.5, below 1..3) while its magnitude lies inside
+// 0..60 µT/throttle, when the refusal is printed, then the finding names the exponent: a magnitude
+// printed alone beside "outside its physical range" contradicts the range it prints.
+TEST(GapRefusedForm, GivenAThrottleFormRefusedForItsExponent_WhenPrinted_ThenTheExponentIsNamed) {
+  CandidateResult k;
+  k.id = Effect::kThrottleHardIron;
+  k.effect = "throttle_hard_iron";
+  k.magnitude = 19.1;
+  k.magnitude_unit = "uT/throttle";
+  k.physical_range = "0..60 uT/throttle, exponent 1..3";
+  k.params["exponent"] = 0.5;
+  const std::string f = internal::RefusedFinding(k, false);
+  EXPECT_NE(f.find("at exponent 0.5"), std::string::npos) << f;
 }
 
 }  // namespace
