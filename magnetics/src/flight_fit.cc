@@ -283,7 +283,9 @@ void FillIntervals(const MatrixXd& cov, int p, FlightFit* fit) {
   fit->term_t_threshold = StudentTQuantile(1.0 - 0.05 / 6.0, static_cast<double>(fit->blocks - 1));
   fit->term_resolved = fit->term_max_abs_t >= fit->term_t_threshold;
   const std::array<double, 2> ci = TermNormInterval(fit->term_uT, fit->term_ci_half_uT, h);
-  fit->term_norm_ci95[0] = ci[0];
+  // Not resolved by the three-axis test: zero is inside the simultaneous 95 % region, so the norm's
+  // interval starts at zero (one axis's own 95 % interval may still exclude it).
+  fit->term_norm_ci95[0] = fit->term_resolved ? ci[0] : 0.0;
   fit->term_norm_ci95[1] = ci[1];
 }
 

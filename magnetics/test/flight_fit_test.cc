@@ -114,6 +114,24 @@ TEST(FlightFit, GivenNoCurrentField_WhenFitted_ThenTheCurrentTermIsRarelyResolve
   EXPECT_LE(resolved, 3);  // a 5 % test: 1 expected in 20
 }
 
+// Given no current field, when a fit's term is not resolved from zero (its Bonferroni test over three
+// axes), then its norm's interval holds zero: "[0.2, 3.0], not resolved from zero" contradicts itself
+// (one axis's 95 % interval can exclude zero while the three-axis test does not).
+TEST(FlightFit, GivenATermNotResolvedFromZero_WhenItsNormIntervalIsReported_ThenItHoldsZero) {
+  SynthFlight f;
+  f.d_uT_per_A.setZero();
+  int unresolved = 0;
+  for (int seed = 1; seed <= 40; ++seed) {
+    auto fit = FitFlightCompass(Fly(f, 300 + static_cast<uint64_t>(seed)), Options(f));
+    ASSERT_TRUE(fit.ok()) << fit.status().message();
+    if (fit->term_resolved) continue;
+    ++unresolved;
+    EXPECT_EQ(fit->term_norm_ci95[0], 0.0) << "seed " << seed << ": [" << fit->term_norm_ci95[0] << ", "
+                                           << fit->term_norm_ci95[1] << "], largest |t| " << fit->term_max_abs_t;
+  }
+  EXPECT_GE(unresolved, 30);
+}
+
 TEST(FlightFit, GivenAConstantCurrentOrNone_WhenFitted_ThenTheOffsetAloneIsFittedAndTheNoteSaysWhy) {
   const SynthFlight f;
   auto samples = Fly(f, 7, /*with_current=*/false);
