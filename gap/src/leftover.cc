@@ -48,10 +48,7 @@ std::string RefusedFormFinding(const Analyzer& an, const Attribution& at, const 
     const CandidateResult& r = at.results[f];
     if (r.plausible || !DrivenByCurrent(r.id) || r.p_value > o.alpha) continue;
     if (std::find(m.fams.begin(), m.fams.end(), f) != m.fams.end()) continue;
-    const auto ex = r.params.find("exponent");
-    const std::string form = fmt::format("{}{}, a form outside its physical range {},", r.effect,
-                                         ex != r.params.end() ? fmt::format(" at exponent {:.3g}", ex->second) : std::string(),
-                                         r.physical_range);
+    const std::string form = fmt::format("{}{}, a form outside its physical range {},", r.effect, AtExponent(r), r.physical_range);
     const char* const why = "the field is not in proportion to what drives it (a saturation or a power law)";
     // Alone, it beats the reported model on held-out blocks by more than one standard error over the
     // folds (the selection's own rule).

@@ -72,6 +72,9 @@ void RefreshEffects(ChannelResult* res);
 std::vector<CandidateResult> OrderCandidates(const std::vector<EffectShare>& effects, std::vector<CandidateResult> all);
 // The finding printed for an implausible fit that is why its family was refused.
 std::string RefusedFinding(const CandidateResult& k, bool beside_a_model);
+// " at exponent X" for a candidate with a profiled exponent (current_lag's, throttle_hard_iron's), else
+// empty: the exponent has a range of its own and may be what lies outside it.
+std::string AtExponent(const CandidateResult& k);
 
 // What the timing scan found for one compass (nuisance.cc).
 struct CompassTiming {

@@ -209,13 +209,14 @@ std::vector<CandidateResult> OrderCandidates(const std::vector<EffectShare>& eff
   return out;
 }
 
-std::string RefusedFinding(const CandidateResult& k, bool beside_a_model) {
-  // A profiled exponent (current_lag's, throttle_hard_iron's) is a fitted quantity with a range of its
-  // own: the finding names it, since it may be what lies outside the range, not the magnitude.
+std::string AtExponent(const CandidateResult& k) {
   const auto ex = k.params.find("exponent");
-  const std::string at = ex != k.params.end() ? fmt::format(" at exponent {:.3g}", ex->second) : std::string();
+  return ex != k.params.end() ? fmt::format(" at exponent {:.3g}", ex->second) : std::string();
+}
+
+std::string RefusedFinding(const CandidateResult& k, bool beside_a_model) {
   return fmt::format("{} fits {:.3g} {}{}, outside its physical range {}: implausible, model mismatch ({})", k.effect,
-                     k.magnitude, k.magnitude_unit, at, k.physical_range,
+                     k.magnitude, k.magnitude_unit, AtExponent(k), k.physical_range,
                      beside_a_model ? "refused although it explains more than the reported effects"
                                     : "refused: why no effect is reported");
 }
