@@ -92,6 +92,9 @@ struct LogInputs {
   std::shared_ptr<const std::vector<double>> current_rows;
   std::vector<double> current_samples_t, current_samples_v;  // its samples, each where it first appears
   const std::vector<double>* current = nullptr;
+  // Why `current` is null though the log has a current_A column: the import's check
+  // (logs::CurrentSensorOf) found the sensor unusable; no current-based family is fitted then.
+  std::string current_unusable_why;
   std::vector<const std::vector<double>*> motor_A;
   std::vector<const std::vector<double>*> motor_u;
   const std::vector<double>* control_u = nullptr;

@@ -88,8 +88,9 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
                                 const Vec3& B_N_uT, const CompassReplayOptions& base, const realdata::LagEstimate& stale,
                                 double shift_s, const DiagnoseOptions& o) {
   CompassTiming tm;
-  tm.staleness_s = stale.ok() ? stale.value_s : 0.0;
-  if (stale.ok()) {
+  // No usable current (in.current null): the staleness of a current the fit does not use is no finding.
+  tm.staleness_s = stale.ok() && in.current != nullptr ? stale.value_s : 0.0;
+  if (stale.ok() && in.current != nullptr) {
     tm.report.current_staleness = {true,      stale.value_s,      {stale.ci95_s[0], stale.ci95_s[1]},
                                    "control_u", !stale.at_grid_edge,
                                    plausibility::IntervalPlausible("current_staleness", stale.ci95_s[0], stale.ci95_s[1]),

@@ -26,6 +26,7 @@
 #include "replay_util.h"
 #include "hexsim/common/plausibility.h"
 #include "hexsim/common/rotation.h"
+#include "hexsim/logs/current_check.h"
 #include "hexsim/realdata/velocity_check.h"
 #include "hexsim/sim/simulation.h"
 #include "hexsim/vehicle/powertrain.h"
@@ -188,7 +189,8 @@ DynamicsInputs FindInputs(const logs::FlightLog& log, size_t n_rot) {
   in.median_V = in.has_V ? MedianFinite(log.Column("voltage_V")) : std::nan("");
   in.V_usable = in.has_V && plausibility::IsPlausible("bus_voltage_V", in.median_V);
   in.V = in.V_usable ? &log.Column("voltage_V") : nullptr;
-  in.current_usable = !in.has_V || in.V_usable;
+  // The import's check (units, no power monitor) judges the current itself.
+  in.current_usable = (!in.has_V || in.V_usable) && logs::CurrentSensorOf(log).usable;
   in.I = HasData(log, "current_A") ? &log.Column("current_A") : nullptr;
   in.soc = HasData(log, "battery_soc") ? &log.Column("battery_soc") : nullptr;
   in.payload = HasData(log, "payload_kg") ? &log.Column("payload_kg") : nullptr;

@@ -11,6 +11,7 @@
 #include "channels.h"
 #include "replay_util.h"
 #include "hexsim/common/rotation.h"
+#include "hexsim/logs/current_check.h"
 #include "hexsim/magnetics/compass_model.h"
 #include "hexsim/magnetics/wmm.h"
 #include "hexsim/realdata/timing.h"
@@ -215,7 +216,9 @@ ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     return out;
   }
   for (const char* c : qn) in.q.push_back(&log.Column(c));
-  if (ColumnHasData(log, "current_A")) {
+  const logs::CurrentSensorCheck current_check = logs::CurrentSensorOf(log);
+  if (ColumnHasData(log, "current_A") && !current_check.usable) in.current_unusable_why = current_check.why;
+  if (ColumnHasData(log, "current_A") && current_check.usable) {
     static const std::vector<double> kNoStamps;
     const realdata::HeldSamples held = realdata::FirstAppearances(
         log.Column("t_s"), log.Has("batt_t_s") ? log.Column("batt_t_s") : kNoStamps, log.Column("current_A"));

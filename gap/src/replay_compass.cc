@@ -374,7 +374,9 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
       AddLaggedCurrentField(&ch, lag == Form::kFree ? o.lag_members.exponent : std::nan(""));
     }
   } else {
-    ch.not_available.emplace_back("current_hard_iron, current_soft_iron, current_lag (no current_A column)");
+    ch.not_available.emplace_back(in.current_unusable_why.empty()
+                                      ? "current_hard_iron, current_soft_iron, current_lag (no current_A column)"
+                                      : "current_hard_iron, current_soft_iron, current_lag (" + in.current_unusable_why + ")");
   }
   if (want(Effect::kThrottleHardIron)) AddThrottleIron(rows, has_throttle, &ch);
   if (want(Effect::kPerMotorCurrentHardIron)) AddPerMotorIron(rows, in.motor_u.size(), &ch);

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include "compass_terms_fit.h"
+#include "hexsim/common/plausibility.h"
 #include "hexsim/gap/diagnose.h"
 #include "hexsim/gap/json.h"
 
@@ -306,8 +307,13 @@ std::string Summary(const GapReport& r) {
                        1000 * l.ci95_s.hi);
       if (c.timing.current_staleness.present) {
         const LagReport& st = c.timing.current_staleness;
-        s += fmt::format("; current staleness {:.0f} ms [{:.0f}, {:.0f}]", 1000 * st.value_s, 1000 * st.ci95_s.lo,
-                         1000 * st.ci95_s.hi);
+        if (st.resolved && st.plausible && plausibility::IsPlausible("current_staleness", st.value_s)) {
+          s += fmt::format("; current staleness {:.0f} ms [{:.0f}, {:.0f}]", 1000 * st.value_s, 1000 * st.ci95_s.lo,
+                           1000 * st.ci95_s.hi);
+        } else {  // its point or interval outside 0..1 s or on the scan's edge: no number to act on
+          s += fmt::format("; current staleness not resolved by the throttle scan ({})",
+                           st.resolved ? "its point lies outside the physical range 0..1 s" : "its point sits on the scan's edge");
+        }
       }
       s += "\n";
     }

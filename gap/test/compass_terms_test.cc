@@ -56,6 +56,36 @@ TEST(CompassTerms, GivenAShortPieceOfFlight_WhenDiagnosed_ThenTheCompassesAreDia
   EXPECT_GE(mag2->absolute_terms->blocks, 6);
 }
 
+// A current the import judged unusable (units, or no power monitor: the flight median under 0.5 A
+// per motor) drives no current family and no staleness: its fits would be numbers in the wrong unit
+// (a public PX4 log's flat 0 A current read 15 mG/A current_hard_iron on its external compass).
+TEST(CompassTerms, GivenAnUnusableCurrent_WhenDiagnosed_ThenNoCurrentFamilyIsFittedAndItSaysWhy) {
+  logs::FlightLog log = Log171().log;
+  log.meta["current_usable"] = false;
+  log.meta["current_unusable_why"] = "current sensor unusable: units or no power monitor";
+  DiagnoseOptions o;
+  o.bootstrap_samples = 50;
+  o.channels = {"mag2"};
+  auto rep = Diagnose(log, Log171().vehicle, o);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = nullptr;
+  for (const auto& c : rep->channels) {
+    if (c.channel == "mag2") mag2 = &c;
+  }
+  ASSERT_NE(mag2, nullptr);
+  for (const auto& k : mag2->candidates) {
+    EXPECT_NE(k.id, Effect::kCurrentHardIron) << k.effect;
+    EXPECT_NE(k.id, Effect::kCurrentSoftIron) << k.effect;
+    EXPECT_NE(k.id, Effect::kCurrentLag) << k.effect;
+  }
+  EXPECT_FALSE(mag2->timing.current_staleness.present);
+  bool said = false;
+  for (const auto& why : mag2->not_available) said = said || why.find("units or no power monitor") != std::string::npos;
+  EXPECT_TRUE(said);
+  ASSERT_TRUE(mag2->absolute_terms.has_value());
+  EXPECT_EQ(mag2->absolute_terms->form, "throttle");
+}
+
 // A log flown with throttle compensation (COMPASS_MOTCT 1): MAG2's resolved current field replaces
 // it, and the file says what the log had.
 TEST(CompassTerms, GivenALogFlownWithThrottleCompensation_WhenMag2sCurrentFieldIsResolved_ThenCalibParmReplacesIt) {
