@@ -286,6 +286,15 @@ std::string Headline(const ChannelResult& c) {
   return HeadlineBody(c) + (free_field ? "; Earth field fitted freely (no place and date)" : "");
 }
 
+std::string FieldScaleText(const Nuisance& n) {
+  const std::string against = n.field_source.rfind("fitted", 0) == 0 ? "the freely fitted field" : "WMM";
+  std::string s = fmt::format("field {:+.1f} % against {} (horizontal part", 100 * (n.field_scale_horizontal - 1), against);
+  if (plausibility::IsPlausible("field_scale", n.field_scale)) {
+    return s + fmt::format("; norm {:+.1f} %)", 100 * (n.field_scale - 1));
+  }
+  return s + "; the norm is not resolved: in a nearly level flight the vertical field trades with the z offset)";
+}
+
 std::string Summary(const GapReport& r) {
   std::string s = CompassMappingText(r.compass_mapping);
   if (!r.windows.empty()) {
@@ -319,11 +328,8 @@ std::string Summary(const GapReport& r) {
     }
     if (c.nuisance.present) {
       const Eigen::Vector3d& o = c.nuisance.offset_uT;
-      const bool free_field = c.nuisance.field_source.rfind("fitted", 0) == 0;
-      s += fmt::format("  nuisance: offset ({:.0f}, {:.0f}, {:.0f}) mG, field norm {:+.1f} % against {} (horizontal {:+.1f} %)",
-                       kMilliGaussPerMicroTesla * o.x(), kMilliGaussPerMicroTesla * o.y(), kMilliGaussPerMicroTesla * o.z(), 100 * (c.nuisance.field_scale - 1),
-                       free_field ? "the freely fitted field" : "WMM",
-                       100 * (c.nuisance.field_scale_horizontal - 1));
+      s += fmt::format("  nuisance: offset ({:.0f}, {:.0f}, {:.0f}) mG, {}", kMilliGaussPerMicroTesla * o.x(),
+                       kMilliGaussPerMicroTesla * o.y(), kMilliGaussPerMicroTesla * o.z(), FieldScaleText(c.nuisance));
       // Without per-motor currents: how the replay split the battery current over the motors.
       if (std::isfinite(c.nuisance.current_split_exponent)) {
         s += fmt::format("; motor currents split as output^{:.2f}", c.nuisance.current_split_exponent);

@@ -12,6 +12,23 @@
 namespace hexsim::gap {
 namespace {
 
+// The nuisance line prints the fitted field's horizontal part always and its norm only inside
+// field_scale's physical range (0.7..1.3): a public PX4 log's level flight fitted the norm +40 %
+// (the vertical field traded with the z offset) beside a horizontal +3.4 %.
+TEST(FieldScaleText, GivenANormOutsideItsPhysicalRange_WhenPrinted_ThenOnlyTheHorizontalPartHasANumber) {
+  Nuisance n;
+  n.present = true;
+  n.field_scale_horizontal = 1.034;
+  n.field_scale = 1.403;
+  const std::string out = FieldScaleText(n);
+  EXPECT_NE(out.find("+3.4 %"), std::string::npos) << out;
+  EXPECT_EQ(out.find("40"), std::string::npos) << out;
+  EXPECT_NE(out.find("not resolved"), std::string::npos) << out;
+  n.field_scale = 1.075;
+  const std::string in = FieldScaleText(n);
+  EXPECT_NE(in.find("norm +7.5 %"), std::string::npos) << in;
+}
+
 const ChannelResult* Find(const GapReport& r, const std::string& ch) { return gaptest::FindChannel(r, ch); }
 
 bool NotDiagnosed(const GapReport& r, const std::string& ch) {

@@ -71,8 +71,7 @@ std::string NuisanceHtml(const gap::ChannelResult& c) {
   h += fmt::format("<tr><td>residual offset (x, y, z)</td><td>({:.1f}, {:.1f}, {:.1f}) mG; |offset| [{:.1f}, {:.1f}] mG</td></tr>",
                    kMg * n.offset_uT.x(), kMg * n.offset_uT.y(), kMg * n.offset_uT.z(), kMg * n.offset_ci95_uT.lo,
                    kMg * n.offset_ci95_uT.hi);
-  h += fmt::format("<tr><td>field norm against the field model</td><td>{:+.1f} % (horizontal part {:+.1f} %)</td></tr>",
-                   100 * (n.field_scale - 1), 100 * (n.field_scale_horizontal - 1));
+  h += fmt::format("<tr><td>fitted field against the field model</td><td>{}</td></tr>", gap::FieldScaleText(n));
   h += fmt::format("<tr><td>fitted field (N, E, D)</td><td>({:.0f}, {:.0f}, {:.0f}) mG against ({:.0f}, {:.0f}, {:.0f}) mG</td></tr>",
                    kMg * n.field_vector_N_uT.x(), kMg * n.field_vector_N_uT.y(), kMg * n.field_vector_N_uT.z(),
                    kMg * n.field_prior_N_uT.x(), kMg * n.field_prior_N_uT.y(), kMg * n.field_prior_N_uT.z());

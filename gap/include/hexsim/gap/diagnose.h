@@ -313,6 +313,11 @@ double HoverRotorTimeConstant_s(const vehicle::VehicleParams& vehicle);
 std::string Summary(const GapReport& report);
 // One line per channel: the verdict with its magnitude, interval and share, and what to do.
 std::string Headline(const ChannelResult& channel);
+// The nuisance's fitted field against the field model, as one phrase: its horizontal part (which
+// turns with every heading) always; the norm only where its ratio lies in field_scale's physical
+// range (in a nearly level flight the vertical field trades with the z offset and the norm is not
+// resolved; a number outside the range is never printed as a finding).
+std::string FieldScaleText(const Nuisance& nuisance);
 // The vehicle YAML text with the chosen effects added (compass keys, wiring segments, lag), and a
 // comment block for those the vehicle schema cannot express.
 Result<std::string> UpdatedVehicleYaml(const std::string& vehicle_yaml_text, const vehicle::VehicleParams& vehicle,
