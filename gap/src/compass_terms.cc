@@ -108,6 +108,7 @@ Result<CompassTerms> FitCompassTerms(const logs::FlightLog& log, const vehicle::
   t.current_shift_range_s[1] = cf->current_shift_range_s[1];
   t.timing_note = realdata::TimingNote(*cf);
   t.windows_note = cf->windows_note;
+  t.flight_only = cf->flight_only;
   t.samples = f.samples_used;
   t.blocks = f.blocks;
   t.without_regressor = f.without_regressor;

@@ -250,9 +250,12 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
   ro.member_shifts_s = realdata::CurrentShiftGrid(stale, realdata::UpdatePeriod_s(rr.inputs.current_samples_t));
   ChannelData ch = internal::ReplayCompass(log, vehicle, c, rr.inputs, B_N, ro);
   const internal::CompassMinimum least = internal::CompassMinSamples(ch);
-  if (!terms.ok() && static_cast<int>(ch.t.size()) < least.samples) {
+  // A short flight is diagnosed where the in-flight model fits it on flight samples; a model that
+  // needed ground samples too (a log with no flight) leaves the channel nothing to diagnose.
+  if (static_cast<int>(ch.t.size()) < least.samples && (!terms.ok() || !terms->flight_only)) {
     not_diagnosed->emplace_back(name, fmt::format("too few flight samples: {}, needs {} ({}); in-flight model: {}",
-                                                  ch.t.size(), least.samples, least.why, terms.status().message()));
+                                                  ch.t.size(), least.samples, least.why,
+                                                  terms.ok() ? terms->windows_note : terms.status().message()));
     return std::nullopt;
   }
   RngStream rng(options.seed, "gap_bootstrap/" + name);

@@ -56,6 +56,24 @@ TEST(CompassTerms, GivenAShortPieceOfFlight_WhenDiagnosed_ThenTheCompassesAreDia
   EXPECT_GE(mag2->absolute_terms->blocks, 6);
 }
 
+// A log with no flight (never armed: a bench or calibration-dance log) leaves the compass channel
+// no flight sample; the in-flight model still fits the ground rotations (as calibrate does), but
+// the channel is not diagnosed (a public PX4 sample printed "residual 0 mG RMS: no gap").
+TEST(CompassTerms, GivenALogWithNoFlight_WhenDiagnosed_ThenTheCompassIsNotDiagnosedAndSaysWhy) {
+  logs::FlightLog log = Log171().log;
+  ASSERT_TRUE(log.Has("armed"));
+  for (double& a : log.MutableColumn(log.AddColumn("armed"))) a = 0.0;
+  DiagnoseOptions o;
+  o.bootstrap_samples = 50;
+  o.channels = {"mag2"};
+  auto rep = Diagnose(log, Log171().vehicle, o);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  for (const auto& c : rep->channels) EXPECT_NE(c.channel, "mag2") << c.headline;
+  bool said = false;
+  for (const auto& [ch, why] : rep->not_diagnosed) said = said || (ch == "mag2" && why.find("too few flight samples: 0") != std::string::npos);
+  EXPECT_TRUE(said);
+}
+
 // A current the import judged unusable (units, or no power monitor: the flight median under 0.5 A
 // per motor) drives no current family and no staleness: its fits would be numbers in the wrong unit
 // (a public PX4 log's flat 0 A current read 15 mG/A current_hard_iron on its external compass).

@@ -56,6 +56,7 @@ struct CompassTerms {
   double latency_s = 0.0, current_shift_s = 0.0, current_shift_range_s[2] = {0.0, 0.0};
   bool latency_applied = false;
   std::string timing_note, windows_note;
+  bool flight_only = false;  // fitted on flight windows only (false: ground samples were needed too)
   int samples = 0, blocks = 0, without_regressor = 0;
   double block_s = 0.0, rms_before_uT = 0.0, rms_after_uT = 0.0;
   std::string interval_method = magnetics::kFlightIntervalMethod;
