@@ -181,20 +181,24 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
     const double scale_h = 1.0 + s_along;
     const Interval scale_ci = JudgedInterval(scale_h, s_sd, s_ci_sd, t975);
     const double scale_lo = scale_ci.lo, scale_hi = scale_ci.hi;
+    // The norm only inside its physical range (FieldScaleText's rule: in a nearly level flight the
+    // vertical field trades with the z offset).
+    const std::string norm_text = plausibility::IsPlausible("field_scale", scale)
+                                      ? fmt::format("norm {:+.1f} %", 100 * (scale - 1))
+                                      : std::string("norm not resolved");
     if (scale_hi < sc->lo || scale_lo > sc->hi) {
       // Beyond what a compass reads of the Earth field: never a finding to act on.
-      nr.findings.push_back(fmt::format("{}: fitted field {:.1f} % {} the WMM field (horizontal part; norm {:+.1f} %), "
+      nr.findings.push_back(fmt::format("{}: fitted field {:.1f} % {} the WMM field (horizontal part; {}), "
                                         "outside the physical range {}: implausible, model mismatch (the field "
                                         "model's place or date, or the log's compass units)",
-                                        ch.name, 100 * std::fabs(s_along), s_along < 0 ? "below" : "above",
-                                        100 * (scale - 1), plausibility::RangeText("field_scale")));
+                                        ch.name, 100 * std::fabs(s_along), s_along < 0 ? "below" : "above", norm_text,
+                                        plausibility::RangeText("field_scale")));
     } else if (scale_hi < sc->normal_lo || scale_lo > sc->normal_hi) {
       if (nr.out_of_range.empty() && !anomaly_out) nr.out_of_range = "field_scale";
       if (!anomaly_out) nr.beyond_normal.emplace_back("field_scale");
-      nr.findings.push_back(fmt::format("{}: fitted field {:.1f} % {} the WMM field (horizontal part; norm {:+.1f} %): "
+      nr.findings.push_back(fmt::format("{}: fitted field {:.1f} % {} the WMM field (horizontal part; {}): "
                                         "recalibrate (scale) or check for a local anomaly",
-                                        ch.name, 100 * std::fabs(s_along), s_along < 0 ? "below" : "above",
-                                        100 * (scale - 1)));
+                                        ch.name, 100 * std::fabs(s_along), s_along < 0 ? "below" : "above", norm_text));
     }
     if (anomaly_out) {
       if (nr.out_of_range.empty()) nr.out_of_range = "local_anomaly";
