@@ -7,6 +7,8 @@
 #include <vector>
 #include <unistd.h>
 
+#include <fmt/format.h>
+
 #include "cli_util.h"
 #include "commands.h"
 #include "hexsim/batch/pool.h"
@@ -23,9 +25,12 @@ namespace {
 struct DiagnoseArgs {
   std::string real, out;
   experiments::LogDiagnosisOptions options;
+  int jobs = 0;  // 0: every core
 };
 
-Status DiagnoseCommand(const DiagnoseArgs& a) {
+Status DiagnoseCommand(DiagnoseArgs a) {
+  if (a.jobs < 0) return Status::BadInput(fmt::format("--jobs: must be 0 (every core) or more (got {})", a.jobs));
+  a.options.threads = a.jobs > 0 ? a.jobs : std::max(1, static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN)));
   std::vector<std::string> notes;
   auto log = logs::ReadAnyFlightLog(a.real, &notes);
   if (!log.ok()) return log.status();
@@ -117,6 +122,8 @@ void AddGapCommand(CLI::App& app, int* exit_code) {
   diag->add_option("--seed", d->options.seed, "Bootstrap seed")->capture_default_str();
   diag->add_option("--from", d->options.from_s, "Diagnose only from this log time (s), overriding the flight windows");
   diag->add_option("--to", d->options.to_s, "Diagnose only up to this log time (s)");
+  diag->add_option("--jobs,-j", d->jobs, "Channels diagnosed at once, each on its own thread (default 0: every core; "
+                                         "the report is the same for any count)");
   diag->callback([d, exit_code] {
     const Status s = DiagnoseCommand(*d);
     *exit_code = s.ok() ? 0 : Report(s);

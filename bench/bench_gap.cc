@@ -10,7 +10,8 @@
 //                        meta), i.e. what `hexsim gap diagnose` does before diagnosing.
 //   BM_GapDiagnose10min  gap::Diagnose on it against the configured quad_x: every channel (three
 //                        compasses with timing scans, gyro, accel, dynamics), gap.json built.
-//   BM_GapDiagnoseLogSim10min    `hexsim gap diagnose --sim quad_x`'s whole flow after the read
+//   BM_GapDiagnoseLogSim10min    `hexsim gap diagnose --sim quad_x`'s whole flow after the read, its
+//                        channels on every core as the CLI's default (CPU summed over the threads)
 //                        (experiments::DiagnoseLog: the diagnosis, the vehicle identified from the
 //                        log to report its distance from quad_x, the updated YAML), gap.json built.
 //   BM_GapDiagnoseLogNoSim10min  the same without --sim: the frame picks the base, the vehicle is
@@ -21,6 +22,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -151,6 +153,7 @@ void DiagnoseLogCase(benchmark::State& state, const std::string& vehicle) {
   hexsim::experiments::LogDiagnosisOptions o;
   o.vehicle = vehicle;
   o.log_name = b.csv_path;
+  o.threads = std::max(1, static_cast<int>(sysconf(_SC_NPROCESSORS_ONLN)));  // the CLI's default (--jobs 0)
   std::string mode;
   size_t channels = 0;
   for (auto _ : state) {

@@ -115,6 +115,16 @@ TEST(Cli, GivenUnknownKeyOrMissingFileWhenRunThenExit2) {
   EXPECT_FALSE(fs::exists(d / "o"));
 }
 
+TEST(Cli, GivenANegativeJobCountWhenDiagnosingThenExit2NamingTheFlag) {
+  const fs::path d = TempDir("gapjobs");
+  const CmdResult r = Hexsim("gap diagnose --real " + std::string(HEXSIM_SOURCE_DIR) +
+                             "/data/real/ardupilot_copter_log171.bin --jobs -1 --out " + (d / "o").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(Lines(r.err), 1) << r.err;
+  EXPECT_NE(r.err.find("--jobs"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(d / "o"));
+}
+
 TEST(Cli, GivenSameSeedWhenRunTwiceThenLogsAreByteIdentical) {
   const fs::path d = TempDir("determinism");
   const std::string args = "run square --vehicle default_hex --duration 20 --seed 42";

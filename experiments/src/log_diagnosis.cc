@@ -78,6 +78,7 @@ Result<LogDiagnosis> DiagnoseLog(const logs::FlightLog& log, const LogDiagnosisO
   HEXSIM_RETURN_IF_ERROR(ChooseVehicle(o, &diagnosed, &d));
   gap::DiagnoseOptions opt;
   opt.seed = o.seed;
+  opt.threads = o.threads;
   opt.compass_model_log = &log;
   if (o.from_s != 0.0 || o.to_s != 0.0) {
     if (!(o.to_s > o.from_s)) return Status::BadInput("--from/--to: --to must be after --from");

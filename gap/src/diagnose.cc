@@ -4,9 +4,13 @@
 #include "hexsim/gap/diagnose.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <exception>
+#include <functional>
 #include <optional>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -133,6 +137,34 @@ void AttachAbsoluteTerms(Result<CompassTerms> terms, const logs::FlightLog& log,
                                   "others); hexsim calibrate fits every flight block";
   }
   r->absolute_terms = std::move(*terms);
+}
+
+// Runs the tasks on `threads` threads (each takes the next task in turn; 1 or fewer: in order on
+// this thread). The first exception a task throws is rethrown here once every thread has stopped.
+void RunTasks(const std::vector<std::function<void()>>& tasks, int threads) {
+  const size_t n_threads = std::min(tasks.size(), static_cast<size_t>(std::max(1, threads)));
+  if (n_threads <= 1) {
+    for (const auto& t : tasks) t();
+    return;
+  }
+  std::atomic<size_t> next{0};
+  std::vector<std::exception_ptr> errors(tasks.size());
+  auto work = [&] {
+    for (size_t i = next++; i < tasks.size(); i = next++) {
+      try {
+        tasks[i]();
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (size_t k = 1; k < n_threads; ++k) pool.emplace_back(work);
+  work();
+  for (auto& th : pool) th.join();
+  for (const auto& e : errors) {
+    if (e) std::rethrow_exception(e);
+  }
 }
 
 // What every compass channel of one diagnosis shares.
@@ -355,25 +387,42 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
   const realdata::FlightWindows model_windows = &model_log == &log ? fw : Windows(model_log, options);
   const CompassRun run{log,   vehicle, options, rr,      fw,        phases, model_log, model_windows, stale, shift_s,
                        share_exponent, fitted_share_exponent, flight_s, sim_truth};
-  for (size_t c : rr.compasses) {
-    std::optional<CompassChannel> cc = DiagnoseCompass(run, c, &rep.not_diagnosed);
+  // Every channel into its own slot (on options.threads threads), then the report in channel order.
+  using NotDiagnosed = std::vector<std::pair<std::string, std::string>>;
+  std::vector<std::optional<CompassChannel>> compass_out(rr.compasses.size());
+  std::vector<NotDiagnosed> compass_nd(rr.compasses.size());
+  std::vector<std::optional<ChannelResult>> inertial_out(rr.channels.size());
+  std::vector<std::function<void()>> tasks;
+  for (size_t k = 0; k < rr.compasses.size(); ++k) {
+    tasks.emplace_back([&, k] { compass_out[k] = DiagnoseCompass(run, rr.compasses[k], &compass_nd[k]); });
+  }
+  for (size_t k = 0; k < rr.channels.size(); ++k) {
+    const ChannelData& ch = rr.channels[k];
+    if (!(duration >= options.min_duration_s) || static_cast<int>(ch.t.size()) < options.min_samples) continue;
+    tasks.emplace_back([&, k] {
+      RngStream rng(options.seed, "gap_bootstrap/" + rr.channels[k].name);
+      inertial_out[k] = internal::AnalyzeInertial(rr.channels[k], log, phases, options, &rng);
+    });
+  }
+  RunTasks(tasks, options.threads);
+  for (size_t k = 0; k < rr.compasses.size(); ++k) {
+    rep.not_diagnosed.insert(rep.not_diagnosed.end(), compass_nd[k].begin(), compass_nd[k].end());
+    std::optional<CompassChannel>& cc = compass_out[k];
     if (!cc) continue;
     for (const CompassPair& p : rep.compass_mapping.pairs) {
       if (p.channel == cc->result.channel) cc->result.vehicle_compass = p.vehicle_compass;
     }
     finish(std::move(cc->result), cc->data);
   }
-  for (const ChannelData& ch : rr.channels) {
+  for (size_t k = 0; k < rr.channels.size(); ++k) {
+    const ChannelData& ch = rr.channels[k];
     if (!(duration >= options.min_duration_s)) {
       rep.not_diagnosed.emplace_back(ch.name, fmt::format("log too short: {:.1f} s, needs {:.0f} s", duration, options.min_duration_s));
-      continue;
-    }
-    if (static_cast<int>(ch.t.size()) < options.min_samples) {
+    } else if (static_cast<int>(ch.t.size()) < options.min_samples) {
       rep.not_diagnosed.emplace_back(ch.name, fmt::format("too few samples: {}, needs {}", ch.t.size(), options.min_samples));
-      continue;
+    } else if (inertial_out[k]) {
+      finish(std::move(*inertial_out[k]), ch);
     }
-    RngStream rng(options.seed, "gap_bootstrap/" + ch.name);
-    finish(internal::AnalyzeInertial(ch, log, phases, options, &rng), ch);
   }
   for (ChannelResult& r : rep.channels) {
     internal::RefreshEffects(&r);

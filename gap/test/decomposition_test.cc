@@ -11,6 +11,7 @@
 
 #include "hexsim/common/rng.h"
 #include "hexsim/gap/diagnose.h"
+#include "hexsim/gap/json.h"
 #include "hexsim/gap/selftest.h"
 
 namespace hexsim::gap {
@@ -21,6 +22,22 @@ bool InEffects(const ChannelResult& c, const std::string& effect) {
     if (e.effect == effect) return true;
   }
   return false;
+}
+
+// The channels on several threads give the same report as in turn: each channel reads only the
+// shared replay and draws from its own random stream.
+TEST(GapDecomposition, GivenTwoThreads_WhenDiagnosed_ThenTheReportIsTheSameAsInTurn) {
+  gaptest::Flown f = gaptest::FlyInjected({{"current_hard_iron", 1.0}}, 2102, "decomposition");
+  DiagnoseOptions one = gaptest::IdealOptions();
+  DiagnoseOptions two = one;
+  two.threads = 2;
+  auto a = Diagnose(f.log, f.trial.configured, one);
+  auto b = Diagnose(f.log, f.trial.configured, two);
+  ASSERT_TRUE(a.ok()) << a.status().message();
+  ASSERT_TRUE(b.ok()) << b.status().message();
+  EXPECT_GE(a->channels.size(), 4U);
+  EXPECT_EQ(ToJson(*a).dump(), ToJson(*b).dump());
+  EXPECT_EQ(Summary(*a), Summary(*b));
 }
 
 // Given a clean simulated log, when diagnosed with the default options, then no compass prints an

@@ -25,6 +25,7 @@ struct LogDiagnosisOptions {
   std::string log_name;          // the log's name in messages and in the report
   uint64_t seed = 1;             // bootstrap seed
   double from_s = 0.0, to_s = 0.0;  // both 0: the flight windows; else this log-time span
+  int threads = 1;               // channels diagnosed at once (gap::DiagnoseOptions::threads)
 };
 
 struct LogDiagnosis {

@@ -59,6 +59,9 @@ struct DiagnoseOptions {
   // model fits them (its own minimum).
   int min_samples = 400;
   uint64_t seed = 1;               // bootstrap resampling
+  // Channels diagnosed at once, each on its own thread (1: in turn). Every channel draws from its
+  // own random stream and reads only the shared replay, so the report is the same for any count.
+  int threads = 1;
   bool allow_field_extrapolation = true;  // dates outside 2015–2030 use the nearest WMM epoch
   // The compass the attitude reference fused (column prefix, e.g. "mag"); empty: decided from the
   // log meta (sim truth: none; imported log: the primary compass).
