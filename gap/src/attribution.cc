@@ -242,6 +242,30 @@ double WaldP(const Eigen::VectorXd& beta, const Eigen::MatrixXd& cov, const std:
   return FSf(f, q, G - q);
 }
 
+namespace {
+
+// One sample's candidate rows and columns of the normal equations added to block b: the
+// baseline-candidate cross terms xbᵀ·xc, the upper triangle of xcᵀ·xc (the caller mirrors it) and
+// xcᵀ·y, as plain loops over the three rows (far below the size where Eigen's dynamic-size products pay).
+void AddCandidateRows(const Mat3X& xb, const Mat3X& xc, const Vec3& y, int p0, Block* b) {
+  const int pc = static_cast<int>(xc.cols());
+  double* A = b->A.data();
+  const Eigen::Index ld = b->A.outerStride();
+  const double* xbd = xb.data();
+  for (int j = 0; j < pc; ++j) {
+    const double* c = xc.data() + 3 * j;
+    double* col = A + (p0 + j) * ld;
+    for (int i = 0; i < p0; ++i) col[i] += xbd[3 * i] * c[0] + xbd[3 * i + 1] * c[1] + xbd[3 * i + 2] * c[2];
+    for (int i = 0; i <= j; ++i) {
+      const double* a = xc.data() + 3 * i;
+      col[p0 + i] += a[0] * c[0] + a[1] * c[1] + a[2] * c[2];
+    }
+    b->g[p0 + j] += c[0] * y[0] + c[1] * y[1] + c[2] * y[2];
+  }
+}
+
+}  // namespace
+
 std::vector<int> Range(int a, int b) {
   std::vector<int> v;
   for (int i = a; i < b; ++i) v.push_back(i);
@@ -314,15 +338,11 @@ Evaluated Analyzer::EvaluateX(const Candidate* c, bool full_only) const {
       b.s = bb.s;
       b.n = bb.n;
     }
-    for (size_t k = 0; k < n_; ++k) {
-      const Mat3X& xb = baseline_->X[k];
-      const Mat3X& xc = c->X[k];
-      Block& b = e.blocks[block_[k]];
-      b.A.block(0, p0, p0, pc).noalias() += xb.transpose().lazyProduct(xc);
-      b.A.bottomRightCorner(pc, pc).noalias() += xc.transpose().lazyProduct(xc);
-      b.g.tail(pc).noalias() += xc.transpose().lazyProduct(y[k]);
+    for (size_t k = 0; k < n_; ++k) AddCandidateRows(baseline_->X[k], c->X[k], y[k], p0, &e.blocks[block_[k]]);
+    for (Block& b : e.blocks) {
+      b.A.block(p0, 0, pc, p0) = b.A.block(0, p0, p0, pc).transpose();
+      b.A.bottomRightCorner(pc, pc).triangularView<Eigen::StrictlyLower>() = b.A.bottomRightCorner(pc, pc).transpose();
     }
-    for (Block& b : e.blocks) b.A.block(p0, 0, pc, p0) = b.A.block(0, p0, p0, pc).transpose();
   } else {
     Mat3X x(3, p);
     for (size_t k = 0; k < n_; ++k) {
