@@ -527,18 +527,36 @@ double EffectiveTests(const std::vector<const Candidate*>& members) {
   const size_t k = members.size();
   if (k < 2) return static_cast<double>(k);
   const size_t n = members.front()->X.size();
-  Eigen::MatrixXd S(3 * static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(k));
-  for (size_t m = 0; m < k; ++m) {
-    if (members[m]->X.size() != n) return static_cast<double>(k);
-    for (size_t i = 0; i < n; ++i) {
-      S.block(3 * static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(m), 3, 1) = members[m]->X[i].rowwise().sum();
-    }
+  for (const Candidate* m : members) {
+    if (m->X.size() != n) return static_cast<double>(k);
   }
-  S.rowwise() -= S.colwise().mean();
-  const Eigen::VectorXd norm = S.colwise().norm();
-  if (!(norm.minCoeff() > 0)) return static_cast<double>(k);
-  S = S * norm.cwiseInverse().asDiagonal();
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(S.transpose() * S, Eigen::EigenvaluesOnly);
+  const auto K = static_cast<Eigen::Index>(k);
+  // Each member's signature column: its regressors' summed columns stacked over samples and axes,
+  // centred. The centred cross products C = Sᵀ·S are summed over chunks of samples whose rows stay
+  // in cache (only the lower triangle: C is symmetric), then scaled to the correlation matrix.
+  Eigen::VectorXd mean = Eigen::VectorXd::Zero(K);
+  for (Eigen::Index m = 0; m < K; ++m) {
+    for (const Mat3X& x : members[static_cast<size_t>(m)]->X) mean[m] += x.sum();
+  }
+  mean /= 3.0 * static_cast<double>(n);
+  constexpr size_t kChunk = 64;
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(K, K);
+  Eigen::MatrixXd part(3 * static_cast<Eigen::Index>(kChunk), K);
+  for (size_t i0 = 0; i0 < n; i0 += kChunk) {
+    const size_t rows = std::min(kChunk, n - i0);
+    for (Eigen::Index m = 0; m < K; ++m) {
+      const std::vector<Mat3X>& X = members[static_cast<size_t>(m)]->X;
+      for (size_t i = 0; i < rows; ++i) {
+        part.block(3 * static_cast<Eigen::Index>(i), m, 3, 1) = X[i0 + i].rowwise().sum().array() - mean[m];
+      }
+    }
+    C.selfadjointView<Eigen::Lower>().rankUpdate(part.topRows(3 * static_cast<Eigen::Index>(rows)).transpose());
+  }
+  const Eigen::VectorXd d = C.diagonal();
+  if (!(d.minCoeff() > 0)) return static_cast<double>(k);
+  const Eigen::VectorXd inv = d.cwiseSqrt().cwiseInverse();
+  const Eigen::MatrixXd R = inv.asDiagonal() * C * inv.asDiagonal();  // its lower triangle: the correlations
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(R, Eigen::EigenvaluesOnly);
   if (eig.info() != Eigen::Success) return static_cast<double>(k);
   double tests = 0;
   for (Eigen::Index i = 0; i < eig.eigenvalues().size(); ++i) {
