@@ -97,8 +97,8 @@ double DirectCount(const std::vector<const Candidate*>& members) {
   return std::clamp(tests, 1.0, static_cast<double>(members.size()));
 }
 
-// Samples that do not fill the last chunk, members of two and three columns, partly correlated: the
-// chunked sums give the direct count.
+// Samples that do not fill the last chunk, members of two and three columns and axis-uniform ones
+// (a regressor times the identity), partly correlated: the chunked, split sums give the direct count.
 TEST(GapEffectiveTests, GivenMembersOverSeveralChunksOfSamples_WhenCounted_ThenTheCountIsTheDirectOne) {
   RngStream rng(13, "effective_tests");
   constexpr int kSamples = 1000;  // 15 chunks of 64 samples and 40 over
@@ -109,9 +109,14 @@ TEST(GapEffectiveTests, GivenMembersOverSeveralChunksOfSamples_WhenCounted_ThenT
   for (int m = 0; m < 7; ++m) {
     Candidate c = MakeCandidate("current_soft_iron", {"a", "b"}, {1, 1}, "1");
     for (int k = 0; k < kSamples; ++k) {
+      const double u = (1.0 + m) * common[static_cast<size_t>(k)] + 3.0;
+      if (m % 3 == 0) {  // axis-uniform: a regressor times the identity
+        c.X.push_back(Diag3(u + 0.5 * rng.Normal()));
+        continue;
+      }
       Mat3X x(3, m % 2 == 0 ? 2 : 3);
       x.setZero();
-      for (Eigen::Index j = 0; j < x.cols(); ++j) x(j, j) = (1.0 + m) * common[static_cast<size_t>(k)] + 0.5 * rng.Normal() + 3.0;
+      for (Eigen::Index j = 0; j < x.cols(); ++j) x(j, j) = u + 0.5 * rng.Normal();
       c.X.push_back(x);
     }
     members.push_back(std::move(c));
