@@ -523,20 +523,6 @@ void Describe(const Evaluated& e, const GridPicks& picks, CandidateResult* r) {
   if (WaldP(v, cov, Range(0, pm), static_cast<int>(e.blocks.size())) >= kNormZeroLevel) r->magnitude_ci95[0] = 0.0;
 }
 
-namespace {
-
-// Whether a member's signature (its regressors' summed columns) holds one value on all three axes at
-// every sample, as a regressor times the identity does.
-bool AxisUniform(const std::vector<Mat3X>& X) {
-  for (const Mat3X& x : X) {
-    const Vec3 v = x.rowwise().sum();
-    if (v[0] != v[1] || v[0] != v[2]) return false;
-  }
-  return true;
-}
-
-}  // namespace
-
 double EffectiveTests(const std::vector<const Candidate*>& members) {
   const size_t k = members.size();
   if (k < 2) return static_cast<double>(k);
@@ -545,30 +531,37 @@ double EffectiveTests(const std::vector<const Candidate*>& members) {
     if (m->X.size() != n) return static_cast<double>(k);
   }
   const auto K = static_cast<Eigen::Index>(k);
-  // Each member's signature column: its summed columns v stacked over samples and axes, centred by
-  // its mean μ over all 3n entries. The centred cross products split along the axes' common
-  // direction and its complement: (v − μ·1)·(v' − μ'·1) = 3·(v̄ − μ)(v̄' − μ') + r·r', v̄ the mean
-  // over the axes and r = v − v̄·1 (zero for an axis-uniform member). Summed over chunks of samples
-  // whose rows stay in cache, the lower triangle by rank updates, then scaled to the correlations.
-  Eigen::VectorXd mean = Eigen::VectorXd::Zero(K);
+  const auto N = static_cast<Eigen::Index>(n);
+  // Each member's signature v (its regressors' summed columns; 3 axes per sample), read once, its
+  // mean μ over all 3n entries, and whether it is axis-uniform (one value on the three axes at every
+  // sample, as a regressor times the identity).
+  Eigen::MatrixXd V(3 * N, K);
   std::vector<Eigen::Index> general;  // the members that are not axis-uniform
   for (Eigen::Index m = 0; m < K; ++m) {
     const std::vector<Mat3X>& X = members[static_cast<size_t>(m)]->X;
-    for (const Mat3X& x : X) mean[m] += x.sum();
-    if (!AxisUniform(X)) general.push_back(m);
+    bool uniform = true;
+    for (Eigen::Index i = 0; i < N; ++i) {
+      const Vec3 v = X[static_cast<size_t>(i)].rowwise().sum();
+      V.block(3 * i, m, 3, 1) = v;
+      uniform = uniform && v[0] == v[1] && v[0] == v[2];
+    }
+    if (!uniform) general.push_back(m);
   }
-  mean /= 3.0 * static_cast<double>(n);
+  const Eigen::RowVectorXd mean = V.colwise().mean();
+  // The centred cross products split along the axes' common direction and its complement:
+  // (v − μ·1)·(v' − μ'·1) = 3·(v̄ − μ)(v̄' − μ') + r·r', v̄ the mean over the axes and r = v − v̄·1
+  // (zero for an axis-uniform member). Summed over chunks of samples (the lower triangle, by rank
+  // updates), then scaled to the correlations.
   const auto ng = static_cast<Eigen::Index>(general.size());
   constexpr Eigen::Index kChunk = 64;
   Eigen::MatrixXd C = Eigen::MatrixXd::Zero(K, K), Cr = Eigen::MatrixXd::Zero(ng, ng);
   Eigen::MatrixXd common(kChunk, K), rest(3 * kChunk, ng);
-  for (size_t i0 = 0; i0 < n; i0 += kChunk) {
-    const auto rows = static_cast<Eigen::Index>(std::min<size_t>(kChunk, n - i0));
+  for (Eigen::Index i0 = 0; i0 < N; i0 += kChunk) {
+    const Eigen::Index rows = std::min(kChunk, N - i0);
     for (Eigen::Index m = 0, g = 0; m < K; ++m) {
-      const std::vector<Mat3X>& X = members[static_cast<size_t>(m)]->X;
       const bool gen = g < ng && general[static_cast<size_t>(g)] == m;
       for (Eigen::Index i = 0; i < rows; ++i) {
-        const Vec3 v = X[i0 + static_cast<size_t>(i)].rowwise().sum();
+        const Vec3 v = V.block<3, 1>(3 * (i0 + i), m);
         const double vbar = gen ? v.sum() / 3.0 : v[0];
         common(i, m) = vbar - mean[m];
         if (gen) rest.block(3 * i, g, 3, 1) = v.array() - vbar;
