@@ -242,6 +242,30 @@ double WaldP(const Eigen::VectorXd& beta, const Eigen::MatrixXd& cov, const std:
   return FSf(f, q, G - q);
 }
 
+namespace {
+
+// One sample's candidate rows and columns of the normal equations added to block b: the
+// baseline-candidate cross terms xbᵀ·xc, the upper triangle of xcᵀ·xc (the caller mirrors it) and
+// xcᵀ·y, as plain loops over the three rows (far below the size where Eigen's dynamic-size products pay).
+void AddCandidateRows(const Mat3X& xb, const Mat3X& xc, const Vec3& y, int p0, Block* b) {
+  const int pc = static_cast<int>(xc.cols());
+  double* A = b->A.data();
+  const Eigen::Index ld = b->A.outerStride();
+  const double* xbd = xb.data();
+  for (int j = 0; j < pc; ++j) {
+    const double* c = xc.data() + 3 * j;
+    double* col = A + (p0 + j) * ld;
+    for (int i = 0; i < p0; ++i) col[i] += xbd[3 * i] * c[0] + xbd[3 * i + 1] * c[1] + xbd[3 * i + 2] * c[2];
+    for (int i = 0; i <= j; ++i) {
+      const double* a = xc.data() + 3 * i;
+      col[p0 + i] += a[0] * c[0] + a[1] * c[1] + a[2] * c[2];
+    }
+    b->g[p0 + j] += c[0] * y[0] + c[1] * y[1] + c[2] * y[2];
+  }
+}
+
+}  // namespace
+
 std::vector<int> Range(int a, int b) {
   std::vector<int> v;
   for (int i = a; i < b; ++i) v.push_back(i);
@@ -314,15 +338,11 @@ Evaluated Analyzer::EvaluateX(const Candidate* c, bool full_only) const {
       b.s = bb.s;
       b.n = bb.n;
     }
-    for (size_t k = 0; k < n_; ++k) {
-      const Mat3X& xb = baseline_->X[k];
-      const Mat3X& xc = c->X[k];
-      Block& b = e.blocks[block_[k]];
-      b.A.block(0, p0, p0, pc).noalias() += xb.transpose().lazyProduct(xc);
-      b.A.bottomRightCorner(pc, pc).noalias() += xc.transpose().lazyProduct(xc);
-      b.g.tail(pc).noalias() += xc.transpose().lazyProduct(y[k]);
+    for (size_t k = 0; k < n_; ++k) AddCandidateRows(baseline_->X[k], c->X[k], y[k], p0, &e.blocks[block_[k]]);
+    for (Block& b : e.blocks) {
+      b.A.block(p0, 0, pc, p0) = b.A.block(0, p0, p0, pc).transpose();
+      b.A.bottomRightCorner(pc, pc).triangularView<Eigen::StrictlyLower>() = b.A.bottomRightCorner(pc, pc).transpose();
     }
-    for (Block& b : e.blocks) b.A.block(p0, 0, pc, p0) = b.A.block(0, p0, p0, pc).transpose();
   } else {
     Mat3X x(3, p);
     for (size_t k = 0; k < n_; ++k) {
@@ -507,18 +527,58 @@ double EffectiveTests(const std::vector<const Candidate*>& members) {
   const size_t k = members.size();
   if (k < 2) return static_cast<double>(k);
   const size_t n = members.front()->X.size();
-  Eigen::MatrixXd S(3 * static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(k));
-  for (size_t m = 0; m < k; ++m) {
-    if (members[m]->X.size() != n) return static_cast<double>(k);
-    for (size_t i = 0; i < n; ++i) {
-      S.block(3 * static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(m), 3, 1) = members[m]->X[i].rowwise().sum();
-    }
+  for (const Candidate* m : members) {
+    if (m->X.size() != n) return static_cast<double>(k);
   }
-  S.rowwise() -= S.colwise().mean();
-  const Eigen::VectorXd norm = S.colwise().norm();
-  if (!(norm.minCoeff() > 0)) return static_cast<double>(k);
-  S = S * norm.cwiseInverse().asDiagonal();
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(S.transpose() * S, Eigen::EigenvaluesOnly);
+  const auto K = static_cast<Eigen::Index>(k);
+  const auto N = static_cast<Eigen::Index>(n);
+  // Each member's signature v (its regressors' summed columns; 3 axes per sample), read once, its
+  // mean μ over all 3n entries, and whether it is axis-uniform (one value on the three axes at every
+  // sample, as a regressor times the identity).
+  Eigen::MatrixXd V(3 * N, K);
+  std::vector<Eigen::Index> general;  // the members that are not axis-uniform
+  for (Eigen::Index m = 0; m < K; ++m) {
+    const std::vector<Mat3X>& X = members[static_cast<size_t>(m)]->X;
+    bool uniform = true;
+    for (Eigen::Index i = 0; i < N; ++i) {
+      const Vec3 v = X[static_cast<size_t>(i)].rowwise().sum();
+      V.block(3 * i, m, 3, 1) = v;
+      uniform = uniform && v[0] == v[1] && v[0] == v[2];
+    }
+    if (!uniform) general.push_back(m);
+  }
+  const Eigen::RowVectorXd mean = V.colwise().mean();
+  // The centred cross products split along the axes' common direction and its complement:
+  // (v − μ·1)·(v' − μ'·1) = 3·(v̄ − μ)(v̄' − μ') + r·r', v̄ the mean over the axes and r = v − v̄·1
+  // (zero for an axis-uniform member). Summed over chunks of samples (the lower triangle, by rank
+  // updates), then scaled to the correlations.
+  const auto ng = static_cast<Eigen::Index>(general.size());
+  constexpr Eigen::Index kChunk = 64;
+  Eigen::MatrixXd C = Eigen::MatrixXd::Zero(K, K), Cr = Eigen::MatrixXd::Zero(ng, ng);
+  Eigen::MatrixXd common(kChunk, K), rest(3 * kChunk, ng);
+  for (Eigen::Index i0 = 0; i0 < N; i0 += kChunk) {
+    const Eigen::Index rows = std::min(kChunk, N - i0);
+    for (Eigen::Index m = 0, g = 0; m < K; ++m) {
+      const bool gen = g < ng && general[static_cast<size_t>(g)] == m;
+      for (Eigen::Index i = 0; i < rows; ++i) {
+        const Vec3 v = V.block<3, 1>(3 * (i0 + i), m);
+        const double vbar = gen ? v.sum() / 3.0 : v[0];
+        common(i, m) = vbar - mean[m];
+        if (gen) rest.block(3 * i, g, 3, 1) = v.array() - vbar;
+      }
+      g += gen ? 1 : 0;
+    }
+    C.selfadjointView<Eigen::Lower>().rankUpdate(common.topRows(rows).transpose(), 3.0);
+    if (ng > 0) Cr.selfadjointView<Eigen::Lower>().rankUpdate(rest.topRows(3 * rows).transpose());
+  }
+  for (Eigen::Index b = 0; b < ng; ++b) {
+    for (Eigen::Index a = b; a < ng; ++a) C(general[static_cast<size_t>(a)], general[static_cast<size_t>(b)]) += Cr(a, b);
+  }
+  const Eigen::VectorXd d = C.diagonal();
+  if (!(d.minCoeff() > 0)) return static_cast<double>(k);
+  const Eigen::VectorXd inv = d.cwiseSqrt().cwiseInverse();
+  const Eigen::MatrixXd R = inv.asDiagonal() * C * inv.asDiagonal();  // its lower triangle: the correlations
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(R, Eigen::EigenvaluesOnly);
   if (eig.info() != Eigen::Success) return static_cast<double>(k);
   double tests = 0;
   for (Eigen::Index i = 0; i < eig.eigenvalues().size(); ++i) {

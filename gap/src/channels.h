@@ -149,6 +149,9 @@ struct CompassReplayOptions {
   // family), and of current_lag just the reported form's lag profile (LagMembers).
   std::vector<Effect> only_families;
   LagMembers lag_members;
+  // Refits: of current_hard_iron's and current_soft_iron's members only those at these shifts (the
+  // reported members'; empty: every member). The samples stay those of every member (LongestMemberShift_s).
+  std::vector<double> only_member_shifts_s;
 };
 
 // current_lag's free member: a field the vehicle file does not model that follows the current

@@ -60,11 +60,13 @@ void Parameters(const logs::MagInput& in, int index, const logs::FlightLog& log,
 }  // namespace
 
 Result<CompassTerms> FitCompassTerms(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c,
-                                     const std::string& name, const realdata::FlightWindows& windows, uint64_t seed) {
+                                     const std::string& name, const realdata::FlightWindows& windows, uint64_t seed,
+                                     const realdata::LagEstimate* staleness) {
   auto in = logs::MagInputFromFlightLog(log, log.meta.value("source", std::string("log")), name);
   if (!in.ok()) return in.status();
   realdata::CompassFlightOptions o;
   o.seed = seed;
+  o.staleness = staleness;
   auto cf = realdata::FitCompassInFlight(log, *in, windows, o);
   if (!cf.ok()) return cf.status();
   const magnetics::FlightFit& f = cf->fit;

@@ -9,6 +9,7 @@
 #include "hexsim/common/status.h"
 #include "hexsim/gap/compass_terms.h"
 #include "hexsim/logs/flight_log.h"
+#include "hexsim/realdata/compass_flight.h"
 #include "hexsim/realdata/windows.h"
 #include "hexsim/vehicle/vehicle_params.h"
 
@@ -16,9 +17,12 @@ namespace hexsim::gap::internal {
 
 // Vehicle compass c (column prefix `name`) fitted by realdata::FitCompassInFlight on `windows`, with
 // the vehicle file's modelled field per ampere beside it. Errors: the model's own (too few samples
-// or blocks, with the minimum named; no attitude or place).
+// or blocks, with the minimum named; no attitude or place). `staleness`: the model's current
+// staleness on this log and windows, computed once for every compass (null: computed here;
+// realdata::CompassFlightOptions::staleness).
 Result<CompassTerms> FitCompassTerms(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c,
-                                     const std::string& name, const realdata::FlightWindows& windows, uint64_t seed);
+                                     const std::string& name, const realdata::FlightWindows& windows, uint64_t seed,
+                                     const realdata::LagEstimate* staleness = nullptr);
 
 // Why a throttle-driven field's current equivalent (|d|/(dI/du), µT/A) must not be printed, empty
 // when it may: a throttle field is a current field only where the current carries it, so the

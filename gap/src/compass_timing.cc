@@ -162,9 +162,12 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
   // The refits need the reported families only, and of current_lag the reported form's lag profile.
   std::vector<Effect> families;
   LagMembers lag_members;
+  std::vector<double> member_shifts;  // of the current iron families, the reported members' shifts
   for (const CandidateResult& k : res->candidates) {
     if (k.nuisance_term || k.id == Effect::kLatency || k.id == Effect::kNone) continue;
     families.push_back(k.id);
+    const auto aligned = k.params.find("current_aligned");
+    if (aligned != k.params.end()) member_shifts.push_back(aligned->second);
     if (k.id != Effect::kCurrentLag) continue;
     const auto ex = k.params.find("exponent");
     lag_members.form = ex == k.params.end() ? LagMembers::Form::kWiring : LagMembers::Form::kFree;
@@ -175,6 +178,7 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
     ro.library_free = false;  // not a reported effect
     ro.only_families = families;
     ro.lag_members = lag_members;
+    ro.only_member_shifts_s = member_shifts;
     const ChannelData ch = ReplayCompass(log, v, c, in, B_N_uT, ro);
     if (static_cast<int>(ch.t.size()) < CompassMinSamples(ch).samples) return m;
     const Analyzer an(ch, o);

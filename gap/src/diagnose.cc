@@ -253,7 +253,11 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
   // The in-flight model's absolute terms, the same fit as `hexsim calibrate --method flight`. A
   // compass is diagnosed whenever this model can fit it (its own minimum: min_samples samples in
   // min_blocks jackknife blocks, flight_fit.h), else by the channel minimums below.
-  Result<CompassTerms> terms = internal::FitCompassTerms(run.model_log, vehicle, c, name, run.model_windows, options.seed);
+  // The diagnosis's own staleness scan is the model's where both read the same log with the same
+  // resamples and seed (the same computation, done once).
+  const bool same_scan = &run.model_log == &run.log && options.bootstrap_samples == realdata::CompassFlightOptions{}.resamples;
+  Result<CompassTerms> terms = internal::FitCompassTerms(run.model_log, vehicle, c, name, run.model_windows, options.seed,
+                                                         same_scan ? &stale : nullptr);
   if (!terms.ok() && !(run.flight_s >= options.min_duration_s)) {
     not_diagnosed->emplace_back(name, fmt::format("flight windows too short: {:.1f} s, needs {:.0f} s", run.flight_s,
                                                   options.min_duration_s));

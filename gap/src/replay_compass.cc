@@ -153,6 +153,12 @@ void AddCurrentIron(const CompassRows& rows, const CompassReplayOptions& o, cons
   for (double s : o.member_shifts_s) {
     if (s != 0.0) shifts.push_back(s);
   }
+  if (!o.only_member_shifts_s.empty()) {
+    const std::vector<double>& only = o.only_member_shifts_s;
+    shifts.erase(std::remove_if(shifts.begin(), shifts.end(),
+                                [&](double s) { return std::find(only.begin(), only.end(), s) == only.end(); }),
+                 shifts.end());
+  }
   for (double shift : shifts) {
     std::vector<double> I = shift == 0.0 ? rows.I_log : ShiftedCurrent(t_row, current, rows.t_meas, shift);
     bool finite = true;

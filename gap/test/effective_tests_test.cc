@@ -2,8 +2,11 @@
 // are one regressor shifted by a fraction of its correlation time count as about one test; members
 // with unrelated regressors count as many. And a norm's reported interval (Describe): it holds 0
 // where the vector's 95 % region does.
+#include <algorithm>
 #include <cmath>
 #include <vector>
+
+#include <Eigen/Eigenvalues>
 
 #include <gtest/gtest.h>
 
@@ -69,6 +72,62 @@ TEST(GapEffectiveTests, GivenUnrelatedRegressors_WhenCounted_ThenEachIsATest) {
   EXPECT_GT(EffectiveTests(ptr), 5.0);
   EXPECT_LE(EffectiveTests(ptr), 6.0);
   EXPECT_EQ(EffectiveTests({ptr.front()}), 1.0);
+}
+
+// The count from the members' correlation matrix formed directly: every signature stacked into one
+// 3n × members matrix, centred, its columns normalised, Sᵀ·S (the definition EffectiveTests sums in
+// chunks of samples).
+double DirectCount(const std::vector<const Candidate*>& members) {
+  const size_t n = members.front()->X.size();
+  Eigen::MatrixXd S(3 * static_cast<Eigen::Index>(n), static_cast<Eigen::Index>(members.size()));
+  for (size_t m = 0; m < members.size(); ++m) {
+    for (size_t i = 0; i < n; ++i) {
+      S.block(3 * static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(m), 3, 1) = members[m]->X[i].rowwise().sum();
+    }
+  }
+  S.rowwise() -= S.colwise().mean();
+  const Eigen::VectorXd norm = S.colwise().norm();
+  S = S * norm.cwiseInverse().asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(S.transpose() * S, Eigen::EigenvaluesOnly);
+  double tests = 0;
+  for (Eigen::Index i = 0; i < eig.eigenvalues().size(); ++i) {
+    const double l = std::fabs(eig.eigenvalues()[i]);
+    tests += (l >= 1.0 ? 1.0 : 0.0) + (l - std::floor(l));
+  }
+  return std::clamp(tests, 1.0, static_cast<double>(members.size()));
+}
+
+// Samples that do not fill the last chunk, members of two and three columns and axis-uniform ones
+// (a regressor times the identity), partly correlated: the chunked, split sums give the direct count.
+TEST(GapEffectiveTests, GivenMembersOverSeveralChunksOfSamples_WhenCounted_ThenTheCountIsTheDirectOne) {
+  RngStream rng(13, "effective_tests");
+  constexpr int kSamples = 1000;  // 15 chunks of 64 samples and 40 over
+  std::vector<double> common(kSamples);
+  for (double& x : common) x = rng.Normal();
+  std::vector<Candidate> members;
+  members.reserve(7);
+  for (int m = 0; m < 7; ++m) {
+    Candidate c = MakeCandidate("current_soft_iron", {"a", "b"}, {1, 1}, "1");
+    for (int k = 0; k < kSamples; ++k) {
+      const double u = (1.0 + m) * common[static_cast<size_t>(k)] + 3.0;
+      if (m % 3 == 0) {  // axis-uniform: a regressor times the identity
+        c.X.push_back(Diag3(u + 0.5 * rng.Normal()));
+        continue;
+      }
+      Mat3X x(3, m % 2 == 0 ? 2 : 3);
+      x.setZero();
+      for (Eigen::Index j = 0; j < x.cols(); ++j) x(j, j) = u + 0.5 * rng.Normal();
+      c.X.push_back(x);
+    }
+    members.push_back(std::move(c));
+  }
+  std::vector<const Candidate*> ptr;
+  ptr.reserve(members.size());
+  for (const Candidate& c : members) ptr.push_back(&c);
+  const double direct = DirectCount(ptr);
+  EXPECT_NEAR(EffectiveTests(ptr), direct, 1e-9);
+  EXPECT_GT(direct, 1.5);
+  EXPECT_LT(direct, 6.9);
 }
 
 // A current_hard_iron fit d·I over 12 blocks of 50 samples of white noise (σ 1), the current

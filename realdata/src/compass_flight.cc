@@ -395,7 +395,7 @@ Result<CompassFlight> FitCompassInFlight(const logs::FlightLog& log, const logs:
     StalenessOptions so;
     so.seed = o.seed;
     so.resamples = o.resamples;
-    out.staleness = CurrentStaleness(log, w.row_kind, so);
+    out.staleness = o.staleness != nullptr ? *o.staleness : CurrentStaleness(log, w.row_kind, so);
     // The scan's point shift until the profile has chosen (the airborne check's current).
     out.current_shift_s = AppliedCurrentShift_s(out.staleness);
     if (!throttle) out.current_shift_grid_s = CurrentShiftGrid(out.staleness, UpdatePeriod_s(x.current.t));

@@ -231,5 +231,34 @@ TEST(CompassFlight, GivenACurrentStalerAgainstTheThrottleThanAgainstTheField_Whe
   EXPECT_NE(TimingNote(*f).find("chosen by the compass fit"), std::string::npos) << TimingNote(*f);
 }
 
+
+// A caller that fits several compasses of one log scans the current's staleness once and hands it
+// over: the fit takes it as its own (the same scan, not repeated) and bounds its shift grid by it.
+TEST(CompassFlight, GivenTheStalenessScannedByTheCaller_WhenFitted_ThenTheFitTakesItAndBoundsItsShiftsByIt) {
+  const logs::FlightLog log = StaleCurrentFlight();
+  auto in = logs::MagInputFromFlightLog(log, "synthetic", "mag");
+  ASSERT_TRUE(in.ok()) << in.status().message();
+  CompassFlightOptions o;
+  o.scan_latency = false;
+  const FlightWindows w = WindowsFromRange(log, 0.0, 200.0);
+  auto own = FitCompassInFlight(log, *in, w, o);
+  ASSERT_TRUE(own.ok()) << own.status().message();
+  ASSERT_TRUE(own->staleness.ok());
+  StalenessOptions so;
+  so.seed = o.seed;
+  so.resamples = o.resamples;
+  const LagEstimate scanned = CurrentStaleness(log, w.row_kind, so);
+  EXPECT_EQ(scanned.value_s, own->staleness.value_s);  // the caller's scan is the fit's own
+  LagEstimate given = scanned;  // a different scan result, to see that it is the one used
+  given.value_s = 0.05;
+  given.ci95_s[0] = 0.0;
+  given.ci95_s[1] = 0.1;
+  o.staleness = &given;
+  auto f = FitCompassInFlight(log, *in, w, o);
+  ASSERT_TRUE(f.ok()) << f.status().message();
+  EXPECT_EQ(f->staleness.value_s, 0.05);
+  EXPECT_NE(f->current_shift_grid_s, own->current_shift_grid_s);  // bounded by the given scan
+}
+
 }  // namespace
 }  // namespace hexsim::realdata

@@ -57,6 +57,9 @@ struct CompassFlightOptions {
   double min_current_per_motor_A = 0.5;
   int resamples = 200;
   uint64_t seed = 1;
+  // CurrentStaleness(log, windows.row_kind, {resamples, seed}) of this very log, windows and options,
+  // computed once by a caller that fits several compasses (gap diagnose); null: computed here.
+  const LagEstimate* staleness = nullptr;
 };
 
 struct CompassFlight {
