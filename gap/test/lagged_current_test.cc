@@ -27,6 +27,24 @@ struct Diagnosed {
   const ChannelResult* mag2 = nullptr;
 };
 
+// The flown log degraded to real logging (10 Hz rows, a stale 5 Hz current, compass latency) and
+// mag2 diagnosed against the configured vehicle, which models that latency.
+Diagnosed DegradeAndDiagnose(const gaptest::Flown& f, uint64_t seed, const std::string& stream) {
+  RngStream rng(seed, stream);
+  internal::RealLogTruth truth;
+  auto real = internal::DegradeToRealLog(f.log, f.trial.configured, &rng, &truth);
+  EXPECT_TRUE(real.ok()) << real.status().message();
+  DiagnoseOptions opt;
+  opt.channels = {"mag2"};
+  opt.compass_latency_s = truth.latency_s;
+  auto rep = Diagnose(*real, f.trial.configured, opt);
+  EXPECT_TRUE(rep.ok()) << rep.status().message();
+  Diagnosed out;
+  out.report = std::move(*rep);
+  out.mag2 = gaptest::FindChannel(out.report, "mag2");
+  return out;
+}
+
 Diagnosed DiagnoseLaggedPowerField(uint64_t seed, double tau_s, double p) {
   gaptest::Flown f = gaptest::FlyInjected({}, seed, "lagged_current", "selftest_flight");
   logs::FlightLog& log = f.log;
@@ -50,19 +68,7 @@ Diagnosed DiagnoseLaggedPowerField(uint64_t seed, double tau_s, double p) {
       if (std::isfinite(m)) m += d[static_cast<Eigen::Index>(k)] * 4.0 * std::pow(lagged / I_med, p);
     }
   }
-  RngStream rng(seed, "lagged_current/degrade");
-  internal::RealLogTruth truth;
-  auto real = internal::DegradeToRealLog(log, f.trial.configured, &rng, &truth);
-  EXPECT_TRUE(real.ok()) << real.status().message();
-  DiagnoseOptions opt;
-  opt.channels = {"mag2"};
-  opt.compass_latency_s = truth.latency_s;
-  auto rep = Diagnose(*real, f.trial.configured, opt);
-  EXPECT_TRUE(rep.ok()) << rep.status().message();
-  Diagnosed out;
-  out.report = std::move(*rep);
-  out.mag2 = gaptest::FindChannel(out.report, "mag2");
-  return out;
+  return DegradeAndDiagnose(f, seed, "lagged_current/degrade");
 }
 
 const CandidateResult* LagCandidate(const ChannelResult& c) { return gaptest::FindCandidate(c, "current_lag"); }
@@ -93,29 +99,11 @@ TEST(GapLaggedCurrent, GivenALaggedPowerLawCurrentField_WhenDiagnosed_ThenItIsCu
 }
 
 // The vehicle file's own wiring field arriving through a lag τ it does not model (the selftest's
-// one-effect current_lag), on real-profile logs; mag2's result and the trial's truth.
-struct LateWiring {
-  GapReport report;
-  const ChannelResult* mag2 = nullptr;
-};
-
-LateWiring DiagnoseLateWiring(uint64_t seed, double tau_s) {
+// one-effect current_lag; τ = 0: a clean log), on real-profile logs.
+Diagnosed DiagnoseLateWiring(uint64_t seed, double tau_s) {
   std::vector<Injection> inj;
   if (tau_s > 0) inj.push_back({"current_lag", tau_s});
-  gaptest::Flown f = gaptest::FlyInjected(inj, seed, "late_wiring", "selftest_flight");
-  RngStream rng(seed, "late_wiring/degrade");
-  internal::RealLogTruth truth;
-  auto real = internal::DegradeToRealLog(f.log, f.trial.configured, &rng, &truth);
-  EXPECT_TRUE(real.ok()) << real.status().message();
-  DiagnoseOptions opt;
-  opt.channels = {"mag2"};
-  opt.compass_latency_s = truth.latency_s;
-  auto rep = Diagnose(*real, f.trial.configured, opt);
-  EXPECT_TRUE(rep.ok()) << rep.status().message();
-  LateWiring out;
-  out.report = std::move(*rep);
-  out.mag2 = gaptest::FindChannel(out.report, "mag2");
-  return out;
+  return DegradeAndDiagnose(gaptest::FlyInjected(inj, seed, "late_wiring", "selftest_flight"), seed, "late_wiring/degrade");
 }
 
 // Given the modelled wiring field arriving 0.15 s late, when diagnosed, then it is current_lag with
@@ -127,7 +115,7 @@ TEST(GapLaggedCurrent, GivenTheModelledWiringFieldArrivingLate_WhenDiagnosed_The
   constexpr double kTau = 0.15;
   int named = 0, by_timing = 0, covered = 0;
   for (uint64_t seed = 3111; seed < 3114; ++seed) {
-    const LateWiring d = DiagnoseLateWiring(seed, kTau);
+    const Diagnosed d = DiagnoseLateWiring(seed, kTau);
     ASSERT_NE(d.mag2, nullptr) << Summary(d.report);
     if (d.mag2->verdict != "current_lag") continue;
     ++named;
@@ -151,7 +139,7 @@ TEST(GapLaggedCurrent, GivenTheModelledWiringFieldArrivingLate_WhenDiagnosed_The
 TEST(GapLaggedCurrent, GivenACleanRealProfileLog_WhenDiagnosed_ThenAFieldLeadingTheCurrentIsNoLag) {
   int leading = 0;
   for (uint64_t seed = 3121; seed < 3123; ++seed) {
-    const LateWiring d = DiagnoseLateWiring(seed, 0.0);
+    const Diagnosed d = DiagnoseLateWiring(seed, 0.0);
     ASSERT_NE(d.mag2, nullptr) << Summary(d.report);
     EXPECT_EQ(d.mag2->verdict, "none") << Summary(d.report);
     EXPECT_FALSE(d.mag2->timing.current_field_lag.present) << Summary(d.report);
