@@ -34,19 +34,21 @@ FoldDiff Diff(const std::vector<double>& a, const std::vector<double>& b);
 bool Nests(const Candidate& a, const Candidate& b);
 // current_lag's configured-wiring member (replay_compass.cc AddCurrentLag): the field the vehicle
 // file models, arriving through a lag τ instead of the modelled one, times its fitted amplitude a.
-// a is the share of the modelled field that arrives late: physical range 0 < a ≤ 1 (all of the
-// field lags, or the part a plate's eddy currents delay). A lag never reverses the field it delays:
-// a ≤ 0 is a field that LEADS the modelled current (the logged current's timing, which the timing
-// scan and the current families' member shifts describe; on clean real-profile logs it fits
-// a = −20…−135 at τ = 20–30 ms, significant at p < 1e-4), and a lagged field larger than the whole
-// modelled one is no lag of it (the free member describes an unmodelled lagged field). Judged by
-// the point for the sign and by the interval for the upper end: a and τ trade against each other
-// on a slow current (to first order only their product is fitted), so a is read low where τ reads
-// high (a = 0.35-0.8 at τ fitted 0.2-0.56 s for a true whole-field lag of 0.15-0.3 s).
+// a is the share of the modelled field that arrives late: 1 where all of it lags, less where a
+// plate's eddy currents delay a part. A lag never reverses the field it delays: a ≤ 0 is a field
+// that LEADS the modelled current (the logged current's timing, which the timing scan and the
+// current families' member shifts describe; on clean real-profile logs it fits a = −6…−135 at
+// τ = 20–50 ms, significant at p 1e-9…2e-3). Upper end 2: τ is resolved to its grid (kLagGrid_s)
+// and to first order only the product a·τ is fitted, so at the grid point below a true τ a reads
+// up to the grid's largest step ratio (2, 10 → 20 ms) above the share that lags (an exact log's
+// whole-field lag of 0.3 s fits τ = 0.28 s, a = 1.06 [1.01, 1.11]); a lagged field more than twice
+// the modelled one is no lag of it (the free member describes an unmodelled lagged field). On a
+// real log τ reads high and a low (a = 0.35–0.8 at τ fitted 0.2–0.56 s for true 0.15–0.3 s).
+// Judged by the point for the sign, by the interval's low end for the upper end.
 inline constexpr const char* kModelledFieldShare = "amplitude";
-inline constexpr double kModelledFieldShareLo = 0.0, kModelledFieldShareHi = 1.0;
+inline constexpr double kModelledFieldShareLo = 0.0, kModelledFieldShareHi = 2.0;
 bool DelaysModelledField(const Candidate& c);
-// The member's a inside its range (above): a > 0 and its interval's low end at most 1.
+// The member's a inside its range (above): a > 0 and its interval's low end at most 2.
 bool ModelledFieldShareInRange(const CandidateResult& r);
 // Families that may enter a model: plausible and significant (family-corrected p ≤ alpha); a
 // profiled lag resolved from zero, and the configured-wiring member's a inside its range.
