@@ -13,6 +13,7 @@
 #include "../src/selftest_real.h"
 #include "hexsim/common/rng.h"
 #include "hexsim/gap/diagnose.h"
+#include "hexsim/gap/json.h"
 #include "support/gap_fixtures.h"
 
 namespace hexsim::gap {
@@ -96,6 +97,14 @@ TEST(GapLaggedCurrent, GivenALaggedPowerLawCurrentField_WhenDiagnosed_ThenItIsCu
   EXPECT_DOUBLE_EQ(tl.value_s, lag->magnitude);
   EXPECT_LE(tl.ci95_s.lo, 0.5) << Summary(d.report);
   EXPECT_GE(tl.ci95_s.hi, 0.5) << Summary(d.report);
+  // gap.json carries it under the channel's timing, stdout on its timing line.
+  const nlohmann::json j = ToJson(d.report);
+  bool in_json = false;
+  for (const auto& c : j.at("channels")) {
+    if (c.at("channel") == "mag2") in_json = c.at("timing").at("current_field_lag_s").at("value") == tl.value_s;
+  }
+  EXPECT_TRUE(in_json);
+  EXPECT_NE(Summary(d.report).find("current field lag behind the current"), std::string::npos) << Summary(d.report);
 }
 
 // The vehicle file's own wiring field arriving through a lag τ it does not model (the selftest's
