@@ -81,6 +81,7 @@ json LagJson(const LagReport& l) {
 
 json TimingJson(const Timing& t) {
   json j = json::object();
+  if (t.current_field_lag.present) j["current_field_lag_s"] = LagJson(t.current_field_lag);
   if (!t.latency.present && !t.current_staleness.present) return j;
   json st = json::object();
   if (t.current_staleness.present) st["current_A"] = LagJson(t.current_staleness);
@@ -310,21 +311,25 @@ std::string Summary(const GapReport& r) {
     if (c.reference_contaminated) s += " [reference-contaminated]";
     s += "\n  verdict: " + c.headline + "\n";
     if (c.absolute_terms) s += internal::CompassTermsText(*c.absolute_terms) + "\n";
-    if (c.timing.latency.present) {
-      const LagReport& l = c.timing.latency;
-      s += fmt::format("  timing: compass latency {:.0f} ms [{:.0f}, {:.0f}]", 1000 * l.value_s, 1000 * l.ci95_s.lo,
-                       1000 * l.ci95_s.hi);
-      if (c.timing.current_staleness.present) {
-        const LagReport& st = c.timing.current_staleness;
+    if (c.timing.latency.present || c.timing.current_field_lag.present) {
+      std::string line;
+      const auto add = [&line](const char* what, const LagReport& l) {
+        if (!l.present) return;
+        line += fmt::format("{}{} {:.0f} ms [{:.0f}, {:.0f}]", line.empty() ? "" : "; ", what, 1000 * l.value_s,
+                            1000 * l.ci95_s.lo, 1000 * l.ci95_s.hi);
+      };
+      add("compass latency", c.timing.latency);
+      const LagReport& st = c.timing.current_staleness;
+      if (c.timing.latency.present && st.present) {
         if (st.resolved && st.plausible && plausibility::IsPlausible("current_staleness", st.value_s)) {
-          s += fmt::format("; current staleness {:.0f} ms [{:.0f}, {:.0f}]", 1000 * st.value_s, 1000 * st.ci95_s.lo,
-                           1000 * st.ci95_s.hi);
-        } else {  // its point or interval outside 0..1 s or on the scan's edge: no number to act on
-          s += fmt::format("; current staleness not resolved by the throttle scan ({})",
-                           st.resolved ? "its point lies outside the physical range 0..1 s" : "its point sits on the scan's edge");
+          add("current staleness", st);
+        } else {  // its point outside 0..1 s or on the scan's edge: no number to act on
+          line += fmt::format("; current staleness not resolved by the throttle scan ({})",
+                              st.resolved ? "its point lies outside the physical range 0..1 s" : "its point sits on the scan's edge");
         }
       }
-      s += "\n";
+      add("current field lag behind the current", c.timing.current_field_lag);
+      s += "  timing: " + line + "\n";
     }
     if (c.nuisance.present) {
       const Eigen::Vector3d& o = c.nuisance.offset_uT;

@@ -348,9 +348,28 @@ void NameVerdict(const NuisanceReport& nu, const Structure& st, const std::strin
 // on the real-profile selftest a current field the reference attitude's yaw error carries in from
 // the first compass is a tenth of the structure of the clean trials' second compass, 4 % false
 // alarms in 24 trials; no such field turns a heading by a degree.)
+//
+// The lag of the field the vehicle file models (current_lag's configured-wiring member,
+// DelaysModelledField) is a timing of that field, not a field of its own: the combined model (the
+// modelled field at its fitted lag) against the baseline (the same field at the modelled lag) IS the
+// member, and what it removes is the field's change over the lag, τ·dB/dt, small against the noise
+// however resolved the lag is (a whole-field lag of 0.1-0.5 s removes 1-13 % of the noise floor's
+// power at p 1e-9...1e-3). It is judged as the compass latency is (LatencyTerm; DiagnoseOptions::
+// compass_latency_s): what the vehicle file states differs beyond its interval (the lag resolved from
+// the modelled one, Eligible), plausible, significant, and the alignment removes min_effect_share of
+// the held-out structure above the floor.
 const char* const kByNoise = "by the noise power";
-std::string MaterialWhy(bool by_noise, const CandidateResult& r, const HeadingTurn& h, const DiagnoseOptions& o) {
+std::string MaterialWhy(bool by_noise, bool modelled_lag, const CandidateResult& r, const HeadingTurn& h,
+                        const DiagnoseOptions& o) {
   if (by_noise) return kByNoise;
+  if (modelled_lag && r.explained_share >= o.min_effect_share) {
+    return fmt::format("by its timing against the vehicle file (as the compass latency is): the modelled current field "
+                       "arrives {:.0f} ms [{:.0f}, {:.0f}] late; the delay removes {} of the held-out structure above the "
+                       "noise floor (at least {}), though less than {} of the floor's power (a lag changes only the "
+                       "field's change over it)",
+                       1000 * r.magnitude, 1000 * r.magnitude_ci95[0], 1000 * r.magnitude_ci95[1],
+                       Percent(r.explained_share), Percent(o.min_effect_share), Percent(o.materiality));
+  }
   if (TurnsHeading(h, o)) {
     return fmt::format("by the heading it turns: {:.1f} deg RMS over the flight (95 % low end {:.1f} deg, at or above {:g} "
                        "deg), although held out it removes {} of the structure above the noise floor, less than {} of "
@@ -424,15 +443,15 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
   const double cv0 = an.baseline().cv_sse;
   FamilyPValues(an, FieldMatrix(ch), &at);
   std::vector<bool> eligible = Eligible(at, o);
-  // A first effect must be material on its own (MaterialWhy): held out against the noise power, or
-  // by the heading it turns.
+  // A first effect must be material on its own (MaterialWhy): held out against the noise power, by
+  // its timing (the modelled field's lag), or by the heading it turns.
   std::vector<HeadingTurn> turns(F);
   std::vector<std::string> why(F);
   for (size_t f = 0; f < F; ++f) {
     if (!eligible[f]) continue;
     const Evaluated& e = at.all[at.fam_best[f]];
     turns[f] = HeadingTurnOf(ch, an, e);
-    why[f] = MaterialWhy(IsMaterial(an, e, cv0, st.noise_var, o), at.results[f], turns[f], o);
+    why[f] = MaterialWhy(IsMaterial(an, e, cv0, st.noise_var, o), DelaysModelledField(*e.cand), at.results[f], turns[f], o);
     eligible[f] = !why[f].empty();
   }
   // Decided with the current's variation: where current_soft_iron depends on the current beyond any

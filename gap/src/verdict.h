@@ -32,7 +32,26 @@ struct FoldDiff {
 FoldDiff Diff(const std::vector<double>& a, const std::vector<double>& b);
 // Does a's column space (over the samples) hold b's?
 bool Nests(const Candidate& a, const Candidate& b);
-// Families that may enter a model: plausible and significant (family-corrected p ≤ alpha).
+// current_lag's configured-wiring member (replay_compass.cc AddCurrentLag): the field the vehicle
+// file models, arriving through a lag τ instead of the modelled one, times its fitted amplitude a.
+// a is the share of the modelled field that arrives late: 1 where all of it lags, less where a
+// plate's eddy currents delay a part. A lag never reverses the field it delays: a ≤ 0 is a field
+// that LEADS the modelled current (the logged current's timing, which the timing scan and the
+// current families' member shifts describe; on clean real-profile logs it fits a = −6…−135 at
+// τ = 20–50 ms, significant at p 1e-9…2e-3). Upper end 2: τ is resolved to its grid (kLagGrid_s)
+// and to first order only the product a·τ is fitted, so at the grid point below a true τ a reads
+// up to the grid's largest step ratio (2, 10 → 20 ms) above the share that lags (an exact log's
+// whole-field lag of 0.3 s fits τ = 0.28 s, a = 1.06 [1.01, 1.11]); a lagged field more than twice
+// the modelled one is no lag of it (the free member describes an unmodelled lagged field). On a
+// real log τ reads high and a low (a = 0.35–0.8 at τ fitted 0.2–0.56 s for true 0.15–0.3 s).
+// Judged by the point for the sign, by the interval's low end for the upper end.
+inline constexpr const char* kModelledFieldShare = "amplitude";
+inline constexpr double kModelledFieldShareLo = 0.0, kModelledFieldShareHi = 2.0;
+bool DelaysModelledField(const Candidate& c);
+// The member's a inside its range (above): a > 0 and its interval's low end at most 2.
+bool ModelledFieldShareInRange(const CandidateResult& r);
+// Families that may enter a model: plausible and significant (family-corrected p ≤ alpha); a
+// profiled lag resolved from zero, and the configured-wiring member's a inside its range.
 std::vector<bool> Eligible(const Attribution& at, const DiagnoseOptions& o);
 // The first effect: the one-standard-error rule over the CV folds among the eligible families (F: none).
 size_t ChooseFirst(const Attribution& at, const std::vector<bool>& eligible);
@@ -65,8 +84,11 @@ size_t AmbiguousRival(const Attribution& at, const SelectedModel& m, const std::
 EffectShare ToEffect(const CandidateResult& k, double share, const std::string& source);
 void SortEffects(std::vector<EffectShare>* effects);
 // The effects' sizes again from their selected candidates (after the plug-in propagation widened
-// their intervals and the current equivalents were added).
+// their intervals and the current equivalents were added), and a selected current_lag's lag under
+// the channel's timing (FieldLag).
 void RefreshEffects(ChannelResult* res);
+// A selected current_lag's lag as the channel's timing reports it (Timing::current_field_lag).
+LagReport FieldLag(const CandidateResult& k, double share);
 // Selected candidates in the effects' order first, then library candidates by explained share,
 // then the timing and nuisance terms.
 std::vector<CandidateResult> OrderCandidates(const std::vector<EffectShare>& effects, std::vector<CandidateResult> all);

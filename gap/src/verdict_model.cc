@@ -43,6 +43,17 @@ bool Nests(const Candidate& a, const Candidate& b) {
   return left.trace() < kNestedResidual * tr;
 }
 
+bool DelaysModelledField(const Candidate& c) {
+  return c.grid_name == "tau_s" && c.grid2_name.empty() && c.names.size() == 1 && c.names[0] == kModelledFieldShare;
+}
+
+bool ModelledFieldShareInRange(const CandidateResult& r) {
+  const auto a = r.params.find(kModelledFieldShare);
+  const auto ci = r.ci95.find(kModelledFieldShare);
+  if (a == r.params.end() || ci == r.ci95.end()) return false;
+  return a->second > kModelledFieldShareLo && ci->second.lo <= kModelledFieldShareHi;
+}
+
 std::vector<bool> Eligible(const Attribution& at, const DiagnoseOptions& o) {
   std::vector<bool> ok(at.results.size(), false);
   for (size_t f = 0; f < at.results.size(); ++f) {
@@ -51,6 +62,7 @@ std::vector<bool> Eligible(const Attribution& at, const DiagnoseOptions& o) {
     // one, which the current's own families describe (current_lag's unlagged members are its
     // reference, AddLaggedCurrentField).
     if (at.all[at.fam_best[f]].cand->grid_name == "tau_s" && !(at.results[f].magnitude_ci95[0] > 0)) ok[f] = false;
+    if (DelaysModelledField(*at.all[at.fam_best[f]].cand) && !ModelledFieldShareInRange(at.results[f])) ok[f] = false;
   }
   return ok;
 }
@@ -171,10 +183,24 @@ void RefreshEffects(ChannelResult* res) {
     for (const CandidateResult& k : res->candidates) {
       if (k.selected && k.effect == e.effect) {
         e = ToEffect(k, e.explained_share, e.source);
+        if (k.id == Effect::kCurrentLag) res->timing.current_field_lag = FieldLag(k, e.explained_share);
         break;
       }
     }
   }
+}
+
+LagReport FieldLag(const CandidateResult& k, double share) {
+  LagReport l;
+  l.present = true;
+  l.value_s = k.magnitude;
+  l.ci95_s = {k.magnitude_ci95[0], k.magnitude_ci95[1]};
+  l.against = "current_A";
+  // Resolved from no lag (the modelled one; Eligible), and inside its physical range.
+  l.resolved = k.magnitude_ci95[0] > 0;
+  l.plausible = k.plausible;
+  l.explained_share = share;
+  return l;
 }
 
 void SortEffects(std::vector<EffectShare>* effects) {

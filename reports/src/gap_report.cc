@@ -53,9 +53,10 @@ std::string LagRow(const char* what, const gap::LagReport& l) {
 }
 
 std::string TimingHtml(const gap::Timing& t) {
-  if (!t.latency.present && !t.current_staleness.present) return "";
+  if (!t.latency.present && !t.current_staleness.present && !t.current_field_lag.present) return "";
   std::string h = "<h3>Timing</h3><table><tr><th>lag</th><th>value [95 % CI]</th><th>measured against</th><th>status</th></tr>";
-  h += LagRow("compass latency", t.latency) + LagRow("logged current's staleness", t.current_staleness) + "</table>";
+  h += LagRow("compass latency", t.latency) + LagRow("logged current's staleness", t.current_staleness) +
+       LagRow("current-driven field's lag (current_lag)", t.current_field_lag) + "</table>";
   if (t.latency.present && std::isfinite(t.latency.explained_share)) {
     h += fmt::format("<p>Aligning the compass by its latency removes {:.0f} % of the held-out residual above the noise floor.</p>",
                      100 * t.latency.explained_share);

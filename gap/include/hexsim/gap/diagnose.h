@@ -215,6 +215,10 @@ struct LagReport {
 struct Timing {
   LagReport latency;            // compass latency against the attitude
   LagReport current_staleness;  // logged current against the throttle
+  // A current-driven field's lag behind the logged current: the selected current_lag effect's τ (its
+  // interval after the plug-ins), against "current_A"; explained_share is the effect's. A lagged
+  // current field is one current effect, its size in the effect and its lag here.
+  LagReport current_field_lag;
 };
 
 // ΔB/ΔI between flight and ground with the flight's baseline (compassmot's principle).
