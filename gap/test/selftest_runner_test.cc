@@ -142,7 +142,9 @@ TEST(GapSelftestRunner, GivenDynamicsTrialsExplainingMostAboveTheFloor_WhenSumma
       << res->table;
   const nlohmann::json j = ToJson(*res);
   for (const auto& c : j["classes"]) {
-    if (c["class"] == "dynamics_one_effect") EXPECT_DOUBLE_EQ(c["median_explained_share"].get<double>(), 0.7) << c.dump();
+    if (c["class"] == "dynamics_one_effect") {
+      EXPECT_DOUBLE_EQ(c["median_explained_share"].get<double>(), 0.7) << c.dump();
+    }
   }
 }
 
