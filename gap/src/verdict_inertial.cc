@@ -168,6 +168,7 @@ void AddRowRateSystematic(const ChannelData& ch, const DiagnoseOptions& o, Attri
     half_data[p].y = ch.y_half_rate[p];
     half_data[p].bias_nuisance = ch.bias_nuisance;
   }
+  halves.reserve(half_data.size());
   for (const ChannelData& h : half_data) halves.emplace_back(h, o);
   if (halves.empty()) return;
   // [lo, hi] about mid, widened by delta in quadrature on each side.
