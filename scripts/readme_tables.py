@@ -164,10 +164,16 @@ def selftest(path, machine, date):
         rows.append(("dynamics channel, clean logs", f"false alarms {pct(clean.get('dynamics_false_alarm_rate'))}",
                      target(dt, "false_alarm")))
     if dt and dyn:
+        # The share the target is on (explained share; older runs: held-out shrink), the other beside it.
+        dyn_share = any(k.startswith("median_explained_share") for k in dt) and "median_explained_share" in dyn
+        dyn_last = (f"median explained share {pct(dyn.get('median_explained_share'))} (held-out shrink "
+                    f"{pct(dyn.get('median_heldout_shrink'))})" if dyn_share
+                    else f"median held-out shrink {pct(dyn.get('median_heldout_shrink'))}")
         rows.append((f"dynamics channel, one effect{trials_each(dyn)}",
                      f"top-1 {pct(dyn.get('top1_rate'))} ({per_effect(dyn)}), interval coverage "
-                     f"{pct(dyn.get('coverage_95'))}, median held-out shrink {pct(dyn.get('median_heldout_shrink'))}",
-                     ", ".join([target(dt, "single_top1"), target(dt, "coverage"), target(dt, "median_shrink")])))
+                     f"{pct(dyn.get('coverage_95'))}, {dyn_last}",
+                     ", ".join([target(dt, "single_top1"), target(dt, "coverage"),
+                                target(dt, "median_explained_share" if dyn_share else "median_shrink")])))
     profile = f" --profile {j['profile']}" if "profile" in j else ""
     out = [f"`hexsim gap selftest{profile} --trials {j.get('trials_per_class')} --seed {j.get('seed')}` on {machine}, "
            f"{date}; targets {'met' if j.get('targets_met') else 'missed'}:", "",

@@ -440,6 +440,51 @@ SecantFit FitBySecant(const ChannelData& ch, const Effect& effect, double theta_
   return {tb, std::move(gb)};
 }
 
+// Column x with the rows of the other phase (i % 2 != phase) replaced by the interpolation of their
+// neighbours in time, where both are finite and the gap between them is a replay step (kMaxRowGap_s
+// each): the column as a log at half the row rate would give it to the replay.
+std::vector<double> HalfRateColumn(const std::vector<double>& t, const std::vector<double>& x, size_t phase) {
+  std::vector<double> h = x;
+  for (size_t i = 1; i + 1 < x.size(); ++i) {
+    if (i % 2 == phase || !std::isfinite(x[i - 1]) || !std::isfinite(x[i + 1])) continue;
+    const double span = t[i + 1] - t[i - 1];
+    if (!(span > 0) || !(span <= 2 * kMaxRowGap_s)) continue;
+    const double w = (t[i] - t[i - 1]) / span;
+    h[i] = (1 - w) * x[i - 1] + w * x[i + 1];
+  }
+  return h;
+}
+
+// The channel's residual with the replay's between-row inputs (motor commands, bus voltage and
+// current) read at half the log's row rate, for each phase (even rows kept, odd rows kept): each
+// holds one realisation of the reconstruction's error at twice the row interval (AnalyzeInertial's
+// row-rate term). A kept sample whose half-rate replay has no rotor state keeps the log-rate residual.
+std::vector<std::vector<Vec3>> HalfRateResiduals(const DynamicsInputs& in, const vehicle::VehicleParams& v,
+                                                 const ChannelData& ch, const Airborne& air) {
+  const size_t n = ch.t.size();
+  std::vector<std::vector<Vec3>> ys;
+  for (size_t phase = 0; phase < 2; ++phase) {
+    DynamicsInputs h = in;
+    std::vector<std::vector<double>> mu;
+    for (const auto* m : in.mu) mu.push_back(HalfRateColumn(*in.t, *m, phase));
+    for (size_t m = 0; m < mu.size(); ++m) h.mu[m] = &mu[m];
+    const std::vector<double> V = in.V ? HalfRateColumn(*in.t, *in.V, phase) : std::vector<double>();
+    const std::vector<double> I = in.I ? HalfRateColumn(*in.t, *in.I, phase) : std::vector<double>();
+    if (in.V) h.V = &V;
+    if (in.I) h.I = &I;
+    std::vector<std::vector<double>> w;
+    std::vector<bool> ok;
+    PowertrainReplay(h, v).Run(1.0, 0.0, &w, &ok);
+    const std::vector<Vec3> F = ThrustAtKept(v, ch, w, ok);
+    std::vector<Vec3> y = ch.y;
+    for (size_t k = 0; k < n; ++k) {
+      if (ok[static_cast<size_t>(ch.row[k])]) y[k] -= (F[k] - air.F_T[k]) / air.mass[k];
+    }
+    ys.push_back(std::move(y));
+  }
+  return ys;
+}
+
 // motor_time_constant: the rotors respond slower than configured; the replay with every rotor's
 // inertia scaled by (1 + κ) (τ ∝ J at a given speed), fitted by the secant method over replays;
 // its columns (no regressor yet) give the extra time constant at hover Δτ = κ·τ_hover.
@@ -670,6 +715,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     skip(fmt::format("no airborne samples with motor outputs (dropped {} on the ground or disarmed)", air.dropped_ground));
     return;
   }
+  ch.y_half_rate = HalfRateResiduals(in, v, ch, air);
   AddThrustCandidates(replay, v, air, &ch);
   AddBatterySag(replay, in, v, air, &ch);
   AddGroundEffect(v, air, &ch);

@@ -116,6 +116,7 @@ Json ClassJson(const SelftestResult& m, const std::string& cname, const Selftest
     cj["channel"] = "dynamics";
     cj["coverage_95"] = s.Coverage();
     cj["median_heldout_shrink"] = s.MedianShrink();
+    cj["median_explained_share"] = s.MedianShare();
   }
   if (cname == "two_effects") cj["both_in_effects_rate"] = s.Rate(s.all_in_effects);
   if (cname == "clean") {

@@ -119,10 +119,13 @@ void SetTargets(const SelftestPlan& p, SelftestResult* m) {
                   // the noise rather than the diagnosis (it stays printed beside it).
                   {"median_explained_share_ge_0.50", one.MedianShare() >= 0.5},
                   {"current_hard_iron_threshold_le_0.1uT_per_A", th_ok}};
+    // The dynamics channel's one-effect target is on the same share as the compasses' (the true
+    // effect's explained_share above the channel's noise floor): the held-out shrink, RMS about
+    // zero, counts the floor and so measures the injected size against the noise (printed beside).
     m->dynamics_targets = std::map<std::string, bool>{{"false_alarm_le_0.05", m->dynamics_false_alarm <= 0.05},
                                                       {"single_top1_ge_0.90", dyn.Rate(dyn.top1) >= 0.9},
                                                       {"coverage_ge_0.90", dyn.Coverage() >= 0.9},
-                                                      {"median_shrink_ge_0.50", dyn.MedianShrink() >= 0.5}};
+                                                      {"median_explained_share_ge_0.50", dyn.MedianShare() >= 0.5}};
   }
   m->compass_targets_met = true;
   m->dynamics_targets_met = true;
@@ -216,9 +219,11 @@ std::string Table(const SelftestPlan& p, const SelftestResult& m) {
     t += "  dynamics channel: not run on the real profile (its replay needs the simulator's row rate)\n";
   } else {
     const SelftestClassStats& dyn = st.at("dynamics_one_effect");
-    t += fmt::format("  dynamics channel false alarms on clean logs {:5.1f} % (target <= 5 %); one effect top-1 {:5.1f} %, "
-                     "95 % interval coverage {:5.1f} %, median held-out shrink {:4.0f} %\n",
-                     100 * m.dynamics_false_alarm, 100 * dyn.Rate(dyn.top1), 100 * dyn.Coverage(), 100 * dyn.MedianShrink());
+    t += fmt::format("  dynamics channel false alarms on clean logs {:5.1f} % (target <= 5 %); one effect top-1 {:5.1f} % "
+                     "(>= 90 %), 95 % interval coverage {:5.1f} % (>= 90 %), median explained share of the true effect "
+                     "{:4.0f} % (>= 50 %), median held-out shrink {:4.0f} %\n",
+                     100 * m.dynamics_false_alarm, 100 * dyn.Rate(dyn.top1), 100 * dyn.Coverage(), 100 * dyn.MedianShare(),
+                     100 * dyn.MedianShrink());
     t += PerEffectLines(dyn);
   }
   t += fmt::format("  out of library   not confident (unexplained, ambiguous, partial or leftover reported) {:5.1f} % "

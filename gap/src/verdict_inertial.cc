@@ -151,6 +151,64 @@ void StateVehicleMismatch(ChannelResult* res) {
       ts->magnitude, ts->magnitude_ci95[0], ts->magnitude_ci95[1], range->lo, range->hi);
 }
 
+// What the log's row rate leaves undetermined, added to each candidate's interval. The replay
+// reconstructs its inputs between rows (an autopilot commands its motors several times per logged
+// row: the commands in between are not in the log), and that reconstruction's error moves a fit
+// whose interval is far tighter than it (a motor time constant 1-3 % off at 100 Hz rows, unbiased
+// at 1 kHz). The same fit to the residual replayed from every other row's inputs moves by Δ_p
+// (phase p: even or odd rows kept); each Δ_p is one realisation of the reconstruction's error at
+// twice the row interval, which is not smaller than the error at the log's own: the RMS of the two,
+// measured per log, is added in quadrature to the statistical half-widths.
+void AddRowRateSystematic(const ChannelData& ch, const DiagnoseOptions& o, Attribution* at) {
+  std::vector<Analyzer> halves;
+  std::vector<ChannelData> half_data(ch.y_half_rate.size());
+  for (size_t p = 0; p < ch.y_half_rate.size(); ++p) {
+    if (ch.y_half_rate[p].size() != ch.t.size()) return;
+    half_data[p].t = ch.t;
+    half_data[p].y = ch.y_half_rate[p];
+    half_data[p].bias_nuisance = ch.bias_nuisance;
+  }
+  halves.reserve(half_data.size());
+  for (const ChannelData& h : half_data) halves.emplace_back(h, o);
+  if (halves.empty()) return;
+  // [lo, hi] about mid, widened by delta in quadrature on each side.
+  auto widen = [](double delta, double mid, double* lo, double* hi) {
+    const double below = mid - *lo, above = *hi - mid;
+    *lo = mid - std::sqrt(below * below + delta * delta);
+    *hi = mid + std::sqrt(above * above + delta * delta);
+  };
+  for (size_t f = 0; f < at->results.size(); ++f) {
+    const Evaluated& e = at->all[at->fam_best[f]];
+    const Candidate& c = *e.cand;
+    if (!c.grid_name.empty() || !e.full.ok) continue;  // profiled (grid) parameters keep their grid intervals
+    std::vector<double> d_param(static_cast<size_t>(c.p()), 0.0);
+    double d_mag = 0.0;
+    bool ok = true;
+    for (const Analyzer& an_half : halves) {
+      const Evaluated h = an_half.FitOnly(c);
+      ok = ok && h.full.ok;
+      if (!ok) break;
+      for (int j = 0; j < c.p(); ++j) {
+        const double d = (h.full.beta[h.off + j] - e.full.beta[e.off + j]) * c.scale[static_cast<size_t>(j)];
+        d_param[static_cast<size_t>(j)] += d * d / static_cast<double>(halves.size());
+      }
+      const double d = MagnitudeOf(h) - MagnitudeOf(e);
+      d_mag += d * d / static_cast<double>(halves.size());
+    }
+    if (!ok) continue;
+    CandidateResult& r = at->results[f];
+    for (int j = 0; j < c.p(); ++j) {
+      const auto it = r.ci95.find(c.names[static_cast<size_t>(j)]);
+      if (it == r.ci95.end()) continue;
+      widen(std::sqrt(d_param[static_cast<size_t>(j)]), e.full.beta[e.off + j] * c.scale[static_cast<size_t>(j)],
+            &it->second.lo, &it->second.hi);
+    }
+    widen(std::sqrt(d_mag), r.magnitude, &r.magnitude_ci95[0], &r.magnitude_ci95[1]);
+    // A norm (several parameters) is never negative.
+    if ((c.magnitude_params > 0 ? c.magnitude_params : c.p()) > 1) r.magnitude_ci95[0] = std::max(0.0, r.magnitude_ci95[0]);
+  }
+}
+
 }  // namespace
 
 ChannelResult AnalyzeInertial(const ChannelData& ch, const logs::FlightLog& log, const std::vector<std::string>& phases,
@@ -174,6 +232,7 @@ ChannelResult AnalyzeInertial(const ChannelData& ch, const logs::FlightLog& log,
   res.noise_rms = std::sqrt(noise_var);
   const double noise_sse = noise_var * an.total_n();
   Attribution at = Attribute(ch, an, o, rng, noise_sse);
+  AddRowRateSystematic(ch, o, &at);
   for (CandidateResult& r : at.results) {
     if (r.id == Effect::kLatency && ch.known_hold_max_s > 0) {
       // Report the total latency: the known sample hold removed in the replay plus the excess.

@@ -103,5 +103,50 @@ TEST(GapSelftestRunner, GivenARecordWithEveryField_WhenWrittenAndReadBack_ThenIt
   EXPECT_FALSE(TrialRecordFromJson(nlohmann::json{{"verdict", "none"}}).ok());
 }
 
+// The dynamics channel's one-effect target is the median explained share of the true effect (as the
+// compasses'), not the held-out shrink: a set of trials whose true effect explains 70 % of the
+// residual above the floor while the RMS about zero shrinks 30 % meets it, both printed.
+TEST(GapSelftestRunner, GivenDynamicsTrialsExplainingMostAboveTheFloor_WhenSummarised_ThenTheShareTargetIsMetAndBothArePrinted) {
+  SelftestOptions o;
+  o.profile = "ideal";
+  o.trials = 2;
+  o.threshold_trials = 0;
+  // Classes in trial order: clean, one_effect, two_effects, out_of_library, dynamics_one_effect.
+  TrialRunner made_up = [](size_t n, const TrialFn&) -> Result<std::vector<TrialRecord>> {
+    std::vector<TrialRecord> out;
+    for (size_t i = 0; i < n; ++i) {
+      ClassTrialRecord r;
+      const size_t cls = i / 2;
+      if (cls == 1 || cls == 2) r.injected = {{"misalignment", Effect::kMisalignment}, {"wind", Effect::kWind}};
+      if (cls == 4) {
+        r.injected = {{"motor_time_constant", Effect::kMotorTimeConstant}};
+        r.verdict = "motor_time_constant";
+        r.gap_detected = true;
+        r.heldout_shrink = 0.3;
+        r.true_share = 0.7;
+        r.covered = true;
+      }
+      out.emplace_back(std::move(r));
+    }
+    return out;
+  };
+  auto res = RunSelftest(o, nullptr, made_up);
+  ASSERT_TRUE(res.ok()) << res.status().message();
+  ASSERT_TRUE(res->dynamics_targets.has_value());
+  EXPECT_EQ(res->dynamics_targets->count("median_shrink_ge_0.50"), 0u);
+  ASSERT_EQ(res->dynamics_targets->count("median_explained_share_ge_0.50"), 1u);
+  EXPECT_TRUE(res->dynamics_targets->at("median_explained_share_ge_0.50"));
+  EXPECT_TRUE(res->dynamics_targets->at("coverage_ge_0.90"));
+  EXPECT_NE(res->table.find("median explained share of the true effect   70 % (>= 50 %), median held-out shrink   30 %"),
+            std::string::npos)
+      << res->table;
+  const nlohmann::json j = ToJson(*res);
+  for (const auto& c : j["classes"]) {
+    if (c["class"] == "dynamics_one_effect") {
+      EXPECT_DOUBLE_EQ(c["median_explained_share"].get<double>(), 0.7) << c.dump();
+    }
+  }
+}
+
 }  // namespace
 }  // namespace hexsim::gap
