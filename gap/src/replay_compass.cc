@@ -182,6 +182,36 @@ void AddCurrentIron(const CompassRows& rows, const CompassReplayOptions& o, cons
   }
 }
 
+// reference_yaw: the attitude reference's heading error in proportion to the current, δψ = c·I (an
+// estimator that fuses a compass the current disturbs). The predicted field is the Earth field
+// rotated by the reference attitude; a heading error δψ about down turns it, so the compass reads
+// r = M·R_NBᵀ·(ẑ × B_N)·δψ more than predicted (first order in δψ). One column per sample, c in
+// deg/A (scale kRadToDeg), with the same current members as current_hard_iron: the reference sees
+// the fused compass's field at that compass's timing. Unlike a current field at the compass, which
+// is fixed in the body, this one is fixed in NED about down: it turns in the body as the vehicle yaws.
+void AddReferenceYaw(const CompassRows& rows, const CompassReplayOptions& o, const std::vector<double>& t_row,
+                     const std::vector<double>& current, ChannelData* ch) {
+  const Vec3 turn_N = Vec3::UnitZ().cross(ch->field_N_uT);  // d(B_N)/dψ about down: (−B_E, B_N, 0)
+  std::vector<double> shifts = {0.0};
+  for (double s : o.member_shifts_s) {
+    if (s != 0.0) shifts.push_back(s);
+  }
+  for (double shift : shifts) {
+    const std::vector<double> I = shift == 0.0 ? rows.I_log : ShiftedCurrent(t_row, current, rows.t_meas, shift);
+    bool finite = true;
+    for (double x : I) finite = finite && std::isfinite(x);
+    if (!finite) continue;
+    Candidate ry = MakeCandidate("reference_yaw", {"c_deg_per_A"}, {kRadToDeg}, "deg/A", "current_A");
+    ry.grid_name = "current_aligned";
+    ry.grid_value = shift;
+    for (size_t k = 0; k < ch->t.size(); ++k) {
+      ry.X.emplace_back(Mat3X(rows.Msens[k] * rows.Rt[k] * turn_N * I[k]));
+      ry.regressor.push_back(I[k]);
+    }
+    ch->candidates.push_back(std::move(ry));
+  }
+}
+
 // current_lag: the configured wiring field arrives through a first-order lag τ instead of the
 // configured one: r = a·M·(W(lp_τ(I)) − W(lp_τcfg(I))), a ≈ 1, τ profiled over a grid.
 // The configured field W(I) is linear in the currents (exponent 1), so a first-order lag of the
@@ -373,6 +403,7 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
     if (want(Effect::kCurrentLag) && lag != Form::kWiring) {
       AddLaggedCurrentField(&ch, lag == Form::kFree ? o.lag_members.exponent : std::nan(""));
     }
+    if (o.reference_yaw && want(Effect::kReferenceYaw)) AddReferenceYaw(rows, o, log.Column("t_s"), *in.current, &ch);
   } else {
     ch.not_available.emplace_back("current_hard_iron, current_soft_iron, current_lag (no current_A column)");
   }
