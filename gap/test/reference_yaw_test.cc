@@ -127,7 +127,7 @@ TEST(GapReferenceYaw, GivenAnInternalFieldAndATurnedReference_WhenDiagnosed_Then
 // one heading: the reference's turn of the Earth field then keeps one direction in the body, as a
 // body-fixed field does.
 std::string HeldHeadingMission() {
-  const std::string path = testing::TempDir() + "reference_yaw_held_heading.yaml";
+  std::string path = testing::TempDir() + "reference_yaw_held_heading.yaml";
   std::ofstream(path) << "name: held_heading\nspeed_mps: 8\nacceptance_radius_m: 1.5\nyaw_mode: hold\n"
                          "wind: {mean_N_mps: [0, 5, 0], gust_std_mps: 0.8}\nitems:\n"
                          "  - {type: takeoff, alt_m: 10}\n"
