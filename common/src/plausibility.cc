@@ -36,6 +36,15 @@ const std::vector<PhysicalRange>& PlausibilityTable() {
       {"latency", "s", 0.0, 0.5, 0.0, 0.1,
        "sensor-to-log delays are tens of milliseconds (driver filtering, 10-100 Hz reads); a half-second delay "
        "breaks the autopilot's fusion"},
+      // The attitude reference's heading error per ampere (gap's reference_yaw, signed): an estimator
+      // that fuses a compass the current disturbs turns its heading with that compass's heading error,
+      // at most |k|/B_h per ampere (k: the compass's current field, B_h: the horizontal Earth field).
+      // At 1 deg/A a hover at the 10-30 A of a small multirotor carries the heading 10-30 deg off: the
+      // position loop then circles (toilet-bowls) and the estimator's innovation gate drops the compass,
+      // so a flight that held its position lies well inside.
+      Effect("reference_yaw", "deg/A", -1.0, 1.0,
+             "a reference heading 10-30 deg off at a 10-30 A hover makes a multirotor circle and its estimator "
+             "reject the compass; real estimators fusing a 3-7 mG/A compass turn a few tenths of a degree per ampere"),
       Effect("current_staleness", "s", 0.0, 1.0,
              "battery monitors update at 1-10 Hz with filtering: up to a few samples old"),
       // Nuisance terms of every compass fit (normal range: nothing to act on).

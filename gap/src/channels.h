@@ -150,6 +150,9 @@ struct CompassReplayOptions {
   bool baseline_only = false;   // the timing scan: baseline and the aligned current_hard_iron only
   bool library_free = true;     // build the library-free set (detection)
   bool calibrated_log = false;  // the autopilot calibrated the logged values: no configured hard/soft iron
+  // The attitude is an estimator's that fuses a compass (ReplayResult::contaminated): build
+  // reference_yaw, its heading error in proportion to the current (AddReferenceYaw).
+  bool reference_yaw = false;
   // Refits of reported members only (PropagatePlugIns): build just these families (empty: every
   // family), and of current_lag just the reported form's lag profile (LagMembers).
   std::vector<Effect> only_families;

@@ -167,6 +167,20 @@ void RunTasks(const std::vector<std::function<void()>>& tasks, int threads) {
   }
 }
 
+// Where a compass's decomposition holds the reference's heading error (reference_yaw), the finding
+// a user acts on: the estimator fuses a compass the current disturbs (`fused`, the log's primary).
+void ReferenceYawFinding(const std::string& fused, ChannelResult* r) {
+  for (const EffectShare& e : r->effects) {
+    if (e.id != Effect::kReferenceYaw) continue;
+    r->findings.push_back(fmt::format(
+        "reference_yaw: the attitude reference's heading moves with the current by {:.2f} [{:.2f}, {:.2f}] deg/A: the "
+        "estimator fuses a compass the current disturbs ({}, its primary): compensate that compass (COMPASS_MOT, "
+        "CAL_MAGn_COMP) or fuse one away from the wiring; the field this plants on {} is the reference's, not {}'s own",
+        e.magnitude, e.ci95.lo, e.ci95.hi, fused.empty() ? std::string("not named in the log") : fused, r->channel,
+        r->channel));
+  }
+}
+
 // What every compass channel of one diagnosis shares.
 struct CompassRun {
   const logs::FlightLog& log;
@@ -282,6 +296,7 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
   const bool align = timing.latency_ok && (timing.latency_ci95_s[0] > 0 || timing.latency_ci95_s[1] < 0);
   ro.latency_s = align ? timing.latency_s : 0.0;
   ro.current_shift_s = shift_s;
+  ro.reference_yaw = !rr.contaminated.empty();
   // The current-driven families' members: the in-flight model's shift grid (one definition).
   ro.member_shifts_s = realdata::CurrentShiftGrid(stale, realdata::UpdatePeriod_s(rr.inputs.current_samples_t));
   ChannelData ch = internal::ReplayCompass(log, vehicle, c, rr.inputs, B_N, ro);
@@ -430,6 +445,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
   }
   for (ChannelResult& r : rep.channels) {
     internal::RefreshEffects(&r);
+    ReferenceYawFinding(rr.contaminated, &r);
     r.headline = Headline(r);
   }
   return rep;

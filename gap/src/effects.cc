@@ -26,6 +26,11 @@ const std::vector<EffectInfo>& Effects() {
       {Effect::kTemperatureDrift, "temperature_drift", K::kSensor, "uT/C", "temperature_drift",
        "the logged temperature's change: per axis"},
       {Effect::kLatency, "latency", K::kTiming, "s", "latency", "the prediction's time derivative"},
+      // The reference's heading error δψ = c·I turns the predicted Earth field about down: the
+      // compass reads M·R_NBᵀ·(ẑ × B_N)·δψ more than predicted (c in deg/A, signed: the reference's
+      // heading minus the true one, per ampere; physical range in the plausibility table).
+      {Effect::kReferenceYaw, "reference_yaw", K::kReference, "deg/A", "reference_yaw",
+       "the Earth field turned about down by the reference's heading error c·I: M·R_NBᵀ·(z × B_N)·I", false, true},
       {Effect::kHardIronOffset, "hard_iron_offset", K::kNuisance, "uT", "hard_iron_offset", "a constant per axis"},
       {Effect::kLocalAnomaly, "local_anomaly", K::kNuisance, "uT", "local_anomaly",
        "a constant field in NED across the Earth field's direction"},

@@ -147,11 +147,19 @@ std::vector<double> ShiftedCurrent(const std::vector<double>& t_row, const std::
 
 // current_hard_iron and current_soft_iron, each with the logged current (current_aligned 0) and
 // the current aligned by each of the member shifts (current_aligned: the shift, s).
-void AddCurrentIron(const CompassRows& rows, const CompassReplayOptions& o, const std::vector<double>& t_row,
-                    const std::vector<double>& current, ChannelData* ch) {
+// The current-driven families' members: the logged current I(t − latency_s) (shift 0) and the
+// current aligned by each member shift, without a shift that runs past the log's end (not every
+// sample would have a current).
+struct CurrentMember {
+  double shift_s = 0.0;
+  std::vector<double> I;
+};
+std::vector<CurrentMember> CurrentMembers(const CompassRows& rows, const CompassReplayOptions& o,
+                                          const std::vector<double>& t_row, const std::vector<double>& current) {
+  std::vector<CurrentMember> out;
   std::vector<double> shifts = {0.0};
-  for (double s : o.member_shifts_s) {
-    if (s != 0.0) shifts.push_back(s);
+  for (double shift : o.member_shifts_s) {
+    if (shift != 0.0) shifts.push_back(shift);
   }
   if (!o.only_member_shifts_s.empty()) {
     const std::vector<double>& only = o.only_member_shifts_s;
@@ -163,7 +171,15 @@ void AddCurrentIron(const CompassRows& rows, const CompassReplayOptions& o, cons
     std::vector<double> I = shift == 0.0 ? rows.I_log : ShiftedCurrent(t_row, current, rows.t_meas, shift);
     bool finite = true;
     for (double x : I) finite = finite && std::isfinite(x);
-    if (!finite) continue;  // a shift that runs past the log's end: not every sample has a current
+    if (finite) out.push_back({shift, std::move(I)});
+  }
+  return out;
+}
+
+void AddCurrentIron(const std::vector<CurrentMember>& members, const CompassRows& rows, ChannelData* ch) {
+  for (const CurrentMember& mem : members) {
+    const double shift = mem.shift_s;
+    const std::vector<double>& I = mem.I;
     Candidate chi = MakeCandidate("current_hard_iron", {"d_x_uT_per_A", "d_y_uT_per_A", "d_z_uT_per_A"}, {1, 1, 1},
                                   "uT/A", "current_A");
     Candidate csi = MakeCandidate("current_soft_iron",
@@ -185,6 +201,27 @@ void AddCurrentIron(const CompassRows& rows, const CompassReplayOptions& o, cons
     }
     ch->candidates.push_back(std::move(chi));
     ch->candidates.push_back(std::move(csi));
+  }
+}
+
+// reference_yaw: the attitude reference's heading error in proportion to the current, δψ = c·I (an
+// estimator that fuses a compass the current disturbs). The predicted field is the Earth field
+// rotated by the reference attitude; a heading error δψ about down turns it, so the compass reads
+// r = M·R_NBᵀ·(ẑ × B_N)·δψ more than predicted (first order in δψ). One column per sample, c in
+// deg/A (scale kRadToDeg), with the same current members as current_hard_iron: the reference sees
+// the fused compass's field at that compass's timing. Unlike a current field at the compass, which
+// is fixed in the body, this one is fixed in NED about down: it turns in the body as the vehicle yaws.
+void AddReferenceYaw(const std::vector<CurrentMember>& members, const CompassRows& rows, ChannelData* ch) {
+  const Vec3 turn_N = Vec3::UnitZ().cross(ch->field_N_uT);  // d(B_N)/dψ about down: (−B_E, B_N, 0)
+  for (const CurrentMember& mem : members) {
+    Candidate ry = MakeCandidate("reference_yaw", {"c_deg_per_A"}, {kRadToDeg}, "deg/A", "current_A");
+    ry.grid_name = "current_aligned";
+    ry.grid_value = mem.shift_s;
+    for (size_t k = 0; k < ch->t.size(); ++k) {
+      ry.X.emplace_back(Mat3X(rows.Msens[k] * rows.Rt[k] * turn_N * mem.I[k]));
+      ry.regressor.push_back(mem.I[k]);
+    }
+    ch->candidates.push_back(std::move(ry));
   }
 }
 
@@ -372,17 +409,23 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
     ch.candidates.push_back(std::move(mis));
   }
   if (has_current) {
-    if (want(Effect::kCurrentHardIron) || want(Effect::kCurrentSoftIron)) AddCurrentIron(rows, o, log.Column("t_s"), *in.current, &ch);
+    const bool iron = want(Effect::kCurrentHardIron) || want(Effect::kCurrentSoftIron);
+    const bool reference = o.reference_yaw && want(Effect::kReferenceYaw);
+    const std::vector<CurrentMember> members =
+        iron || reference ? CurrentMembers(rows, o, log.Column("t_s"), *in.current) : std::vector<CurrentMember>{};
+    if (iron) AddCurrentIron(members, rows, &ch);
     using Form = LagMembers::Form;
     const Form lag = o.lag_members.form;
     if (want(Effect::kCurrentLag) && lag != Form::kFree) AddCurrentLag(sampler, rows, &ch);
     if (want(Effect::kCurrentLag) && lag != Form::kWiring) {
       AddLaggedCurrentField(&ch, lag == Form::kFree ? o.lag_members.exponent : std::nan(""));
     }
+    if (reference) AddReferenceYaw(members, rows, &ch);
   } else {
-    ch.not_available.emplace_back(in.current_unusable_why.empty()
-                                      ? "current_hard_iron, current_soft_iron, current_lag (no current_A column)"
-                                      : "current_hard_iron, current_soft_iron, current_lag (" + in.current_unusable_why + ")");
+    ch.not_available.emplace_back(std::string("current_hard_iron, current_soft_iron, current_lag") +
+                                  (o.reference_yaw ? ", reference_yaw" : "") +
+                                  (in.current_unusable_why.empty() ? " (no current_A column)"
+                                                                   : " (" + in.current_unusable_why + ")"));
   }
   if (want(Effect::kThrottleHardIron)) AddThrottleIron(rows, has_throttle, &ch);
   if (want(Effect::kPerMotorCurrentHardIron)) AddPerMotorIron(rows, in.motor_u.size(), &ch);

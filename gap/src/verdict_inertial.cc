@@ -34,6 +34,10 @@ std::string SeparatingManoeuvre(Effect a, Effect b) {
   if (is(E::kWind, E::kRotorDrag))
     return "hover facing several headings and fly the same legs both ways: wind drag is fixed in NED, rotor drag "
            "follows the air speed and the rotor speed";
+  if (is(E::kReferenceYaw, E::kCurrentHardIron) || is(E::kReferenceYaw, E::kThrottleHardIron) ||
+      is(E::kReferenceYaw, E::kPerMotorCurrentHardIron))
+    return "a slow 360 deg yaw turn at a steady high current: the reference's heading error turns the Earth field in "
+           "NED, so its field turns in the body with the heading; a current field at the compass stays fixed in the body";
   if (is(E::kLatency, E::kCurrentLag))
     return "fast yaw turns at constant throttle (latency shows) against throttle steps at constant attitude (current lag shows)";
   if (is(E::kMisalignment, E::kLocalAnomaly) || is(E::kMisalignment, E::kHardIronOffset) || is(E::kMisalignment, E::kScaleError))

@@ -25,6 +25,8 @@ enum class Effect {
   kTemperatureDrift,
   // timing of a sensor against the attitude
   kLatency,
+  // the attitude reference the compasses are predicted with (common to every compass of a log)
+  kReferenceYaw,
   // compass nuisance baseline terms (named only beyond their normal range)
   kHardIronOffset,
   kLocalAnomaly,
@@ -46,6 +48,7 @@ enum class EffectKind {
   kThrottleField,  // a field driven by the throttle (COMPASS_MOTCT 1), where the current is unusable
   kSensor,         // calibration and mounting of the sensor (static: does not follow the current)
   kTiming,         // a delay against the attitude
+  kReference,      // an error of the attitude reference (the autopilot's estimate), not of the compass
   kNuisance,       // a term of the nuisance baseline
   kDynamics,       // the vehicle's dynamics
 };
