@@ -100,6 +100,7 @@ struct LogInputs {
   // Why `current` is null though the log has a current_A column: the import's check
   // (logs::CurrentSensorOf) found the sensor unusable; no current-based family is fitted then.
   std::string current_unusable_why;
+  bool current_usable = true;  // the import's check (logs::CurrentSensorOf): false with the reason above
   std::vector<const std::vector<double>*> motor_A;
   std::vector<const std::vector<double>*> motor_u;
   const std::vector<double>* control_u = nullptr;
@@ -222,7 +223,7 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
 // The open-loop dynamics channel ("dynamics": accelerometer against the specific force predicted
 // from motor commands, bus voltage, attitude and velocity); appends it or a not_diagnosed line.
 double HoverRotorTimeConstant_s(const vehicle::VehicleParams& vehicle);
-void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle,
+void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, const LogInputs& in,
                     const std::vector<realdata::RowKind>& row_kind, ReplayResult* out);
 
 }  // namespace hexsim::gap::internal

@@ -26,7 +26,6 @@
 #include "replay_util.h"
 #include "hexsim/common/plausibility.h"
 #include "hexsim/common/rotation.h"
-#include "hexsim/logs/current_check.h"
 #include "hexsim/realdata/velocity_check.h"
 #include "hexsim/sim/simulation.h"
 #include "hexsim/vehicle/powertrain.h"
@@ -169,7 +168,7 @@ struct DynamicsInputs {
   size_t rows = 0;
 };
 
-DynamicsInputs FindInputs(const logs::FlightLog& log, size_t n_rot) {
+DynamicsInputs FindInputs(const logs::FlightLog& log, size_t n_rot, bool import_current_usable) {
   DynamicsInputs in;
   in.t = &log.Column("t_s");
   in.vn = &log.Column("vel_N_mps");
@@ -189,8 +188,8 @@ DynamicsInputs FindInputs(const logs::FlightLog& log, size_t n_rot) {
   in.median_V = in.has_V ? MedianFinite(log.Column("voltage_V")) : std::nan("");
   in.V_usable = in.has_V && plausibility::IsPlausible("bus_voltage_V", in.median_V);
   in.V = in.V_usable ? &log.Column("voltage_V") : nullptr;
-  // The import's check (units, no power monitor) judges the current itself.
-  in.current_usable = (!in.has_V || in.V_usable) && logs::CurrentSensorOf(log).usable;
+  // The import's check (units, no power monitor; LogInputs::current_usable) judges the current itself.
+  in.current_usable = (!in.has_V || in.V_usable) && import_current_usable;
   in.I = HasData(log, "current_A") ? &log.Column("current_A") : nullptr;
   in.soc = HasData(log, "battery_soc") ? &log.Column("battery_soc") : nullptr;
   in.payload = HasData(log, "payload_kg") ? &log.Column("payload_kg") : nullptr;
@@ -679,8 +678,8 @@ void AddWind(const vehicle::VehicleParams& v, const Airborne& air, ChannelData* 
 
 }  // namespace
 
-void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v, const std::vector<realdata::RowKind>& row_kind,
-                    ReplayResult* out) {
+void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v, const LogInputs& log_in,
+                    const std::vector<realdata::RowKind>& row_kind, ReplayResult* out) {
   const char* kName = "dynamics";
   auto skip = [&](const std::string& why) { out->not_diagnosed.emplace_back(kName, why); };
   if (const std::string missing = MissingInputs(log, v.rotors.size()); !missing.empty()) {
@@ -693,7 +692,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     skip(vc.why);
     return;
   }
-  const DynamicsInputs in = FindInputs(log, v.rotors.size());
+  const DynamicsInputs in = FindInputs(log, v.rotors.size(), log_in.current_usable);
   const PowertrainReplay replay(in, v);
   std::vector<std::vector<double>> omega;
   std::vector<bool> row_ok;

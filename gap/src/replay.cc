@@ -217,6 +217,7 @@ ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& v,
   }
   for (const char* c : qn) in.q.push_back(&log.Column(c));
   const logs::CurrentSensorCheck current_check = logs::CurrentSensorOf(log);
+  in.current_usable = current_check.usable;
   if (ColumnHasData(log, "current_A") && !current_check.usable) in.current_unusable_why = current_check.why;
   if (ColumnHasData(log, "current_A") && current_check.usable) {
     static const std::vector<double> kNoStamps;
@@ -289,7 +290,7 @@ ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& v,
                                       [&](const ChannelData& ch) { return !wanted(ch.name); }),
                        out.channels.end());
   }
-  if (wanted("dynamics")) ReplayDynamics(log, v, row_kind, &out);
+  if (wanted("dynamics")) ReplayDynamics(log, v, in, row_kind, &out);
   out.not_diagnosed.erase(std::remove_if(out.not_diagnosed.begin(), out.not_diagnosed.end(),
                                          [&](const auto& nd) { return !wanted(nd.first); }),
                           out.not_diagnosed.end());
