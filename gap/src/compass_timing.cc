@@ -92,7 +92,7 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
   tm.staleness_s = stale.ok() && in.current != nullptr ? stale.value_s : 0.0;
   if (stale.ok() && in.current != nullptr) {
     tm.report.current_staleness = {true,      stale.value_s,      {stale.ci95_s[0], stale.ci95_s[1]},
-                                   "control_u", !stale.at_grid_edge,
+                                   "control_u", stale.resolved(),
                                    plausibility::IntervalPlausible("current_staleness", stale.ci95_s[0], stale.ci95_s[1]),
                                    std::nan(""), shift_s};
   }
@@ -103,12 +103,12 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
   if (sse.empty()) return tm;
   const realdata::LagEstimate lat = realdata::ProfileLag(grid, sse, o.bootstrap_samples, o.seed);
   if (!lat.ok()) return tm;
-  tm.latency_ok = !lat.at_grid_edge;
+  tm.latency_ok = lat.resolved();
   tm.latency_s = lat.value_s;
   tm.latency_ci95_s[0] = lat.ci95_s[0];
   tm.latency_ci95_s[1] = lat.ci95_s[1];
   tm.report.latency = {true,           lat.value_s,         {lat.ci95_s[0], lat.ci95_s[1]},
-                       "attitude (q_*)", !lat.at_grid_edge, plausibility::IntervalPlausible("latency", lat.ci95_s[0], lat.ci95_s[1]),
+                       "attitude (q_*)", lat.resolved(), plausibility::IntervalPlausible("latency", lat.ci95_s[0], lat.ci95_s[1]),
                        std::nan(""),   std::nan("")};
   // Held-out share of the unaligned baseline residual that the alignment removes, and whether the
   // unaligned residual has structure at all.

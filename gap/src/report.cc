@@ -318,14 +318,20 @@ std::string Summary(const GapReport& r) {
         line += fmt::format("{}{} {:.0f} ms [{:.0f}, {:.0f}]", line.empty() ? "" : "; ", what, 1000 * l.value_s,
                             1000 * l.ci95_s.lo, 1000 * l.ci95_s.hi);
       };
-      add("compass latency", c.timing.latency);
+      if (c.timing.latency.present && !c.timing.latency.resolved) {  // a flat profile: no number to act on
+        line += fmt::format("compass latency not resolved by the attitude scan (its interval reaches the scan's edge: "
+                            "[{:.0f}, {:.0f}] ms)",
+                            1000 * c.timing.latency.ci95_s.lo, 1000 * c.timing.latency.ci95_s.hi);
+      } else {
+        add("compass latency", c.timing.latency);
+      }
       const LagReport& st = c.timing.current_staleness;
       if (c.timing.latency.present && st.present) {
         if (st.resolved && st.plausible && plausibility::IsPlausible("current_staleness", st.value_s)) {
           add("current staleness", st);
         } else {  // its point outside 0..1 s or on the scan's edge: no number to act on
           line += fmt::format("; current staleness not resolved by the throttle scan ({})",
-                              st.resolved ? "its point lies outside the physical range 0..1 s" : "its point sits on the scan's edge");
+                              st.resolved ? "its point lies outside the physical range 0..1 s" : "its point or its interval reaches the scan's edge");
         }
       }
       add("current field lag behind the current", c.timing.current_field_lag);

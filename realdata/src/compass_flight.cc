@@ -333,7 +333,7 @@ LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::vector<RowKi
 }
 
 bool StalenessResolved(const LagEstimate& s) {
-  return s.ok() && !s.at_grid_edge && plausibility::IsPlausible("current_staleness", s.value_s);
+  return s.resolved() && plausibility::IsPlausible("current_staleness", s.value_s);
 }
 
 double AppliedCurrentShift_s(const LagEstimate& s) { return StalenessResolved(s) ? std::max(0.0, s.value_s) : 0.0; }
@@ -419,7 +419,7 @@ Result<CompassFlight> FitCompassInFlight(const logs::FlightLog& log, const logs:
     if (fit0.ok() && fit0->term_fitted) out.current_shift_s = fit0->regressor_shift_s;
     if (fit0.ok()) out.latency = ScanLatency(in, pick, x, out.current_shift_s, out.options, fit0->used, o);
     // Align only a resolved latency (its interval clear of zero) inside its physical range.
-    out.latency_applied = out.latency.ok() && !out.latency.at_grid_edge &&
+    out.latency_applied = out.latency.resolved() &&
                           (out.latency.ci95_s[0] > 0 || out.latency.ci95_s[1] < 0) &&
                           plausibility::IsPlausible("latency", out.latency.value_s);
     if (out.latency_applied) out.latency_s = out.latency.value_s;

@@ -42,6 +42,8 @@ LagEstimate::LagEstimate() : value_s(kNaN), ci95_s{kNaN, kNaN} {}
 
 bool LagEstimate::ok() const { return std::isfinite(value_s); }
 
+bool LagEstimate::resolved() const { return ok() && !at_grid_edge && !unbounded; }
+
 std::vector<double> LagGrid(double lo_s, double hi_s, double step_s) {
   std::vector<double> g;
   if (!(step_s > 0) || !(hi_s >= lo_s)) return g;
@@ -88,8 +90,12 @@ LagEstimate ProfileLag(const std::vector<double>& grid_s, const std::vector<std:
   if (boot.empty()) return e;
   std::sort(boot.begin(), boot.end());
   const double n = static_cast<double>(boot.size() - 1);
-  e.ci95_s[0] = std::min(e.ci95_s[0], boot[static_cast<size_t>(std::floor(0.025 * n))]);
-  e.ci95_s[1] = std::max(e.ci95_s[1], boot[static_cast<size_t>(std::ceil(0.975 * n))]);
+  const double lo = boot[static_cast<size_t>(std::floor(0.025 * n))];
+  const double hi = boot[static_cast<size_t>(std::ceil(0.975 * n))];
+  e.ci95_s[0] = std::min(e.ci95_s[0], lo);
+  e.ci95_s[1] = std::max(e.ci95_s[1], hi);
+  // A bootstrap argmin on the grid's end is a resample that prefers a lag beyond the scan.
+  e.unbounded = lo <= grid_s[0] || hi >= grid_s[L - 1];
   return e;
 }
 

@@ -48,7 +48,7 @@ std::string LagRow(const char* what, const gap::LagReport& l) {
   if (!l.present) return "";
   return fmt::format("<tr><td>{}</td><td>{:.0f} ms [{:.0f}, {:.0f}]</td><td>{}</td><td>{}</td></tr>", what, 1000 * l.value_s,
                      1000 * l.ci95_s.lo, 1000 * l.ci95_s.hi, Escape(l.against),
-                     !l.resolved ? "at the scan's edge: not resolved"
+                     !l.resolved ? "reaches the scan's edge: not resolved"
                                  : (l.plausible ? "resolved" : "outside its physical range: model mismatch"));
 }
 

@@ -18,11 +18,14 @@ struct LagEstimate {
   double value_s;
   double ci95_s[2];
   bool at_grid_edge = false;   // the argmin sits on the first or last grid point: not resolved
+  bool unbounded = false;      // the 95 % interval reaches the first or last grid point: the data do
+                               // not bound the lag on that side (a flat profile), not resolved
   double share = 0.0;          // 1 − SSE(value)/SSE(0): the part of the error the alignment removes
   std::vector<double> grid_s;  // the profile, for reports
   std::vector<double> sse;
   LagEstimate();
   bool ok() const;
+  bool resolved() const;  // ok, its argmin inside the grid and its interval bounded on both sides
 };
 
 // The profile's estimate from per-block SSE, sse_by_lag[i][b] for grid_s[i] (ascending).
