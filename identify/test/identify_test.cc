@@ -375,6 +375,27 @@ TEST(Identify, GivenAnotherMotorOrder_WhenIdentified_ThenSpinsComeFromTheLogsFra
   EXPECT_NEAR(rp->params.at("yaw_torque_coefficient_m").value, k_ref, 0.02 * k_ref);
 }
 
+// An EKF whose height diverged (a public PXF log: pos_D_m 800 m below the take-off point in flight,
+// up to 2.4 km, while the barometer said 2–12 m up): identify found "0.0 s of flight". The flight
+// windows take the barometer's height when the EKF's departs from it by far more than baro drift.
+TEST(Identify, GivenAnEkfHeightThatDivergesFromTheBarometer_WhenIdentified_ThenTheFlightIsFoundOnTheBarometer) {
+  const Flight& f = QuadFlight();
+  logs::FlightLog log = f.log;
+  ASSERT_TRUE(log.Has("baro_alt_m") && log.Has("pos_D_m"));
+  const auto& t = log.Column("t_s");
+  auto& pd = log.MutableColumn(static_cast<size_t>(log.ColumnIndex("pos_D_m")));
+  for (size_t i = 0; i < pd.size(); ++i) pd[i] += 20.0 * (t[i] - t.front());  // sinks 20 m/s: never airborne
+  auto r = Identify(log, f.setup.vehicle);
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  bool said = false;
+  for (const auto& n : r->notes) said = said || n.find("flight windows use baro_alt_m") != std::string::npos;
+  EXPECT_TRUE(said);
+  auto clean = Identify(f.log, f.setup.vehicle);
+  ASSERT_TRUE(clean.ok()) << clean.status().message();
+  for (const auto& n : clean->notes) EXPECT_EQ(n.find("baro_alt_m"), std::string::npos) << n;
+  EXPECT_NEAR(r->params.at("hover_output").value, clean->params.at("hover_output").value, 0.02);
+}
+
 TEST(Identify, GivenALogWithoutFlight_WhenIdentified_ThenItIsBadInputNamingTheFlightTime) {
   logs::FlightLog log = QuadFlight().log;
   logs::FlightLog ground;
