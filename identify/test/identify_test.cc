@@ -201,6 +201,35 @@ TEST(Identify, GivenFrameParameters_WhenTheFrameIsAsked_ThenClassAndTypeDecide) 
   EXPECT_EQ(DefaultBaseFor("hex-plus"), "default_hex");
 }
 
+// An octocopter log (ArduPilot FRAME_CLASS 3) had no base: "frame: no shipped vehicle for 'octo-x'",
+// and no 8-rotor vehicle to give as --base. The shipped octo_x numbers and spins its rotors as the
+// OCTA X table, and a flight of it is identified on it with no base given.
+TEST(Identify, GivenASimulatedOctoLog_WhenIdentifiedWithNoBaseGiven_ThenTheShippedOctoIsTheBaseAndHoverCoversTheTruth) {
+  const Flight f = FlySquare("octo_x", 5);
+  logs::FlightLog log = f.log;
+  log.meta["params"] = {{"FRAME_CLASS", 3}, {"FRAME_TYPE", 1}};
+  auto base = ChooseBaseVehicle(log, "", "auto", "octo.bin", "give --base");
+  ASSERT_TRUE(base.ok()) << base.status().message();
+  EXPECT_EQ(base->frame, "octo-x");
+  ASSERT_EQ(base->params.rotors.size(), 8U);
+  // ArduPilot AP_MotorsMatrix OCTA X: angle clockwise from the nose (deg) and spin (+1 CCW) per motor.
+  const double kAngle[8] = {22.5, -157.5, 67.5, 157.5, -22.5, -112.5, -67.5, 112.5};
+  const int kSpin[8] = {-1, -1, 1, 1, 1, 1, -1, -1};
+  for (size_t m = 0; m < 8; ++m) {
+    const auto& p = base->params.rotors[m].position_B_m;
+    const double angle_deg = std::atan2(p.y(), p.x()) * 180.0 / kPi;
+    EXPECT_NEAR(std::remainder(angle_deg - kAngle[m], 360.0), 0.0, 0.5) << "motor " << m + 1;
+    EXPECT_EQ(base->params.rotors[m].spin, kSpin[m]) << "motor " << m + 1;
+  }
+  auto r = Identify(log, base->params);
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_FALSE(r->layout_from_log) << r->layout_source;
+  const Param& u_h = r->params.at("hover_output");
+  const Truth t = TruthOf(f.setup.vehicle, VRefOf(*r));
+  EXPECT_TRUE(Covers(u_h, t.hover_output)) << u_h.value << " [" << u_h.ci95[0] << ", " << u_h.ci95[1] << "] truth "
+                                           << t.hover_output;
+}
+
 TEST(Identify, GivenFrameTypesBeyondPlusAndX_WhenTheFrameIsAsked_ThenTheMotorTableNamesThem) {
   logs::FlightLog log;
   std::string source;
