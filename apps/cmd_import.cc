@@ -57,6 +57,7 @@ Status ImportCommand(const ImportArgs& a) {
   for (const auto& line : logs::DamageLines(a.log, result->damage, result->records, result->records_accepted)) {
     std::fprintf(stderr, "hexsim: %s\n", line.c_str());
   }
+  for (const auto& w : result->warnings) std::fprintf(stderr, "hexsim: warning: %s\n", w.c_str());
   OutputDirectory dir;
   HEXSIM_RETURN_IF_ERROR(dir.Open(DirName(a.out)));
   HEXSIM_RETURN_IF_ERROR(logs::WriteImport(*result, a.out));

@@ -1,5 +1,7 @@
 #include "hexsim/experiments/log_diagnosis.h"
 
+#include <fmt/format.h>
+
 #include "hexsim/common/paths.h"
 #include "hexsim/gap/json.h"
 #include "hexsim/identify/identify.h"
@@ -7,11 +9,35 @@
 namespace hexsim::experiments {
 namespace {
 
+// The number of motors the log drives: the import's motor_count, a hexsim log's rotors; 0 when unknown.
+int LogMotorCount(const logs::FlightLog& log, std::string* source) {
+  for (const char* key : {"motor_count", "rotors"}) {
+    if (log.meta.is_object() && log.meta.contains(key) && log.meta[key].is_number_integer() && log.meta[key].get<int>() > 0) {
+      *source = log.meta.value("motor_count_source", std::string(key));
+      return log.meta[key].get<int>();
+    }
+  }
+  return 0;
+}
+
 // Fills the vehicle part of `d`: as given (compared with the one identified from the whole log), or
 // identified on the even blocks with d->log reduced to the odd (held-out) blocks.
 Status ChooseVehicle(const LogDiagnosisOptions& o, logs::FlightLog* log, LogDiagnosis* d) {
   auto base = identify::ChooseBaseVehicle(*log, o.vehicle, "auto", o.log_name, "give --sim VEHICLE");
   if (!base.ok()) return base.status();
+  // A --sim vehicle of another rotor count: its wiring, motor lags and mixer are per rotor while the
+  // log drives its own motors, so the replay would compare another airframe (identify refuses such a
+  // base the same way).
+  std::string motors_from;
+  const int motors = LogMotorCount(*log, &motors_from);
+  if (!o.vehicle.empty() && motors > 0 && static_cast<size_t>(motors) != base->params.rotors.size()) {
+    std::string frame_source;
+    const std::string like = identify::DefaultBaseFor(identify::FrameOfLog(*log, &frame_source));
+    return Status::BadInput(fmt::format("{}: --sim: '{}' has {} rotors, the log drives {} motors ({}): give a vehicle "
+                                        "with {} rotors{}",
+                                        o.log_name, base->params.name, base->params.rotors.size(), motors, motors_from,
+                                        motors, like.empty() ? "" : " (e.g. " + like + ")"));
+  }
   // Without --sim the base's wiring is hexsim's airframe's, not this one's: each compass is compared
   // with no modelled current field, so its gap is the log's whole current field (= the absolute term).
   if (o.vehicle.empty()) HEXSIM_RETURN_IF_ERROR(identify::DropWiring(&base->params, &base->yaml));

@@ -54,6 +54,24 @@ TEST(DiagnoseLog, GivenAVehicleAndAToBeforeTheFromThenItIsBadInput) {
   EXPECT_EQ(d.status().message(), "--from/--to: --to must be after --from");
 }
 
+// `gap diagnose --sim paper_hex` on a public quad log (ArduCopter 3.4.6, four motors) ran against a
+// six-rotor airframe without a word; identify refused the same pairing. Refused the same way here.
+TEST(DiagnoseLog, GivenAVehicleWithAnotherRotorCountThenItIsBadInputNamingBothCounts) {
+  LogDiagnosisOptions o;
+  o.log_name = "flight.csv";
+  o.vehicle = "paper_hex";
+  auto d = DiagnoseLog(ShortQuadLog(), o);
+  ASSERT_FALSE(d.ok());
+  EXPECT_EQ(d.status().code(), StatusCode::kBadInput);
+  EXPECT_EQ(d.status().message(), "flight.csv: --sim: 'paper_hex' has 6 rotors, the log drives 4 motors (motor_count): "
+                                  "give a vehicle with 4 rotors (e.g. quad_x)");
+  o.vehicle = "quad_x";  // the same count: no such refusal
+  auto q = DiagnoseLog(ShortQuadLog(), o);
+  if (!q.ok()) {
+    EXPECT_EQ(q.status().message().find("rotors"), std::string::npos) << q.status().message();
+  }
+}
+
 // A quad's log with too little flight to identify the vehicle: not bad input (CONTRACTS: diagnose what
 // can be diagnosed); the base vehicle of the frame class is used on the whole log, and the output says
 // why.

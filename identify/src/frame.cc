@@ -180,6 +180,7 @@ Result<BaseVehicle> ChooseBaseVehicle(const logs::FlightLog& log, const std::str
 std::string DefaultBaseFor(const std::string& frame) {
   if (frame.rfind("quad", 0) == 0) return "quad_x";
   if (frame.rfind("hex", 0) == 0) return "default_hex";
+  if (frame.rfind("octo", 0) == 0) return "octo_x";
   return "";
 }
 

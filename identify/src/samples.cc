@@ -20,6 +20,11 @@ constexpr double kMinFlightOutput = 0.05;  // every motor above this output: tur
 constexpr double kMinWindow_s = 2.0;       // shorter flight windows (after trimming) are left out
 constexpr double kCommandGapReset_s = 0.5; // the motor-lag filter restarts after a longer RCOU gap
 constexpr double kImuGapFactor = 3.0;      // consecutive IMU samples further apart are not differenced
+// The EKF's height fuses the barometer (and GPS): the two stay within the barometer's drift over a
+// flight (weather, temperature, prop wash: a few metres) and GPS's vertical error (under ~10 m). Their
+// difference spreading wider than this means the EKF's height diverged (a failing sensor, a filter
+// reset): the barometer's height is used instead.
+constexpr double kMaxEkfBaroSpread_m = 20.0;
 
 double Median(std::vector<double> v) {
   if (v.empty()) return std::nan("");
@@ -42,6 +47,28 @@ bool Held(const std::vector<double>& t, double tq, size_t* i) {
 
 const std::vector<double>* Col(const logs::FlightLog& s, const std::string& name) {
   return s.Has(name) ? &s.Column(name) : nullptr;
+}
+
+// The height the flight windows use: the EKF's (pos_D_m, down) where it follows the barometer, else
+// baro_alt_m (up), with a note saying why. *up: +1 for an up-positive column, -1 for pos_D_m.
+const std::vector<double>* HeightColumn(const logs::FlightLog& log, double* up, std::vector<std::string>* notes) {
+  const std::vector<double>* pos_d = Col(log, "pos_D_m");
+  const std::vector<double>* baro = Col(log, "baro_alt_m");
+  *up = pos_d ? -1.0 : 1.0;
+  if (!pos_d || !baro) return pos_d ? pos_d : baro;
+  std::vector<double> diff;  // EKF height minus barometric height
+  for (size_t r = 0; r < pos_d->size(); ++r) {
+    if (std::isfinite((*pos_d)[r]) && std::isfinite((*baro)[r])) diff.push_back(-(*pos_d)[r] - (*baro)[r]);
+  }
+  if (diff.size() < 2) return pos_d;
+  std::sort(diff.begin(), diff.end());
+  const double spread = diff[diff.size() * 99 / 100] - diff[diff.size() / 100];  // 1st to 99th percentile
+  if (spread <= kMaxEkfBaroSpread_m) return pos_d;
+  notes->push_back(fmt::format("the EKF's height (pos_D_m) departs from the barometer's by {:.0f} m within the log "
+                               "(more than {:.0f} m: the EKF diverged): flight windows use baro_alt_m",
+                               spread, kMaxEkfBaroSpread_m));
+  *up = 1.0;
+  return baro;
 }
 
 // Maps a time inside the flight windows to its block: blocks split the flight time evenly.
@@ -401,13 +428,12 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
   for (const char* c : {"q_w", "q_x", "q_y", "q_z", "vel_N_mps", "vel_E_mps", "vel_D_mps"}) {
     if (!log.Has(c)) return Status::BadInput(fmt::format("{}: {}: identification needs attitude and velocity", name, c));
   }
-  const bool has_pos = log.Has("pos_D_m");
-  const std::vector<double>* alt = has_pos ? &log.Column("pos_D_m") : Col(log, "baro_alt_m");
+  FlightSamples out;
+  double up = 1.0;
+  const std::vector<double>* alt = HeightColumn(log, &up, &out.notes);
   if (!alt) return Status::BadInput(name + ": pos_D_m: identification needs a height (pos_D_m or baro_alt_m)");
-  const double up = has_pos ? -1.0 : 1.0;
   const auto& tr = rcou.Column("t_s");
 
-  FlightSamples out;
   out.motors = n;
   out.source = fmt::format("IMU {} at {:.0f} Hz, motor outputs {} at {:.0f} Hz", imu_from_table ? "from the table" : "stream",
                            MedianRate_hz(imu.Column("t_s")), rcou_from_table ? "from the table" : "stream",

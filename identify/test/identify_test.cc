@@ -201,6 +201,35 @@ TEST(Identify, GivenFrameParameters_WhenTheFrameIsAsked_ThenClassAndTypeDecide) 
   EXPECT_EQ(DefaultBaseFor("hex-plus"), "default_hex");
 }
 
+// An octocopter log (ArduPilot FRAME_CLASS 3) had no base: "frame: no shipped vehicle for 'octo-x'",
+// and no 8-rotor vehicle to give as --base. The shipped octo_x numbers and spins its rotors as the
+// OCTA X table, and a flight of it is identified on it with no base given.
+TEST(Identify, GivenASimulatedOctoLog_WhenIdentifiedWithNoBaseGiven_ThenTheShippedOctoIsTheBaseAndHoverCoversTheTruth) {
+  const Flight f = FlySquare("octo_x", 5);
+  logs::FlightLog log = f.log;
+  log.meta["params"] = {{"FRAME_CLASS", 3}, {"FRAME_TYPE", 1}};
+  auto base = ChooseBaseVehicle(log, "", "auto", "octo.bin", "give --base");
+  ASSERT_TRUE(base.ok()) << base.status().message();
+  EXPECT_EQ(base->frame, "octo-x");
+  ASSERT_EQ(base->params.rotors.size(), 8U);
+  // ArduPilot AP_MotorsMatrix OCTA X: angle clockwise from the nose (deg) and spin (+1 CCW) per motor.
+  const double kAngle[8] = {22.5, -157.5, 67.5, 157.5, -22.5, -112.5, -67.5, 112.5};
+  const int kSpin[8] = {-1, -1, 1, 1, 1, 1, -1, -1};
+  for (size_t m = 0; m < 8; ++m) {
+    const auto& p = base->params.rotors[m].position_B_m;
+    const double angle_deg = std::atan2(p.y(), p.x()) * 180.0 / kPi;
+    EXPECT_NEAR(std::remainder(angle_deg - kAngle[m], 360.0), 0.0, 0.5) << "motor " << m + 1;
+    EXPECT_EQ(base->params.rotors[m].spin, kSpin[m]) << "motor " << m + 1;
+  }
+  auto r = Identify(log, base->params);
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_FALSE(r->layout_from_log) << r->layout_source;
+  const Param& u_h = r->params.at("hover_output");
+  const Truth t = TruthOf(f.setup.vehicle, VRefOf(*r));
+  EXPECT_TRUE(Covers(u_h, t.hover_output)) << u_h.value << " [" << u_h.ci95[0] << ", " << u_h.ci95[1] << "] truth "
+                                           << t.hover_output;
+}
+
 TEST(Identify, GivenFrameTypesBeyondPlusAndX_WhenTheFrameIsAsked_ThenTheMotorTableNamesThem) {
   logs::FlightLog log;
   std::string source;
@@ -373,6 +402,27 @@ TEST(Identify, GivenAnotherMotorOrder_WhenIdentified_ThenSpinsComeFromTheLogsFra
   EXPECT_EQ(rp->spins, (std::vector<int>{-1, 1, -1, 1}));
   EXPECT_NE(rp->layout_source.find("CA_ROTOR"), std::string::npos);
   EXPECT_NEAR(rp->params.at("yaw_torque_coefficient_m").value, k_ref, 0.02 * k_ref);
+}
+
+// An EKF whose height diverged (a public PXF log: pos_D_m 800 m below the take-off point in flight,
+// up to 2.4 km, while the barometer said 2–12 m up): identify found "0.0 s of flight". The flight
+// windows take the barometer's height when the EKF's departs from it by far more than baro drift.
+TEST(Identify, GivenAnEkfHeightThatDivergesFromTheBarometer_WhenIdentified_ThenTheFlightIsFoundOnTheBarometer) {
+  const Flight& f = QuadFlight();
+  logs::FlightLog log = f.log;
+  ASSERT_TRUE(log.Has("baro_alt_m") && log.Has("pos_D_m"));
+  const auto& t = log.Column("t_s");
+  auto& pd = log.MutableColumn(static_cast<size_t>(log.ColumnIndex("pos_D_m")));
+  for (size_t i = 0; i < pd.size(); ++i) pd[i] += 20.0 * (t[i] - t.front());  // sinks 20 m/s: never airborne
+  auto r = Identify(log, f.setup.vehicle);
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  bool said = false;
+  for (const auto& n : r->notes) said = said || n.find("flight windows use baro_alt_m") != std::string::npos;
+  EXPECT_TRUE(said);
+  auto clean = Identify(f.log, f.setup.vehicle);
+  ASSERT_TRUE(clean.ok()) << clean.status().message();
+  for (const auto& n : clean->notes) EXPECT_EQ(n.find("baro_alt_m"), std::string::npos) << n;
+  EXPECT_NEAR(r->params.at("hover_output").value, clean->params.at("hover_output").value, 0.02);
 }
 
 TEST(Identify, GivenALogWithoutFlight_WhenIdentified_ThenItIsBadInputNamingTheFlightTime) {

@@ -203,6 +203,21 @@ Channel MakeMagChannel(const std::string& prefix) {
                                    prefix + "_mot_y_uT", prefix + "_mot_z_uT"});
 }
 
+// Why a compass never measured a field ("" when it did): every sample the same vector. ArduPilot logs
+// (0, 0, 0) for a compass that is absent or disabled; no working magnetometer reads one vector through
+// a log (the Earth's field alone is 22-67 uT and turns with the vehicle, noise moves the last digits).
+std::string NeverMeasured(const Channel& m) {
+  if (m.size() < 2) return "";
+  for (size_t i = 1; i < m.size(); ++i) {
+    for (size_t a = 0; a < 3; ++a) {
+      if (m.At(i, a) != m.At(0, a)) return "";
+    }
+  }
+  return fmt::format("every one of its {} samples is ({:.4g}, {:.4g}, {:.4g}): the compass is absent, disabled or "
+                     "stuck, not a field",
+                     m.size(), m.At(0, 0), m.At(0, 1), m.At(0, 2));
+}
+
 void CollectMessage(const DataFlashMessage& m, Collected* c) {
   const std::string& name = m.name();
   ++c->messages;
@@ -801,6 +816,17 @@ Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string
   }
   for (auto& ch : c.mags) ch.Finalize();
   for (auto& [n, ch] : c.ekf) ch.Finalize();
+  // A compass that never measured a field writes no columns (its samples are dropped here).
+  nlohmann::json absent = nlohmann::json::array();
+  std::vector<std::string> warnings;
+  const char* const mag_prefix[] = {"mag", "mag2", "mag3"};
+  for (size_t k = 0; k < c.mags.size(); ++k) {
+    const std::string why = NeverMeasured(c.mags[k]);
+    if (why.empty()) continue;
+    absent.push_back({{"column", mag_prefix[k]}, {"why", why}});
+    warnings.push_back(fmt::format("{}: {}: {}: its columns are left out", name, mag_prefix[k], why));
+    c.mags[k] = MakeMagChannel(mag_prefix[k]);
+  }
   RecordDamage& records = plausibility.mutable_damage();
   records.time = c.att.dropped + SamplesDropped(c);
   if (const double share = DamagedRecordShare(reader.damage(), records, facts.data_messages); share > kMaxDamagedRecordShare) {
@@ -819,6 +845,9 @@ Result<ImportResult> ImportDataFlash(const std::string& bytes, const std::string
   facts.pwm = PwmRangeOf(c, options);
   FillTable(bytes, c, ekf, &facts, &result.log);
   WriteMeta(c, name, facts, &result);
+  result.log.meta["compasses_absent"] = absent;
+  result.log.meta["warnings"] = warnings;
+  result.warnings = std::move(warnings);
   return result;
 }
 

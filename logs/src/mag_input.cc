@@ -361,6 +361,18 @@ Result<MagInput> FromPlain(const Table& t, const std::string& name) {
   return in;
 }
 
+// A compass the log has no columns of: why, where the import left it out (meta "compasses_absent").
+Status NoSuchCompass(const FlightLog& log, const std::string& name, const std::string& compass) {
+  if (log.meta.contains("compasses_absent") && log.meta["compasses_absent"].is_array()) {
+    for (const auto& a : log.meta["compasses_absent"]) {
+      if (a.is_object() && a.value("column", std::string()) == compass) {
+        return Status::BadInput(fmt::format("{}: {}: {}", name, compass, a.value("why", std::string("absent"))));
+      }
+    }
+  }
+  return Status::BadInput(fmt::format("{}: {}: the log has no such compass", name, compass));
+}
+
 Result<MagInput> FromFlightLog(const FlightLog& log, const std::string& name, const std::string& compass) {
   // Re-use the header-table path on the log's own columns (cells as shortest round-trip text).
   // Only the columns FromHeaderTable reads (a log holds ~60; formatting them all dominated the time).
@@ -385,9 +397,7 @@ Result<MagInput> FromFlightLog(const FlightLog& log, const std::string& name, co
     t.rows.push_back(std::move(row));
     t.line_of_row.push_back(r + 2);
   }
-  if (!log.Has(compass + "_x_uT")) {
-    return Status::BadInput(fmt::format("{}: {}: the log has no such compass", name, compass));
-  }
+  if (!log.Has(compass + "_x_uT")) return NoSuchCompass(log, name, compass);
   return FromHeaderTable(t, name, compass, log.meta);
 }
 
@@ -451,8 +461,9 @@ Result<MagInput> ReadMagInput(const std::string& path, const std::string& compas
   // A FlightLog CSV is read once, as a FlightLog, and kept (the flight path needs its rows).
   if (path.size() > 4 && path.compare(path.size() - 4, 4, ".csv") == 0 && CompassIndex(compass) >= 0) {
     auto log = ReadFlightLog(path);
-    if (log.ok() && log->Has("t_s") && !log->Has(compass + "_x_uT") && log->Has("mag_x_uT")) {
-      return Status::BadInput(fmt::format("{}: {}: the log has no such compass", path, compass));
+    if (log.ok() && log->Has("t_s") && !log->Has(compass + "_x_uT") &&
+        (log->Has("mag_x_uT") || log->meta.contains("compasses_absent"))) {
+      return NoSuchCompass(*log, path, compass);
     }
     if (log.ok() && log->Has(compass + "_x_uT") && log->Has("t_s")) {
       auto in = FromFlightLog(*log, path, compass);

@@ -37,6 +37,7 @@ Result<FlightLog> ReadAnyFlightLog(const std::string& path, std::vector<std::str
     auto r = ImportDataFlash(*bytes, path);
     if (!r.ok()) return r.status();
     for (auto& line : DamageLines(path, r->damage, r->records, r->records_accepted)) Say(notes, std::move(line));
+    for (auto& w : r->warnings) Say(notes, std::move(w));
     log = std::move(r->log);
     Say(notes, fmt::format("{}: ArduPilot DataFlash log, imported in memory ({} rows; `hexsim import {} --out log.csv` "
                            "writes the FlightLog)",

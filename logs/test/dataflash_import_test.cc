@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "hexsim/common/rotation.h"
+#include "hexsim/logs/mag_input.h"
 #include "support/dataflash_writer.h"
 
 namespace hexsim::logs {
@@ -250,6 +251,36 @@ TEST(DataFlashImport, GivenTheRealLog_WhenInfoIsAsked_ThenItListsTypesRatesAndCo
   }
   EXPECT_FALSE(IsParameterOfInterest("EKF_MAG_NOISE"));
   EXPECT_TRUE(IsParameterOfInterest("COMPASS_MOT2_X"));
+}
+
+// A public ArduCopter 3.3 log of a board without a working compass wrote MAG as (0, 0, 0) throughout:
+// imported as a field, gap diagnosed it ("unexplained ... 13 isolated spikes"). A compass that never
+// measured a field writes no columns; the meta and the warnings say why, and so does calibrate's input.
+TEST(DataFlashImport, GivenACompassLoggingOneVectorThroughout_WhenImported_ThenItWritesNoColumnsAndSaysWhy) {
+  testing::DataFlashWriter w;
+  w.Fmt(130, "ATT", "QccccCCCC", "TimeUS,DesRoll,Roll,DesPitch,Pitch,DesYaw,Yaw,ErrRP,ErrYaw");
+  w.Fmt(131, "MAG", "Qhhhhhhhhh", "TimeUS,MagX,MagY,MagZ,OfsX,OfsY,OfsZ,MOfsX,MOfsY,MOfsZ");
+  w.Fmt(132, "MAG2", "Qhhhhhhhhh", "TimeUS,MagX,MagY,MagZ,OfsX,OfsY,OfsZ,MOfsX,MOfsY,MOfsZ");
+  for (int i = 0; i < 100; ++i) {
+    const double t_us = 1e6 + 1e5 * i, yaw = 0.06 * i;  // the vehicle turns: a real compass follows
+    w.Msg(130, "QccccCCCC", {t_us, 0, 0, 0, 0, 0, std::fmod(yaw * 5729.58, 36000.0), 0, 0});
+    w.Msg(131, "Qhhhhhhhhh", {t_us, 0, 0, 0, 0, 0, 0, 0, 0, 0});
+    w.Msg(132, "Qhhhhhhhhh", {t_us, std::round(250 * std::cos(yaw)), std::round(-250 * std::sin(yaw)), 400, 0, 0, 0, 0, 0, 0});
+  }
+  auto r = ImportDataFlash(w.bytes(), "no_compass.bin");
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_FALSE(r->log.Has("mag_x_uT"));
+  EXPECT_TRUE(r->log.Has("mag2_x_uT"));
+  ASSERT_EQ(r->log.meta["compasses_absent"].size(), 1U);
+  EXPECT_EQ(r->log.meta["compasses_absent"][0]["column"], "mag");
+  ASSERT_EQ(r->warnings.size(), 1U);
+  EXPECT_NE(r->warnings[0].find("mag: every one of its 100 samples is (0, 0, 0)"), std::string::npos) << r->warnings[0];
+  for (const auto& c : r->log.meta["compasses"]) EXPECT_NE(c["column"], "mag");
+  auto in = ParseMagInput(w.bytes(), "no_compass.bin", "mag", nullptr);
+  ASSERT_FALSE(in.ok());
+  EXPECT_NE(in.status().message().find("no_compass.bin: mag: every one of its 100 samples"), std::string::npos)
+      << in.status().message();
+  EXPECT_TRUE(ParseMagInput(w.bytes(), "no_compass.bin", "mag2", nullptr).ok());
 }
 
 TEST(DataFlashImport, GivenGpsWeekAndTime_WhenConverted_ThenDecimalYearIsUtc) {

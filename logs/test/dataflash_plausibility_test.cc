@@ -48,7 +48,7 @@ DataFlashWriter SmallLog(int n_att, double roll_cdeg = 1234) {
   w.Fmt(133, "PARM", "QNf", "TimeUS,Name,Value");
   for (int i = 0; i < n_att; ++i) {
     w.Msg(130, "IccccCCCC", {1000.0 + 100 * i, 0, roll_cdeg, 0, -567, 0, 35900, 0, 0});
-    w.Msg(132, "Qffffff", {1e6 + 1e5 * i, 200, -50, 400, 0, 0, 0});
+    w.Msg(132, "Qffffff", {1e6 + 1e5 * i, 200.0 + i % 3, -50, 400, 0, 0, 0});  // noise in the last digit
   }
   return w;
 }

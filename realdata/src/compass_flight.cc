@@ -103,10 +103,15 @@ std::string CurrentUnusable(const logs::FlightLog& log, const FlightWindows& w, 
   }
   if (!log.Has("current_A")) return "no current logged";
   std::vector<double> flight;
+  size_t flight_rows = 0;
   const auto& c = log.Column("current_A");
   for (size_t i = 0; i < c.size() && i < w.row_kind.size(); ++i) {
-    if (w.row_kind[i] == RowKind::kFlight && std::isfinite(c[i])) flight.push_back(c[i]);
+    if (w.row_kind[i] != RowKind::kFlight) continue;
+    ++flight_rows;
+    if (std::isfinite(c[i])) flight.push_back(c[i]);
   }
+  // The current is judged where the motors carry the vehicle; on the ground it says nothing of them.
+  if (flight_rows == 0) return "no flight window to judge the current in (it is used in flight only)";
   if (flight.empty()) return "no current logged in flight";
   const int motors = MotorCount(log);
   const double med = Median(flight);

@@ -118,6 +118,24 @@ TEST(CompassFlight, GivenTooFewAirborneSamples_WhenFitted_ThenTheRefusalSaysWher
   EXPECT_EQ(why.find("attitude"), std::string::npos) << why;
 }
 
+// A public ArduCopter 4.6 log with one 4-s hop at 11 A (no flight window): calibrate said "current not
+// used: no current logged in flight" beside an import that had just found the current usable.
+TEST(CompassFlight, GivenNoFlightWindow_WhenFitted_ThenTheCurrentNoteSaysThereIsNoFlightNotNoCurrent) {
+  const logs::FlightLog log = Flight(0.0, Vector3d::Zero());
+  auto in = logs::MagInputFromFlightLog(log, "synthetic", "mag");
+  ASSERT_TRUE(in.ok()) << in.status().message();
+  FlightWindows w = WindowsFromRange(log, 0.0, 200.0);
+  std::fill(w.row_kind.begin(), w.row_kind.end(), RowKind::kGround);
+  w.windows.clear();
+  CompassFlightOptions o;
+  o.scan_latency = false;
+  auto f = FitCompassInFlight(log, *in, w, o);
+  ASSERT_TRUE(f.ok()) << f.status().message();
+  EXPECT_FALSE(f->current_usable);
+  EXPECT_NE(f->current_note.find("no flight window"), std::string::npos) << f->current_note;
+  EXPECT_EQ(f->current_note.find("no current logged"), std::string::npos) << f->current_note;
+}
+
 // A log without a GPS fix (six Erle logs of the corpus) has no place and date for the WMM: the model's
 // Earth-field terms are fitted freely, and the fit still finds the field, the offset and the current
 // term (it was refused: "no place and date").

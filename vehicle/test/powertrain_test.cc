@@ -106,7 +106,7 @@ TEST(Powertrain, GivenPaperHexClampedWhenAtPaperControlAmountsThenCurrentsMatchT
 }
 
 TEST(Powertrain, GivenEachShippedVehicleWhenAtFullCommandThenThrustExceeds1point8TimesWeight) {
-  for (const char* name : {"default_hex", "paper_hex", "quad_x"}) {
+  for (const char* name : {"default_hex", "paper_hex", "quad_x", "octo_x"}) {
     const VehicleParams p = Load(name);
     const double weight_N = p.mass_kg * kGravity_mps2;
     const PowertrainOutput full = SteadyStateForCommand(p, 1.0, p.battery.initial_soc);

@@ -37,7 +37,8 @@ TEST(VehicleParams, GivenShippedVehicleFilesWhenParsedThenTheyLoadWithTheirRotor
     size_t rotors;
     size_t compasses;
   };
-  for (const Expect& e : {Expect{"default_hex", 6, 1}, Expect{"paper_hex", 6, 1}, Expect{"quad_x", 4, 3}}) {
+  for (const Expect& e : {Expect{"default_hex", 6, 1}, Expect{"paper_hex", 6, 1}, Expect{"quad_x", 4, 3},
+                          Expect{"octo_x", 8, 1}}) {
     Result<VehicleParams> v = LoadVehicleFile(VehiclePath(e.name));
     ASSERT_TRUE(v.ok()) << v.status().message();
     EXPECT_EQ(v->name, e.name);

@@ -28,6 +28,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -52,6 +53,9 @@ struct ImportResult {
   size_t rows_dropped = 0;  // ATT samples dropped for damaged time or non-finite angles
   RecordDamage records;         // records dropped as implausible (dataflash_plausibility.h)
   size_t records_accepted = 0;  // data records the reader accepted (before the plausibility checks)
+  // What the import left out and why, one line each (also the meta's "warnings"): a compass that never
+  // measured a field (every sample the same vector; meta "compasses_absent") writes no columns.
+  std::vector<std::string> warnings;
 };
 
 // Imports a DataFlash byte buffer. `name` is used in messages and the meta's source. Bad input
