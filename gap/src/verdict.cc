@@ -125,41 +125,40 @@ std::string ShapeFinding(const ChannelData& ch, const Analyzer& an, const Evalua
 
 // A static per-axis scale, r_i = s_i·h_i (h the predicted field in the sensor frame), built from the
 // diagonal of the library-free set's field matrix (its columns 4i). A calibration error, not
-// current-driven: current_soft_iron must beat it by its dependence on the current. The axes' common
-// gain is the baseline's field scale (a uniform gain and a field-norm error read the same), so the
-// family holds only the axes' differences: s = a·u + b·v over the orthonormal u = (1, −1, 0)/√2,
-// v = (1, 1, −2)/√6 (ScaleSpread reads them back as per-axis gains).
-const Eigen::Vector3d kAxisU = Eigen::Vector3d(1.0, -1.0, 0.0) / std::sqrt(2.0);
-const Eigen::Vector3d kAxisV = Eigen::Vector3d(1.0, 1.0, -2.0) / std::sqrt(6.0);
-
+// current-driven: current_soft_iron must beat it by its dependence on the current. Of the three
+// gains only the horizontal axes' difference is a flight's to resolve: their common gain is the
+// baseline's free field (a uniform horizontal gain and a horizontal-field error read the same), and
+// the vertical gain reads as the vertical field plus a tilt term that the current and the throttle
+// share (a copter tilts to fly fast and takes current to do it): on real logs a free vertical gain
+// took the current's and throttle's structure and read 0.4–0.8 for a planted 0.12 on x. So the
+// family is one parameter, d = s_x − s_y, regressor (h_x, −h_y, 0)/2 (a single horizontal axis
+// reading s large fits d = ±s); ScaleSpread reports it per axis. A vertical gain is the ground
+// calibration's to find (a tumble turns the vertical axis through the field).
 Candidate AxisScale(const ChannelData& ch) {
-  Candidate c = MakeCandidate("scale_error", {"axis_gain_a", "axis_gain_b"}, {1.0, 1.0}, "1");
+  Candidate c = MakeCandidate("scale_error", {"gain_x_minus_y"}, {1.0}, "1");
   if (ch.flexible.p() < kFlexFieldParams || ch.flexible.X.size() != ch.t.size()) return c;
   for (const auto& x : ch.flexible.X) {
-    const Vec3 h(x(0, 0), x(1, 4), x(2, 8));
-    Mat3X d(3, 2);
-    d.col(0) = kAxisU.cwiseProduct(h);
-    d.col(1) = kAxisV.cwiseProduct(h);
+    Mat3X d = Mat3X::Zero(3, 1);
+    d(0, 0) = 0.5 * x(0, 0);
+    d(1, 0) = -0.5 * x(1, 4);
     c.X.push_back(d);
   }
   return c;
 }
 
-// The per-axis scale family's report: each axis' gain against the axes' mean (scale_i_minus_1) and
-// the magnitude as the spread max − min of the gains (a single axis reading s large: s); its interval
-// scales with the fitted norm's (the direction is held).
+// The per-axis scale family's report: each axis' gain against the horizontal axes' mean
+// (scale_i_minus_1: ±d/2 on x and y, 0 on z) and the magnitude |d|, the spread of the gains.
 void ScaleSpread(CandidateResult* r) {
-  if (r->id != Effect::kScaleError || r->nuisance_term || r->params.count("axis_gain_a") == 0) return;
-  const Vec3 s = r->params.at("axis_gain_a") * kAxisU + r->params.at("axis_gain_b") * kAxisV;
-  const double norm = s.norm();
-  const double spread = s.maxCoeff() - s.minCoeff();
-  const char* names[3] = {"scale_x_minus_1", "scale_y_minus_1", "scale_z_minus_1"};
-  for (int i = 0; i < 3; ++i) r->params[names[i]] = s[i];
-  if (!(norm > 0) || !(r->magnitude > 0)) return;
-  const double f = spread / norm;
-  r->magnitude_ci95[0] = std::max(0.0, f * (r->magnitude_ci95[0] - r->magnitude) + spread);
-  r->magnitude_ci95[1] = f * (r->magnitude_ci95[1] - r->magnitude) + spread;
-  r->magnitude = spread;
+  if (r->id != Effect::kScaleError || r->nuisance_term || r->params.count("gain_x_minus_y") == 0) return;
+  const double d = r->params.at("gain_x_minus_y");
+  r->params["scale_x_minus_1"] = 0.5 * d;
+  r->params["scale_y_minus_1"] = -0.5 * d;
+  r->params["scale_z_minus_1"] = 0.0;
+  // The spread |d|: its interval folds d's (from 0 where d's holds zero).
+  const double lo = r->magnitude_ci95[0], hi = r->magnitude_ci95[1];
+  r->magnitude = std::fabs(d);
+  r->magnitude_ci95[0] = lo > 0 || hi < 0 ? std::min(std::fabs(lo), std::fabs(hi)) : 0.0;
+  r->magnitude_ci95[1] = std::max(std::fabs(lo), std::fabs(hi));
 }
 
 // The field matrix alone (any scale, cross-coupling or misalignment): the library-free set's first group.
