@@ -29,6 +29,22 @@ TEST(FieldScaleText, GivenANormOutsideItsPhysicalRange_WhenPrinted_ThenOnlyTheHo
   EXPECT_NE(in.find("norm +7.5 %"), std::string::npos) << in;
 }
 
+// A residual many times the noise floor's power that no test resolves (a public PX4 log's 28-s
+// flight: ratio 12.5) is not "at the noise floor": the headline says no gap is resolved, and why.
+TEST(Headline, GivenNoGapDetectedWithAResidualManyTimesTheFloor_WhenPrinted_ThenItDoesNotSayAtTheNoiseFloor) {
+  ChannelResult c;
+  c.channel = "mag";
+  c.gap_detected = false;
+  c.noise_floor_ratio = 12.52;
+  const std::string high = Headline(c);
+  EXPECT_EQ(high.find("at the noise floor"), std::string::npos) << high;
+  EXPECT_NE(high.find("no gap resolved"), std::string::npos) << high;
+  EXPECT_NE(high.find("12.5 times"), std::string::npos) << high;
+  c.noise_floor_ratio = 1.04;
+  const std::string floor = Headline(c);
+  EXPECT_NE(floor.find("no gap: residual at the noise floor (power ratio 1.04)"), std::string::npos) << floor;
+}
+
 const ChannelResult* Find(const GapReport& r, const std::string& ch) { return gaptest::FindChannel(r, ch); }
 
 bool NotDiagnosed(const GapReport& r, const std::string& ch) {
