@@ -1,5 +1,5 @@
 // Native-rate streams of a DataFlash log (private to logs/): each sensor message at its own rate with
-// its own time stamps, never resampled (CONTRACTS "Second wave": `<log>.<stream>.csv`).
+// its own time stamps, never resampled (CONTRACTS, real data: `<log>.<stream>.csv`).
 #pragma once
 
 #include <string>

@@ -1,4 +1,4 @@
-// Native-rate streams of an imported DataFlash log (CONTRACTS "Second wave": `<log>.<stream>.csv`).
+// Native-rate streams of an imported DataFlash log (CONTRACTS, real data: `<log>.<stream>.csv`).
 #include <unistd.h>
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-// THE plausibility table (CONTRACTS.md "Second wave"): every quantity that the gap diagnosis, the
+// THE plausibility table (CONTRACTS.md, real data): every quantity that the gap diagnosis, the
 // identification or the calibration estimates from a real log has one entry here, with its unit,
 // the range a physical aircraft can produce, and the one-line physical reason for that range. It lives
 // in common/ (needs only the standard library) so that magnetics, identify, realdata and gap all read

@@ -4,7 +4,7 @@
 // With a vehicle given (a name under worlds/vehicles or a YAML path), the whole log is diagnosed
 // against it and the vehicle identified from the log is only compared with it. Without one, the
 // log's frame picks a shipped base vehicle, the vehicle is identified on the even time blocks of the
-// flight windows and the diagnosis runs on the odd (held-out) blocks only (CONTRACTS "Second wave").
+// flight windows and the diagnosis runs on the odd (held-out) blocks only (CONTRACTS, real data).
 #pragma once
 
 #include <cstdint>

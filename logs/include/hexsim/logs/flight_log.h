@@ -43,7 +43,7 @@ class FlightLog {
   // The side file's content (`<log>.meta.json`).
   nlohmann::json meta = nlohmann::json::object();
 
-  // Multi-rate streams (CONTRACTS "Second wave"): a stream is a table of its own with its own
+  // Multi-rate streams (CONTRACTS, real data): a stream is a table of its own with its own
   // `t_s`, one row per sample of that sensor at its native rate, never resampled ("imu", "rcou",
   // "batt", ...). Written beside the single table as `<log>.<stream>.csv` and listed in the meta's
   // `streams`. nullptr when the log has no such stream.

@@ -1,4 +1,4 @@
-// Flight windows and flight phases of a real (or simulated) FlightLog (CONTRACTS.md "Second wave").
+// Flight windows and flight phases of a real (or simulated) FlightLog (CONTRACTS.md, real data).
 //
 // Each log row gets one kind:
 //   flight    armed (the `armed` column, or throttle when the log has no armed state), throttle above

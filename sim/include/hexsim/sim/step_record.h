@@ -64,7 +64,7 @@ class LogRecorder {
   LogRecorder(logs::FlightLog* log, size_t rotors, size_t compasses, int log_every);
   void OnStep(const StepRecord& r);
   size_t time_column() const { return t_; }
-  // Native-rate streams (CONTRACTS "Second wave", FlightLog::Stream), as an autopilot logs them:
+  // Native-rate streams (CONTRACTS, real data; FlightLog::Stream), as an autopilot logs them:
   //   imu   gyro_*_radps, accel_*_mps2 at each IMU sample's own time stamp
   //   rcou  motor_i_u at the instant the autopilot's commands are read
   //   batt  current_A (sensed), voltage_V (bus)
