@@ -588,56 +588,59 @@ double EffectiveTests(const std::vector<const Candidate*>& members) {
   return std::clamp(tests, 1.0, static_cast<double>(k));
 }
 
-Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseOptions& o, RngStream* rng,
-                      double noise_sse) {
-  Attribution at;
-  at.all.reserve(ch.candidates.size());
+namespace {
+
+// Every candidate with a non-zero regressor, evaluated; then the members of each family.
+void EvaluateCandidates(const ChannelData& ch, const Analyzer& an, Attribution* at) {
+  at->all.reserve(ch.candidates.size());
   for (const Candidate& c : ch.candidates) {
     double energy = 0;
     for (const auto& x : c.X) energy += x.squaredNorm();
     if (!(energy > 1e-18)) continue;
     Evaluated e = an.Evaluate(c);
-    if (e.full.ok) at.all.push_back(std::move(e));
+    if (e.full.ok) at->all.push_back(std::move(e));
   }
-  for (size_t i = 0; i < at.all.size(); ++i) at.family[at.all[i].cand->effect].push_back(i);
-  for (const auto& [name, members] : at.family) {
-    size_t best = members[0];
-    for (size_t m : members) {
-      if (at.all[m].full.sse < at.all[best].full.sse) best = m;
-    }
-    // The one-standard-error rule within the family: a profiled parameter stays at its default (an
-    // exponent at the linear 1, a lag at 0) unless a member away from it beats it on held-out blocks
-    // by more than one standard error. Among the members with fewer fitted quantities (Dof) that the
-    // in-sample best does not beat so, the simplest (then the lowest held-out SSE) is the family's.
-    const size_t fit_best = best;
-    for (size_t m : members) {
-      const Evaluated& em = at.all[m];
-      const int dof = Dof(*em.cand), dof_best = Dof(*at.all[best].cand);
-      if (m == fit_best || dof >= Dof(*at.all[fit_best].cand)) continue;
-      if (dof > dof_best || (dof == dof_best && em.cv_sse >= at.all[best].cv_sse)) continue;
-      const std::vector<double>& a = at.all[fit_best].fold_sse;
-      const std::vector<double>& b = em.fold_sse;
-      double sum = 0, sq = 0;
-      const size_t F = std::min(a.size(), b.size());
-      for (size_t f = 0; f < F; ++f) {
-        sum += a[f] - b[f];
-        sq += (a[f] - b[f]) * (a[f] - b[f]);
-      }
-      const double var = F > 1 ? (sq - sum * sum / static_cast<double>(F)) / static_cast<double>(F - 1) : 0.0;
-      if (sum > -std::sqrt(static_cast<double>(F) * std::max(0.0, var))) best = m;
-    }
-    at.fam_names.push_back(name);
-    at.fam_best.push_back(best);
-    std::vector<const Candidate*> cands;
-    for (size_t m : members) cands.push_back(at.all[m].cand);
-    at.fam_tests.push_back(EffectiveTests(cands));
+  for (size_t i = 0; i < at->all.size(); ++i) at->family[at->all[i].cand->effect].push_back(i);
+}
+
+// The family's reported member. The one-standard-error rule within the family: a profiled
+// parameter stays at its default (an exponent at the linear 1, a lag at 0) unless a member away from
+// it beats it on held-out blocks by more than one standard error. Among the members with fewer
+// fitted quantities (Dof) that the in-sample best does not beat so, the simplest (then the lowest
+// held-out SSE) is the family's.
+size_t ReportedMember(const std::vector<Evaluated>& all, const std::vector<size_t>& members) {
+  size_t best = members[0];
+  for (size_t m : members) {
+    if (all[m].full.sse < all[best].full.sse) best = m;
   }
+  const size_t fit_best = best;
+  for (size_t m : members) {
+    const Evaluated& em = all[m];
+    const int dof = Dof(*em.cand), dof_best = Dof(*all[best].cand);
+    if (m == fit_best || dof >= Dof(*all[fit_best].cand)) continue;
+    if (dof > dof_best || (dof == dof_best && em.cv_sse >= all[best].cv_sse)) continue;
+    const std::vector<double>& a = all[fit_best].fold_sse;
+    const std::vector<double>& b = em.fold_sse;
+    double sum = 0, sq = 0;
+    const size_t F = std::min(a.size(), b.size());
+    for (size_t f = 0; f < F; ++f) {
+      sum += a[f] - b[f];
+      sq += (a[f] - b[f]) * (a[f] - b[f]);
+    }
+    const double var = F > 1 ? (sq - sum * sum / static_cast<double>(F)) / static_cast<double>(F - 1) : 0.0;
+    if (sum > -std::sqrt(static_cast<double>(F) * std::max(0.0, var))) best = m;
+  }
+  return best;
+}
+
+// Block bootstrap: which family wins the information criterion on resampled blocks (the baseline
+// alone competes as "nothing"); per family its win count, and the profiled parameters' picks.
+void BootstrapWins(const Analyzer& an, const DiagnoseOptions& o, RngStream* rng, const Attribution& at,
+                   std::vector<double>* wins, std::vector<GridPicks>* picks) {
   const size_t F = at.fam_names.size();
-  // Block bootstrap: which family wins the information criterion on resampled blocks (the baseline
-  // alone competes as "nothing").
   const int G = an.G();
-  std::vector<double> wins(F, 0.0);
-  std::vector<GridPicks> picks(F);
+  wins->assign(F, 0.0);
+  picks->assign(F, GridPicks{});
   const int p0 = an.nested() ? an.baseline().p() : 0;
   for (int b = 0; b < o.bootstrap_samples; ++b) {
     std::vector<double> w(G, 0.0);
@@ -662,7 +665,7 @@ Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseO
       const Candidate& reported = *at.all[at.fam_best[f]].cand;
       double fam_bic = 1e300, form_bic = 1e300;
       const Candidate* pick = nullptr;
-      for (size_t m : at.family[at.fam_names[f]]) {
+      for (size_t m : at.family.at(at.fam_names[f])) {
         const Candidate& c = *at.all[m].cand;
         const int pc = c.p();
         double sse = 0;
@@ -678,20 +681,26 @@ Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseO
           pick = &c;
         }
       }
-      if (pick != nullptr && !reported.grid_name.empty()) picks[f].boot.push_back(pick->grid_value);
-      if (pick != nullptr && !reported.grid2_name.empty()) picks[f].boot2.push_back(pick->grid2_value);
+      if (pick != nullptr && !reported.grid_name.empty()) (*picks)[f].boot.push_back(pick->grid_value);
+      if (pick != nullptr && !reported.grid2_name.empty()) (*picks)[f].boot2.push_back(pick->grid2_value);
       if (fam_bic < best_bic) {
         best_bic = fam_bic;
         winner = static_cast<int>(f);
       }
     }
-    if (winner >= 0) wins[winner] += 1;
+    if (winner >= 0) (*wins)[winner] += 1;
   }
-  const double cv0 = an.nested() ? an.baseline().cv_sse : an.base_sse();
+}
+
+// Per family its reported member's result (shares against the baseline's held-out SSE cv0), then
+// the families in order of held-out shrink.
+void DescribeFamilies(const DiagnoseOptions& o, double cv0, double noise_sse, const std::vector<double>& wins,
+                      std::vector<GridPicks> picks, Attribution* at) {
+  const size_t F = at->fam_names.size();
   for (size_t f = 0; f < F; ++f) {
-    const Evaluated& e = at.all[at.fam_best[f]];
+    const Evaluated& e = at->all[at->fam_best[f]];
     CandidateResult r;
-    r.effect = at.fam_names[f];
+    r.effect = at->fam_names[f];
     r.id = e.cand->id;
     r.probability = o.bootstrap_samples > 0 ? wins[f] / o.bootstrap_samples : 0.0;
     r.heldout_shrink = Shrink(e.cv_sse, cv0);
@@ -699,19 +708,39 @@ Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseO
     r.p_value = std::min(1.0, e.p_value);
     r.bic = e.bic;
     r.parameters = e.cand->p();
-    for (size_t m : at.family[at.fam_names[f]]) {
-      const Candidate& c = *at.all[m].cand;
+    for (size_t m : at->family[at->fam_names[f]]) {
+      const Candidate& c = *at->all[m].cand;
       if (c.grid2_name != e.cand->grid2_name) continue;  // the grids of the reported member's form
       picks[f].grid.push_back(c.grid_value);
       if (!c.grid2_name.empty()) picks[f].grid2.push_back(c.grid2_value);
     }
     Describe(e, picks[f], &r);
-    at.results.push_back(std::move(r));
+    at->results.push_back(std::move(r));
   }
-  at.order.resize(F);
-  std::iota(at.order.begin(), at.order.end(), 0);
-  std::sort(at.order.begin(), at.order.end(),
-            [&](size_t a, size_t b) { return at.results[a].heldout_shrink > at.results[b].heldout_shrink; });
+  at->order.resize(F);
+  std::iota(at->order.begin(), at->order.end(), 0);
+  std::sort(at->order.begin(), at->order.end(),
+            [&](size_t a, size_t b) { return at->results[a].heldout_shrink > at->results[b].heldout_shrink; });
+}
+
+}  // namespace
+
+Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseOptions& o, RngStream* rng,
+                      double noise_sse) {
+  Attribution at;
+  EvaluateCandidates(ch, an, &at);
+  for (const auto& [name, members] : at.family) {
+    at.fam_names.push_back(name);
+    at.fam_best.push_back(ReportedMember(at.all, members));
+    std::vector<const Candidate*> cands;
+    for (size_t m : members) cands.push_back(at.all[m].cand);
+    at.fam_tests.push_back(EffectiveTests(cands));
+  }
+  std::vector<double> wins;
+  std::vector<GridPicks> picks;
+  BootstrapWins(an, o, rng, at, &wins, &picks);
+  const double cv0 = an.nested() ? an.baseline().cv_sse : an.base_sse();
+  DescribeFamilies(o, cv0, noise_sse, wins, std::move(picks), &at);
   return at;
 }
 

@@ -138,6 +138,20 @@ std::string CurrentEquivalentRefusal(const Result<CompassTerms>& terms, double e
   return "";
 }
 
+CurrentShift PredictionCurrentShift(const Result<CompassTerms>& terms, const realdata::LagEstimate& scan,
+                                    double scan_shift_s, const std::vector<double>& grid) {
+  CurrentShift out{scan_shift_s, scan};
+  if (!terms.ok() || terms->form != "current" || !terms->term_fitted || !terms->term_resolved || grid.size() < 2) {
+    return out;
+  }
+  const double step = grid[1] - grid[0];
+  out.value_s = terms->current_shift_s;
+  out.plug_in.value_s = terms->current_shift_s;
+  out.plug_in.ci95_s[0] = terms->current_shift_range_s[0] - step;
+  out.plug_in.ci95_s[1] = terms->current_shift_range_s[1] + step;
+  return out;
+}
+
 nlohmann::json CompassTermsJson(const CompassTerms& t) {
   const double k = kMilliGaussPerMicroTesla;
   nlohmann::json j = {{"model", "in-flight compass model (magnetics/flight_fit.h), as hexsim calibrate --method flight"},

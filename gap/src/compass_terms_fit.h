@@ -3,6 +3,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -31,6 +32,22 @@ Result<CompassTerms> FitCompassTerms(const logs::FlightLog& log, const vehicle::
 // current. ArduCopter log_0036's external compass: 3.7 mG/A through the slope against 0.8 [0.5,
 // 1.0] mG/A on the current: a field that follows the throttle, not the current.
 std::string CurrentEquivalentRefusal(const Result<CompassTerms>& terms, double equivalent_uT_per_A);
+
+// The current's shift for gap's prediction (the vehicle file's wiring field) and its plug-in range
+// (PropagatePlugIns): the in-flight model's own choice on this compass where it resolves its
+// current term (its interval clear of zero: a term the data do not resolve chooses its shift by the
+// noise), one shift per compass for both; else `scan` (the throttle scan's estimate) at its point
+// `scan_shift_s`. The model's choice ranges over its delete-one-block choices widened by one step of
+// its shift grid either side: the choice resolves the shift only to its grid, and the smallest and
+// largest of G delete-one choices span about one standard error, not a 95 % interval (delete-one
+// fits that all choose one member would give a zero-width range). `grid`: the shifts profiled
+// (realdata::CurrentShiftGrid).
+struct CurrentShift {
+  double value_s = 0.0;
+  realdata::LagEstimate plug_in;
+};
+CurrentShift PredictionCurrentShift(const Result<CompassTerms>& terms, const realdata::LagEstimate& scan,
+                                    double scan_shift_s, const std::vector<double>& grid);
 
 nlohmann::json CompassTermsJson(const CompassTerms& terms);
 // "absolute (as hexsim calibrate): current field 6.5 mG/A [5.3, 7.7] ...; vehicle file 0.3 mG/A: gap ...".

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <string>
 
 #include <Eigen/Cholesky>
@@ -128,11 +129,15 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
   return tm;
 }
 
-void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
-                     const Vec3& B_N_uT, const CompassReplayOptions& used, const CompassTiming& timing,
-                     const realdata::LagEstimate& stale, const DiagnoseOptions& o, ChannelResult* res) {
-  // The two plug-ins, each at the ends of its own 95 % interval (a logged current is never early:
-  // its shift at least zero).
+namespace {
+
+// The plug-ins' replay options, each at the ends of its own 95 % interval (a logged current is
+// never early: its shift at least zero).
+std::vector<std::pair<CompassReplayOptions, CompassReplayOptions>> PlugInEnds(const vehicle::VehicleParams& v,
+                                                                             const LogInputs& in,
+                                                                             const CompassReplayOptions& used,
+                                                                             const CompassTiming& timing,
+                                                                             const realdata::LagEstimate& stale) {
   std::vector<std::pair<CompassReplayOptions, CompassReplayOptions>> pairs;
   if (timing.latency_ok) {
     CompassReplayOptions lo = used, hi = used;
@@ -155,85 +160,112 @@ void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& 
     hi.share_exponent = kShareExponentHi;
     pairs.emplace_back(lo, hi);
   }
-  if (pairs.empty()) return;
-  // Each reported effect's magnitude on a replay at the given timing: the reported member of its
-  // family (a profiled lag τ, the magnitude itself, profiled again); the nuisance terms from the
-  // baseline.
-  // The refits need the reported families only, and of current_lag the reported form's lag profile.
+  return pairs;
+}
+
+// What the refits build: the reported families only, of current_lag the reported form's lag
+// profile, and of the current iron families the reported members' shifts.
+struct RefitSet {
   std::vector<Effect> families;
   LagMembers lag_members;
-  std::vector<double> member_shifts;  // of the current iron families, the reported members' shifts
-  for (const CandidateResult& k : res->candidates) {
+  std::vector<double> member_shifts;
+};
+
+RefitSet ReportedRefitSet(const ChannelResult& res) {
+  RefitSet set;
+  for (const CandidateResult& k : res.candidates) {
     if (k.nuisance_term || k.id == Effect::kLatency || k.id == Effect::kNone) continue;
-    families.push_back(k.id);
+    set.families.push_back(k.id);
     const auto aligned = k.params.find("current_aligned");
-    if (aligned != k.params.end()) member_shifts.push_back(aligned->second);
+    if (aligned != k.params.end()) set.member_shifts.push_back(aligned->second);
     if (k.id != Effect::kCurrentLag) continue;
     const auto ex = k.params.find("exponent");
-    lag_members.form = ex == k.params.end() ? LagMembers::Form::kWiring : LagMembers::Form::kFree;
-    if (ex != k.params.end()) lag_members.exponent = ex->second;
+    set.lag_members.form = ex == k.params.end() ? LagMembers::Form::kWiring : LagMembers::Form::kFree;
+    if (ex != k.params.end()) set.lag_members.exponent = ex->second;
   }
-  auto magnitudes = [&](CompassReplayOptions ro) {
-    std::map<std::string, double> m;
-    ro.library_free = false;  // not a reported effect
-    ro.only_families = families;
-    ro.lag_members = lag_members;
-    ro.only_member_shifts_s = member_shifts;
-    const ChannelData ch = ReplayCompass(log, v, c, in, B_N_uT, ro);
-    if (static_cast<int>(ch.t.size()) < CompassMinSamples(ch).samples) return m;
-    const Analyzer an(ch, o);
-    const NuisanceReport nr = DescribeNuisance(ch, an.baseline(), o);
-    for (const CandidateResult& t : nr.terms) m[t.effect] = t.magnitude;
-    for (const CandidateResult& k : res->candidates) {
-      if (k.nuisance_term || k.id == Effect::kLatency) continue;
-      const Candidate* member = nullptr;
-      bool profiled_member = false;
-      double best_sse = 0, best_magnitude = 0;
-      for (const Candidate& cand : ch.candidates) {
-        if (cand.effect != k.effect) continue;
-        const bool profiled = cand.grid_name == "tau_s";
-        // A lag is profiled again within the reported member's form (current_lag's free member at
-        // its exponent, or the configured-wiring member).
-        if (profiled && !(cand.grid2_name.empty() ? k.params.count("exponent") == 0
-                                                  : k.params.count(cand.grid2_name) > 0 &&
-                                                        k.params.at(cand.grid2_name) == cand.grid2_value)) {
-          continue;
-        }
-        if (!profiled && !cand.grid_name.empty() &&
-            !(k.params.count(cand.grid_name) > 0 && k.params.at(cand.grid_name) == cand.grid_value)) {
-          continue;
-        }
-        if (!profiled) {
-          member = &cand;
-          break;
-        }
-        const Evaluated e = an.FitOnly(cand);
-        if (e.full.ok && (member == nullptr || e.full.sse < best_sse)) {
-          member = &cand;
-          profiled_member = true;
-          best_sse = e.full.sse;
-          best_magnitude = MagnitudeOf(e);
-        }
-      }
-      if (member == nullptr) continue;
-      if (profiled_member) {  // fitted in the profile above
-        m[k.effect] = best_magnitude;
-        continue;
-      }
-      const Evaluated e = an.FitOnly(*member);
-      if (!e.full.ok) continue;
-      CandidateResult refit;
-      refit.effect = k.effect;
-      refit.id = k.id;
-      refit.magnitude = MagnitudeOf(e);
-      DescaleMisalignment(nr.nuisance.field_scale, &refit);
-      m[k.effect] = refit.magnitude;
+  return set;
+}
+
+// The replayed channel's member of reported family k: its reported member, or, for a profiled lag
+// τ, the best-fitting member of its form (then *profiled_magnitude holds that member's magnitude).
+const Candidate* RefitMember(const ChannelData& ch, const Analyzer& an, const CandidateResult& k,
+                             std::optional<double>* profiled_magnitude) {
+  const Candidate* member = nullptr;
+  double best_sse = 0;
+  for (const Candidate& cand : ch.candidates) {
+    if (cand.effect != k.effect) continue;
+    const bool profiled = cand.grid_name == "tau_s";
+    // A lag is profiled again within the reported member's form (current_lag's free member at
+    // its exponent, or the configured-wiring member).
+    if (profiled && !(cand.grid2_name.empty() ? k.params.count("exponent") == 0
+                                              : k.params.count(cand.grid2_name) > 0 &&
+                                                    k.params.at(cand.grid2_name) == cand.grid2_value)) {
+      continue;
     }
-    return m;
-  };
+    if (!profiled && !cand.grid_name.empty() &&
+        !(k.params.count(cand.grid_name) > 0 && k.params.at(cand.grid_name) == cand.grid_value)) {
+      continue;
+    }
+    if (!profiled) return &cand;
+    const Evaluated e = an.FitOnly(cand);
+    if (e.full.ok && (member == nullptr || e.full.sse < best_sse)) {
+      member = &cand;
+      best_sse = e.full.sse;
+      *profiled_magnitude = MagnitudeOf(e);
+    }
+  }
+  return member;
+}
+
+// Each reported effect's magnitude on a replay at the given timing: the reported member of its
+// family (a profiled lag τ, the magnitude itself, profiled again); the nuisance terms from the
+// baseline.
+std::map<std::string, double> RefitMagnitudes(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c,
+                                              const LogInputs& in, const Vec3& B_N_uT, CompassReplayOptions ro,
+                                              const RefitSet& set, const DiagnoseOptions& o, const ChannelResult& res) {
+  std::map<std::string, double> m;
+  ro.library_free = false;  // not a reported effect
+  ro.only_families = set.families;
+  ro.lag_members = set.lag_members;
+  ro.only_member_shifts_s = set.member_shifts;
+  const ChannelData ch = ReplayCompass(log, v, c, in, B_N_uT, ro);
+  if (static_cast<int>(ch.t.size()) < CompassMinSamples(ch).samples) return m;
+  const Analyzer an(ch, o);
+  const NuisanceReport nr = DescribeNuisance(ch, an.baseline(), o);
+  for (const CandidateResult& t : nr.terms) m[t.effect] = t.magnitude;
+  for (const CandidateResult& k : res.candidates) {
+    if (k.nuisance_term || k.id == Effect::kLatency) continue;
+    std::optional<double> profiled_magnitude;
+    const Candidate* member = RefitMember(ch, an, k, &profiled_magnitude);
+    if (member == nullptr) continue;
+    if (profiled_magnitude) {  // fitted in the profile
+      m[k.effect] = *profiled_magnitude;
+      continue;
+    }
+    const Evaluated e = an.FitOnly(*member);
+    if (!e.full.ok) continue;
+    CandidateResult refit;
+    refit.effect = k.effect;
+    refit.id = k.id;
+    refit.magnitude = MagnitudeOf(e);
+    DescaleMisalignment(nr.nuisance.field_scale, &refit);
+    m[k.effect] = refit.magnitude;
+  }
+  return m;
+}
+
+}  // namespace
+
+void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
+                     const Vec3& B_N_uT, const CompassReplayOptions& used, const CompassTiming& timing,
+                     const realdata::LagEstimate& stale, const DiagnoseOptions& o, ChannelResult* res) {
+  const auto pairs = PlugInEnds(v, in, used, timing, stale);
+  if (pairs.empty()) return;
+  const RefitSet set = ReportedRefitSet(*res);
   std::map<std::string, double> var;  // Σ over the plug-ins of (half the refit spread)²
   for (const auto& [lo, hi] : pairs) {
-    const std::map<std::string, double> a = magnitudes(lo), b = magnitudes(hi);
+    const std::map<std::string, double> a = RefitMagnitudes(log, v, c, in, B_N_uT, lo, set, o, *res);
+    const std::map<std::string, double> b = RefitMagnitudes(log, v, c, in, B_N_uT, hi, set, o, *res);
     for (const auto& [effect, ma] : a) {
       const auto it = b.find(effect);
       if (it == b.end() || !std::isfinite(ma) || !std::isfinite(it->second)) continue;

@@ -262,7 +262,6 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
   const DiagnoseOptions& options = run.options;
   const internal::ReplayResult& rr = run.rr;
   const realdata::LagEstimate& stale = run.stale;
-  const double shift_s = run.shift_s;
   const std::string name = internal::MagPrefix(c);
   // The in-flight model's absolute terms, the same fit as `hexsim calibrate --method flight`. A
   // compass is diagnosed whenever this model can fit it (its own minimum: min_samples samples in
@@ -272,6 +271,11 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
   const bool same_scan = &run.model_log == &run.log && options.bootstrap_samples == realdata::CompassFlightOptions{}.resamples;
   Result<CompassTerms> terms = internal::FitCompassTerms(run.model_log, vehicle, c, name, run.model_windows, options.seed,
                                                          same_scan ? &stale : nullptr);
+  // One current shift per compass for the prediction and the in-flight model (PredictionCurrentShift).
+  const std::vector<double> shift_grid =
+      realdata::CurrentShiftGrid(stale, realdata::UpdatePeriod_s(rr.inputs.current_samples_t));
+  const internal::CurrentShift shift = internal::PredictionCurrentShift(terms, stale, run.shift_s, shift_grid);
+  const double shift_s = shift.value_s;
   if (!terms.ok() && !(run.flight_s >= options.min_duration_s)) {
     not_diagnosed->emplace_back(name, fmt::format("flight windows too short: {:.1f} s, needs {:.0f} s", run.flight_s,
                                                   options.min_duration_s));
@@ -298,7 +302,7 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
   ro.current_shift_s = shift_s;
   ro.reference_yaw = !rr.contaminated.empty();
   // The current-driven families' members: the in-flight model's shift grid (one definition).
-  ro.member_shifts_s = realdata::CurrentShiftGrid(stale, realdata::UpdatePeriod_s(rr.inputs.current_samples_t));
+  ro.member_shifts_s = shift_grid;
   ChannelData ch = internal::ReplayCompass(log, vehicle, c, rr.inputs, B_N, ro);
   const internal::CompassMinimum least = internal::CompassMinSamples(ch);
   // A short flight is diagnosed where the in-flight model fits it on flight samples; a model that
@@ -312,7 +316,7 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
   RngStream rng(options.seed, "gap_bootstrap/" + name);
   ChannelResult r = internal::AnalyzeCompass(&ch, log, run.phases, options, timing, &rng);
   if (options.timing_scan) {
-    internal::PropagatePlugIns(log, vehicle, c, rr.inputs, B_N, ro, timing, stale, options, &r);
+    internal::PropagatePlugIns(log, vehicle, c, rr.inputs, B_N, ro, timing, shift.plug_in, options, &r);
   }
   r.nuisance.current_split_exponent = run.fitted_share_exponent;
   r.nuisance.field_source = field_source;
@@ -384,7 +388,8 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
   // whenever the scan resolved it inside its plausible range: leaving a stale current unaligned
   // because its interval still touches zero is an estimate too (zero), and a worse one on average:
   // a wiring-field lag of the compass would then be read against a current already late by the
-  // staleness, and the two would cancel.
+  // staleness, and the two would cancel. A compass whose in-flight model fits the current takes
+  // that model's own shift instead (DiagnoseCompass): one shift per compass.
   const double shift_s = realdata::AppliedCurrentShift_s(stale);
   // The motors' current law's exponent, where the replay splits a battery current over them.
   const double fitted_share_exponent = internal::FitShareExponent(log, rr.inputs, vehicle, fw.row_kind, shift_s);

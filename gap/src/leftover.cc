@@ -56,6 +56,16 @@ std::string RefusedFormFinding(const Analyzer& an, const Attribution& at, const 
     if (d.sum > d.se) {
       return fmt::format("{} describes the field better on held-out blocks than the reported model: {}", form, why);
     }
+    // The selection's parsimony rule (ReportedMember, AmbiguousRival): a model with more fitted
+    // quantities must beat a simpler one by more than one standard error. A reported model that
+    // does not beat the simpler refused form so describes the field no better than a form the
+    // library refuses.
+    const int dof_refused = Dof(*at.all[at.fam_best[f]].cand), dof_model = Dof(*m.eval.cand);
+    if (dof_refused < dof_model && d.sum > -d.se) {
+      return fmt::format("{} describes the field on held-out blocks as well as the reported model, with fewer fitted "
+                         "quantities ({} against {}): {}",
+                         form, dof_refused, dof_model, why);
+    }
     double gain = 0;
     if (LeavesPart(an, m.eval, *at.all[at.fam_best[f]].cand, noise_var, o, &gain)) {
       return fmt::format("{} describes a part the reported model leaves ({:.0f} % of the noise floor's power): {}", form,

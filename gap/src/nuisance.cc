@@ -87,22 +87,36 @@ Interval JudgedInterval(double value, double sd_sandwich, double sd_jackknife, d
   return {value - half, value + half};
 }
 
-NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, const DiagnoseOptions& o) {
-  NuisanceReport nr;
-  if (base.p() < 6 || !base.full.ok) return nr;
-  const int G = static_cast<int>(base.blocks.size());
-  const double t975 = StudentT975(static_cast<double>(G - 1));
-  const Vec3 b = base.full.beta.head<3>();
-  const Vec3 d = base.full.beta.segment<3>(3);
-  const Eigen::Matrix3d Vb = base.cov.block<3, 3>(0, 0), Vd = base.cov.block<3, 3>(3, 3);
+namespace {
+
+// The baseline's terms read off its fit: the offset b, the field correction d, their covariances
+// (sandwich V, jackknife J: the reported intervals'), and the scale and cross-field parts of d.
+struct BaselineTerms {
+  int G = 0;
+  double t975 = 0;
+  Vec3 b, d, B, Bhat;
+  Eigen::Matrix3d Vb, Vd;
+  double Bn = 0, scale = 1, s_along = 0, Bs2 = 0;
+  double b_norm = 0, b_sd = 0, d_norm = 0, s_sd = 0, perp_norm = 0, perp_sd = 0;
+  double b_ci_sd = 0, d_ci_sd = 0, s_ci_sd = 0;
+};
+
+BaselineTerms ReadBaseline(const ChannelData& ch, const Evaluated& base) {
+  BaselineTerms t;
+  t.G = static_cast<int>(base.blocks.size());
+  t.t975 = StudentT975(static_cast<double>(t.G - 1));
+  t.b = base.full.beta.head<3>();
+  t.d = base.full.beta.segment<3>(3);
+  t.Vb = base.cov.block<3, 3>(0, 0);
+  t.Vd = base.cov.block<3, 3>(3, 3);
   // The reported intervals' (JackknifeCov); the range tests take the wider of it and the sandwich.
   const Eigen::MatrixXd Vjk = JackknifeCov(base);
   const Eigen::Matrix3d Jb = Vjk.block<3, 3>(0, 0), Jd = Vjk.block<3, 3>(3, 3);
-  const Vec3 B = ch.field_N_uT;
-  const double Bn = B.norm();
-  const Vec3 Bhat = Bn > 0 ? Vec3(B / Bn) : Vec3::UnitZ();
-  const Vec3 Bfit = B + d;
-  const double scale = Bn > 0 ? Bfit.norm() / Bn : 1.0;
+  t.B = ch.field_N_uT;
+  t.Bn = t.B.norm();
+  t.Bhat = t.Bn > 0 ? Vec3(t.B / t.Bn) : Vec3::UnitZ();
+  const Vec3 Bfit = t.B + t.d;
+  t.scale = t.Bn > 0 ? Bfit.norm() / t.Bn : 1.0;
   // The sensor scale, read from the horizontal field: the correction along the WMM field's horizontal
   // part, as a scale. A flight stays nearly level, so the vertical field's column differs from a
   // body-z offset only by 1 − cos(tilt) and the tilts' sines, and any current-driven field the
@@ -110,103 +124,122 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
   // horizontal field turns with every change of heading. Near the magnetic poles (horizontal
   // field under kMinHorizontalShare of the norm) the projection on the whole field is used.
   constexpr double kMinHorizontalShare = 0.2;
-  const Vec3 B_h(B.x(), B.y(), 0.0);
-  const Vec3 B_s = B_h.norm() >= kMinHorizontalShare * Bn ? B_h : B;
-  const double Bs2 = B_s.squaredNorm();
-  const double s_along = Bs2 > 0 ? d.dot(B_s) / Bs2 : 0.0;
-  const Vec3 d_perp = d - d.dot(Bhat) * Bhat;
-  const double b_norm = b.norm();
-  const double b_sd = b_norm > 0 ? std::sqrt(std::max(0.0, (b / b_norm).dot(Vb * (b / b_norm)))) : 0.0;
-  const double d_norm = d.norm();
-  const double s_sd = Bs2 > 0 ? std::sqrt(std::max(0.0, B_s.dot(Vd * B_s))) / Bs2 : 0.0;
+  const Vec3 B_h(t.B.x(), t.B.y(), 0.0);
+  const Vec3 B_s = B_h.norm() >= kMinHorizontalShare * t.Bn ? B_h : t.B;
+  t.Bs2 = B_s.squaredNorm();
+  t.s_along = t.Bs2 > 0 ? t.d.dot(B_s) / t.Bs2 : 0.0;
+  const Vec3 d_perp = t.d - t.d.dot(t.Bhat) * t.Bhat;
+  t.b_norm = t.b.norm();
+  t.b_sd = t.b_norm > 0 ? std::sqrt(std::max(0.0, (t.b / t.b_norm).dot(t.Vb * (t.b / t.b_norm)))) : 0.0;
+  t.d_norm = t.d.norm();
+  t.s_sd = t.Bs2 > 0 ? std::sqrt(std::max(0.0, B_s.dot(t.Vd * B_s))) / t.Bs2 : 0.0;
   // The same along the reported directions, from the jackknife (the intervals).
   auto along = [](const Eigen::Matrix3d& V, const Vec3& u) { return std::sqrt(std::max(0.0, u.dot(V * u))); };
-  const double b_ci_sd = b_norm > 0 ? along(Jb, b / b_norm) : 0.0;
-  const double d_ci_sd = d_norm > 0 ? along(Jd, d / d_norm) : 0.0;
-  const double s_ci_sd = Bs2 > 0 ? along(Jd, B_s) / Bs2 : 0.0;
-  const double perp_norm = d_perp.norm();
-  const double perp_sd = perp_norm > 0 ? std::sqrt(std::max(0.0, (d_perp / perp_norm).dot(Vd * (d_perp / perp_norm)))) : 0.0;
+  t.b_ci_sd = t.b_norm > 0 ? along(Jb, t.b / t.b_norm) : 0.0;
+  t.d_ci_sd = t.d_norm > 0 ? along(Jd, t.d / t.d_norm) : 0.0;
+  t.s_ci_sd = t.Bs2 > 0 ? along(Jd, B_s) / t.Bs2 : 0.0;
+  t.perp_norm = d_perp.norm();
+  t.perp_sd =
+      t.perp_norm > 0 ? std::sqrt(std::max(0.0, (d_perp / t.perp_norm).dot(t.Vd * (d_perp / t.perp_norm)))) : 0.0;
+  return t;
+}
+
+// The nuisance block and the three terms (offset, field correction, field scale − 1) as reported.
+void AddTerms(const ChannelData& ch, const BaselineTerms& t, const DiagnoseOptions& o, NuisanceReport* out) {
+  NuisanceReport& nr = *out;
   Nuisance& nu = nr.nuisance;
   nu.present = true;
-  nu.offset_uT = b;
-  nu.offset_ci95_uT = {std::max(0.0, b_norm - t975 * b_ci_sd), b_norm + t975 * b_ci_sd};
-  nu.field_scale = scale;
-  nu.field_scale_horizontal = 1.0 + s_along;
-  nu.field_vector_N_uT = Bfit;
-  nu.field_prior_N_uT = B;
-  nu.field_correction_N_uT = d;
-  nu.field_direction_error_uT = perp_norm;
+  nu.offset_uT = t.b;
+  nu.offset_ci95_uT = {std::max(0.0, t.b_norm - t.t975 * t.b_ci_sd), t.b_norm + t.t975 * t.b_ci_sd};
+  nu.field_scale = t.scale;
+  nu.field_scale_horizontal = 1.0 + t.s_along;
+  nu.field_vector_N_uT = t.B + t.d;
+  nu.field_prior_N_uT = t.B;
+  nu.field_correction_N_uT = t.d;
+  nu.field_direction_error_uT = t.perp_norm;
   nu.undone_compensation = ch.undone_compensation;
   nu.ranges = o.nuisance_ranges;
-  nr.terms.push_back(Term("hard_iron_offset", b_norm, b_ci_sd, t975, "uT"));
-  nr.terms.back().params["b_x_uT"] = b.x();
-  nr.terms.back().params["b_y_uT"] = b.y();
-  nr.terms.back().params["b_z_uT"] = b.z();
-  nr.terms.push_back(Term("local_anomaly", d_norm, d_ci_sd, t975, "uT"));
-  nr.terms.back().params["anomaly_N_uT"] = d.x();
-  nr.terms.back().params["anomaly_E_uT"] = d.y();
-  nr.terms.back().params["anomaly_D_uT"] = d.z();
-  nr.terms.push_back(Term("field_scale", s_along, s_ci_sd, t975, "1"));
+  nr.terms.push_back(Term("hard_iron_offset", t.b_norm, t.b_ci_sd, t.t975, "uT"));
+  nr.terms.back().params["b_x_uT"] = t.b.x();
+  nr.terms.back().params["b_y_uT"] = t.b.y();
+  nr.terms.back().params["b_z_uT"] = t.b.z();
+  nr.terms.push_back(Term("local_anomaly", t.d_norm, t.d_ci_sd, t.t975, "uT"));
+  nr.terms.back().params["anomaly_N_uT"] = t.d.x();
+  nr.terms.back().params["anomaly_E_uT"] = t.d.y();
+  nr.terms.back().params["anomaly_D_uT"] = t.d.z();
+  nr.terms.push_back(Term("field_scale", t.s_along, t.s_ci_sd, t.t975, "1"));
   nr.terms.back().parameters = 1;
-  {
-    // The term reports scale − 1; its physical range is the field_scale row's ratio range less one.
-    const plausibility::PhysicalRange* fs = plausibility::FindRange("field_scale");
-    nr.terms.back().plausible = 1.0 + s_along >= fs->lo && 1.0 + s_along <= fs->hi;
-    nr.terms.back().physical_range = fmt::format("{:.2g}..{:.2g} 1 (field scale − 1)", fs->lo - 1.0, fs->hi - 1.0);
+  // The term reports scale − 1; its physical range is the field_scale row's ratio range less one.
+  const plausibility::PhysicalRange* fs = plausibility::FindRange("field_scale");
+  nr.terms.back().plausible = 1.0 + t.s_along >= fs->lo && 1.0 + t.s_along <= fs->hi;
+  nr.terms.back().physical_range = fmt::format("{:.2g}..{:.2g} 1 (field scale − 1)", fs->lo - 1.0, fs->hi - 1.0);
+  nr.terms.back().params["scale_minus_1"] = t.s_along;
+}
+
+// Which term is out of its normal range (realdata's ranges). Each term is judged by JudgedInterval:
+// beyond a range only where the interval it is printed with says so too.
+void JudgeNormal(const ChannelData& ch, const BaselineTerms& t, NuisanceReport* out) {
+  NuisanceReport& nr = *out;
+  const plausibility::PhysicalRange* off = plausibility::FindRange("hard_iron_offset");
+  const plausibility::PhysicalRange* an = plausibility::FindRange("local_anomaly");
+  const plausibility::PhysicalRange* sc = plausibility::FindRange("field_scale");
+  if (JudgedInterval(t.b_norm, t.b_sd, t.b_ci_sd, t.t975).lo > off->normal_hi) {
+    nr.out_of_range = "hard_iron_offset";
+    nr.beyond_normal.emplace_back("hard_iron_offset");
+    nr.findings.push_back(fmt::format("{}: residual offset ({:.0f}, {:.0f}, {:.0f}) mG, beyond the normal {:.0f} mG: "
+                                      "recalibrate the compass",
+                                      ch.name, kMilliGaussPerMicroTesla * t.b.x(), kMilliGaussPerMicroTesla * t.b.y(),
+                                      kMilliGaussPerMicroTesla * t.b.z(), kMilliGaussPerMicroTesla * off->normal_hi));
   }
-  nr.terms.back().params["scale_minus_1"] = s_along;
-  // Which term is out of its range.
+  // A field correction across the WMM direction beyond its normal range is an anomaly (or a
+  // heading error), which a sensor scale cannot produce; the anomaly explains the norm change along
+  // the field as well, so it is named before the scale (one cause for both parts).
+  const bool anomaly_out = JudgedInterval(t.perp_norm, t.perp_sd, t.d_ci_sd, t.t975).lo > an->normal_hi;
+  // The scale term (horizontal field) is judged by its interval, as the offset and the anomaly are:
+  // a point beyond a range whose interval still reaches into it is not resolved beyond it.
+  const double scale_h = 1.0 + t.s_along;
+  const Interval scale_ci = JudgedInterval(scale_h, t.s_sd, t.s_ci_sd, t.t975);
+  const double scale_lo = scale_ci.lo, scale_hi = scale_ci.hi;
+  // The norm only inside its physical range (FieldScaleText's rule: in a nearly level flight the
+  // vertical field trades with the z offset).
+  const std::string norm_text = plausibility::IsPlausible("field_scale", t.scale)
+                                    ? fmt::format("norm {:+.1f} %", 100 * (t.scale - 1))
+                                    : std::string("norm not resolved");
+  if (scale_hi < sc->lo || scale_lo > sc->hi) {
+    // Beyond what a compass reads of the Earth field: never a finding to act on.
+    nr.findings.push_back(fmt::format("{}: fitted field {:.1f} % {} the WMM field (horizontal part; {}), "
+                                      "outside the physical range {}: implausible, model mismatch (the field "
+                                      "model's place or date, or the log's compass units)",
+                                      ch.name, 100 * std::fabs(t.s_along), t.s_along < 0 ? "below" : "above", norm_text,
+                                      plausibility::RangeText("field_scale")));
+  } else if (scale_hi < sc->normal_lo || scale_lo > sc->normal_hi) {
+    if (nr.out_of_range.empty() && !anomaly_out) nr.out_of_range = "field_scale";
+    if (!anomaly_out) nr.beyond_normal.emplace_back("field_scale");
+    nr.findings.push_back(fmt::format("{}: fitted field {:.1f} % {} the WMM field (horizontal part; {}): "
+                                      "recalibrate (scale) or check for a local anomaly",
+                                      ch.name, 100 * std::fabs(t.s_along), t.s_along < 0 ? "below" : "above",
+                                      norm_text));
+  }
+  if (anomaly_out) {
+    if (nr.out_of_range.empty()) nr.out_of_range = "local_anomaly";
+    nr.beyond_normal.emplace_back("local_anomaly");
+    nr.findings.push_back(fmt::format("{}: fitted field direction differs from WMM by {:.1f} uT ({:.1f} deg): a local "
+                                      "anomaly, or a yaw misalignment of the compass",
+                                      ch.name, t.perp_norm, std::atan2(t.perp_norm, t.Bn) * 57.29577951308232));
+  }
+}
+
+}  // namespace
+
+NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, const DiagnoseOptions& o) {
+  NuisanceReport nr;
+  if (base.p() < 6 || !base.full.ok) return nr;
+  const BaselineTerms t = ReadBaseline(ch, base);
+  AddTerms(ch, t, o, &nr);
   if (o.nuisance_ranges == "exact") {
-    JudgeExact(b, Vb, d, Vd, Bhat, s_along, s_sd, G, o.alpha, &nr);
+    JudgeExact(t.b, t.Vb, t.d, t.Vd, t.Bhat, t.s_along, t.s_sd, t.G, o.alpha, &nr);
   } else {
-    const plausibility::PhysicalRange* off = plausibility::FindRange("hard_iron_offset");
-    const plausibility::PhysicalRange* an = plausibility::FindRange("local_anomaly");
-    const plausibility::PhysicalRange* sc = plausibility::FindRange("field_scale");
-    // Each term is judged by JudgedInterval: beyond a range only where the interval it is printed
-    // with says so too.
-    if (JudgedInterval(b_norm, b_sd, b_ci_sd, t975).lo > off->normal_hi) {
-      nr.out_of_range = "hard_iron_offset";
-      nr.beyond_normal.emplace_back("hard_iron_offset");
-      nr.findings.push_back(fmt::format("{}: residual offset ({:.0f}, {:.0f}, {:.0f}) mG, beyond the normal {:.0f} mG: "
-                                        "recalibrate the compass",
-                                        ch.name, kMilliGaussPerMicroTesla * b.x(), kMilliGaussPerMicroTesla * b.y(),
-                                        kMilliGaussPerMicroTesla * b.z(), kMilliGaussPerMicroTesla * off->normal_hi));
-    }
-    // A field correction across the WMM direction beyond its normal range is an anomaly (or a
-    // heading error), which a sensor scale cannot produce; the anomaly explains the norm change along
-    // the field as well, so it is named before the scale (one cause for both parts).
-    const bool anomaly_out = JudgedInterval(perp_norm, perp_sd, d_ci_sd, t975).lo > an->normal_hi;
-    // The scale term (horizontal field) is judged by its interval, as the offset and the anomaly are:
-    // a point beyond a range whose interval still reaches into it is not resolved beyond it.
-    const double scale_h = 1.0 + s_along;
-    const Interval scale_ci = JudgedInterval(scale_h, s_sd, s_ci_sd, t975);
-    const double scale_lo = scale_ci.lo, scale_hi = scale_ci.hi;
-    // The norm only inside its physical range (FieldScaleText's rule: in a nearly level flight the
-    // vertical field trades with the z offset).
-    const std::string norm_text = plausibility::IsPlausible("field_scale", scale)
-                                      ? fmt::format("norm {:+.1f} %", 100 * (scale - 1))
-                                      : std::string("norm not resolved");
-    if (scale_hi < sc->lo || scale_lo > sc->hi) {
-      // Beyond what a compass reads of the Earth field: never a finding to act on.
-      nr.findings.push_back(fmt::format("{}: fitted field {:.1f} % {} the WMM field (horizontal part; {}), "
-                                        "outside the physical range {}: implausible, model mismatch (the field "
-                                        "model's place or date, or the log's compass units)",
-                                        ch.name, 100 * std::fabs(s_along), s_along < 0 ? "below" : "above", norm_text,
-                                        plausibility::RangeText("field_scale")));
-    } else if (scale_hi < sc->normal_lo || scale_lo > sc->normal_hi) {
-      if (nr.out_of_range.empty() && !anomaly_out) nr.out_of_range = "field_scale";
-      if (!anomaly_out) nr.beyond_normal.emplace_back("field_scale");
-      nr.findings.push_back(fmt::format("{}: fitted field {:.1f} % {} the WMM field (horizontal part; {}): "
-                                        "recalibrate (scale) or check for a local anomaly",
-                                        ch.name, 100 * std::fabs(s_along), s_along < 0 ? "below" : "above", norm_text));
-    }
-    if (anomaly_out) {
-      if (nr.out_of_range.empty()) nr.out_of_range = "local_anomaly";
-      nr.beyond_normal.emplace_back("local_anomaly");
-      nr.findings.push_back(fmt::format("{}: fitted field direction differs from WMM by {:.1f} uT ({:.1f} deg): a local "
-                                        "anomaly, or a yaw misalignment of the compass",
-                                        ch.name, perp_norm, std::atan2(perp_norm, Bn) * 57.29577951308232));
-    }
+    JudgeNormal(ch, t, &nr);
   }
   return nr;
 }

@@ -397,6 +397,42 @@ void ExponentRange(CandidateResult* r) {
   r->physical_range += fmt::format(", exponent {:g}..{:g}", lo, hi);
 }
 
+// A family's reported result judged against its physical range (a misalignment descaled by the
+// fitted field scale; spreads and exponents judged too).
+void JudgeRange(double field_scale, CandidateResult* r) {
+  DescaleMisalignment(field_scale, r);
+  ScaleSpread(r);
+  r->plausible = plausibility::IsPlausible(r->effect, r->magnitude);
+  r->physical_range = plausibility::RangeText(r->effect);
+  ExponentRange(r);
+}
+
+// A first effect must be material on its own (MaterialWhy): held out against the noise power, by
+// its timing (the modelled field's lag), or by the heading it turns. Per family why it is material
+// (empty: it is not, and it is no longer eligible).
+std::vector<std::string> MaterialOnTheirOwn(const ChannelData& ch, const Analyzer& an, const Attribution& at, double cv0,
+                                            double noise_var, const DiagnoseOptions& o, std::vector<bool>* eligible) {
+  const size_t F = at.fam_names.size();
+  std::vector<std::string> why(F);
+  for (size_t f = 0; f < F; ++f) {
+    if (!(*eligible)[f]) continue;
+    const Evaluated& e = at.all[at.fam_best[f]];
+    const HeadingTurn turn = HeadingTurnOf(ch, an, e);
+    why[f] = MaterialWhy(IsMaterial(an, e, cv0, noise_var, o), DelaysModelledField(*e.cand), at.results[f], turn, o);
+    (*eligible)[f] = !why[f].empty();
+  }
+  // Decided with the current's variation: where current_soft_iron depends on the current beyond any
+  // constant field matrix (its p-value holds that partial test), the static per-axis gains are its
+  // constant part, not a calibration error of their own.
+  size_t soft = F, axis = F;
+  for (size_t f = 0; f < F; ++f) {
+    if (at.results[f].id == Effect::kCurrentSoftIron) soft = f;
+    if (at.results[f].id == Effect::kScaleError) axis = f;
+  }
+  if (soft < F && axis < F && (*eligible)[soft]) (*eligible)[axis] = false;
+  return why;
+}
+
 }  // namespace
 
 ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, const std::vector<std::string>& phases,
@@ -421,13 +457,7 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
   const double noise_sse = NoiseVariance(ch.t, an.y()) * an.total_n();
   Attribution at = Attribute(ch, an, o, rng, noise_sse);
   const size_t F = at.fam_names.size();
-  for (CandidateResult& r : at.results) {
-    DescaleMisalignment(nu.nuisance.field_scale, &r);
-    ScaleSpread(&r);
-    r.plausible = plausibility::IsPlausible(r.effect, r.magnitude);
-    r.physical_range = plausibility::RangeText(r.effect);
-    ExponentRange(&r);
-  }
+  for (CandidateResult& r : at.results) JudgeRange(nu.nuisance.field_scale, &r);
   double flex_p = 1.0, flex_gain_ms = 0.0;
   LibraryFreeTest(ch, an, &flex_p, &flex_gain_ms);
   // Three tests decide that structure exists, each at alpha/3 (Bonferroni): the library-free
@@ -442,26 +472,7 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
   const double cv0 = an.baseline().cv_sse;
   FamilyPValues(an, FieldMatrix(ch), &at);
   std::vector<bool> eligible = Eligible(at, o);
-  // A first effect must be material on its own (MaterialWhy): held out against the noise power, by
-  // its timing (the modelled field's lag), or by the heading it turns.
-  std::vector<HeadingTurn> turns(F);
-  std::vector<std::string> why(F);
-  for (size_t f = 0; f < F; ++f) {
-    if (!eligible[f]) continue;
-    const Evaluated& e = at.all[at.fam_best[f]];
-    turns[f] = HeadingTurnOf(ch, an, e);
-    why[f] = MaterialWhy(IsMaterial(an, e, cv0, st.noise_var, o), DelaysModelledField(*e.cand), at.results[f], turns[f], o);
-    eligible[f] = !why[f].empty();
-  }
-  // Decided with the current's variation: where current_soft_iron depends on the current beyond any
-  // constant field matrix (its p-value holds that partial test), the static per-axis gains are its
-  // constant part, not a calibration error of their own.
-  size_t soft = F, axis = F;
-  for (size_t f = 0; f < F; ++f) {
-    if (at.results[f].id == Effect::kCurrentSoftIron) soft = f;
-    if (at.results[f].id == Effect::kScaleError) axis = f;
-  }
-  if (soft < F && axis < F && eligible[soft]) eligible[axis] = false;
+  const std::vector<std::string> why = MaterialOnTheirOwn(ch, an, at, cv0, st.noise_var, o, &eligible);
   const size_t first = ChooseFirst(at, eligible);
   if (first < F && at.results[first].p_value < o.alpha / 3.0) {
     res.p_value = std::min(res.p_value, std::min(1.0, 3.0 * at.results[first].p_value));

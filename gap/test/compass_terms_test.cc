@@ -2,6 +2,7 @@
 // log: short logs are diagnosed wherever the model fits them, and gap's calib.parm handles the
 // log's own COMPASS_MOTCT / COMPASS_MOT* as it says.
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -176,6 +177,34 @@ TEST(CompassTerms, GivenAThrottleEffectsCurrentEquivalent_WhenChecked_ThenItIsKe
   ASSERT_TRUE(u.ok()) << u.status().message();
   const std::string why = internal::CurrentEquivalentRefusal(u, t->term_norm_uT);
   EXPECT_NE(why.find("current is unusable"), std::string::npos) << why;
+}
+
+// The current's shift for the prediction: the in-flight model's own choice where it resolves its
+// current term, else the throttle scan's; the model's delete-one-block choices all on one member of
+// a 50 ms grid (the saturating selftest field, 256 ms stale: all at 250 ms) still range one grid step
+// either side (the plug-in's range before: 250-250 ms, no spread at all).
+TEST(CompassTerms, GivenTheModelsDeleteOneChoicesOnOneGridMember_WhenTheShiftIsAPlugIn_ThenItRangesAGridStepEitherSide) {
+  CompassTerms t;
+  t.form = "current";
+  t.term_fitted = t.term_resolved = true;
+  t.current_shift_s = 0.25;
+  t.current_shift_range_s[0] = t.current_shift_range_s[1] = 0.25;
+  realdata::LagEstimate scan;
+  scan.value_s = 0.177;
+  scan.ci95_s[0] = 0.167;
+  scan.ci95_s[1] = 0.245;
+  const std::vector<double> grid = {0.0, 0.05, 0.10, 0.15, 0.20, 0.25, 0.30, 0.35, 0.40, 0.45};
+  const internal::CurrentShift s = internal::PredictionCurrentShift(Result<CompassTerms>(t), scan, 0.177, grid);
+  EXPECT_DOUBLE_EQ(s.value_s, 0.25);
+  EXPECT_DOUBLE_EQ(s.plug_in.value_s, 0.25);
+  EXPECT_NEAR(s.plug_in.ci95_s[0], 0.20, 1e-12);
+  EXPECT_NEAR(s.plug_in.ci95_s[1], 0.30, 1e-12);
+  // A term the data do not resolve: the throttle scan's shift and interval.
+  t.term_resolved = false;
+  const internal::CurrentShift u = internal::PredictionCurrentShift(Result<CompassTerms>(t), scan, 0.177, grid);
+  EXPECT_DOUBLE_EQ(u.value_s, 0.177);
+  EXPECT_DOUBLE_EQ(u.plug_in.ci95_s[0], 0.167);
+  EXPECT_DOUBLE_EQ(u.plug_in.ci95_s[1], 0.245);
 }
 
 }  // namespace

@@ -112,6 +112,25 @@ TEST(GapCurrentAlignment, GivenAThrottleLeadingTheCurrentByMoreThanItsStaleness_
   EXPECT_NEAR(mag2->absolute_terms->current_shift_s, lt.staleness_s, 0.1) << Summary(*rep);
 }
 
+// The same flight: the prediction's current (the vehicle file's wiring field) is aligned by one
+// shift, the in-flight model's own choice on the compass (absolute_terms.current_shift_s), the
+// shift `hexsim calibrate --method flight` applies too, not the throttle scan's point, which reads
+// the staleness short; the model's choice lies within half the current's update period (0.1 s) of it.
+TEST(GapCurrentAlignment, GivenAStaleCurrent_WhenDiagnosed_ThenThePredictionTakesTheInFlightModelsShift) {
+  auto st = MakeStaleTrial();
+  ASSERT_TRUE(st.ok()) << st.status().message();
+  auto rep = DiagnoseMag2(st->log, st->trial, st->lt);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr) << Summary(*rep);
+  ASSERT_TRUE(mag2->absolute_terms.has_value()) << Summary(*rep);
+  ASSERT_EQ(mag2->absolute_terms->form, "current");
+  ASSERT_TRUE(mag2->timing.current_staleness.present);
+  const double model_s = mag2->absolute_terms->current_shift_s;
+  EXPECT_EQ(mag2->timing.current_staleness.applied_shift_s, model_s) << Summary(*rep);
+  EXPECT_NEAR(model_s, st->lt.staleness_s, 0.1) << Summary(*rep);
+}
+
 }  // namespace
 }  // namespace hexsim::gap
 
