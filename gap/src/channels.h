@@ -72,11 +72,17 @@ struct ChannelData {
   // structured residual but little of the whole one (noise included).
   bool explain_above_noise = false;
   std::string note;  // appended to the channel's explanation (e.g. fitted nuisance parameters)
-  // The residual y with the replay's between-row inputs read at half the log's row rate, one per
-  // phase (even rows kept, odd rows kept; dynamics channel; empty: none). Each candidate's fits to
-  // them beside its fit to y measure what the log's row rate leaves undetermined (AnalyzeInertial
-  // adds it to the candidate's interval).
-  std::vector<std::vector<Vec3>> y_half_rate;
+  // The channel replayed with its between-row inputs read at half the log's row rate, one per phase
+  // (even rows kept, odd rows kept; dynamics channel; empty: none): the residual, and the candidates
+  // whose regressors come from the replay's rotor speeds or from a fit to the residual itself,
+  // rebuilt from that replay (thrust_scale, rotor_drag, ground_effect, wind). Each candidate's fit
+  // there beside its fit to y measures what the log's row rate leaves undetermined (AnalyzeInertial
+  // adds it to the candidate's interval); a candidate not rebuilt is refitted with its own regressors.
+  struct RowRateVariant {
+    std::vector<Vec3> y;
+    std::vector<Candidate> candidates;
+  };
+  std::vector<RowRateVariant> half_rate;
   // Compass channels: the nuisance baseline fitted under every candidate (its
   // coefficients are findings, never effects), the WMM prior, the currents and throttle per sample.
   bool compass = false;

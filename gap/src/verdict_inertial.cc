@@ -162,14 +162,15 @@ void StateVehicleMismatch(ChannelResult* res) {
 // at 1 kHz). The same fit to the residual replayed from every other row's inputs moves by Δ_p
 // (phase p: even or odd rows kept); each Δ_p is one realisation of the reconstruction's error at
 // twice the row interval, which is not smaller than the error at the log's own: the RMS of the two,
-// measured per log, is added in quadrature to the statistical half-widths.
+// measured per log, is added in quadrature to the statistical half-widths. A candidate whose
+// regressors the replay builds is refitted as rebuilt from the half-rate replay (ChannelData::half_rate).
 void AddRowRateSystematic(const ChannelData& ch, const DiagnoseOptions& o, Attribution* at) {
   std::vector<Analyzer> halves;
-  std::vector<ChannelData> half_data(ch.y_half_rate.size());
-  for (size_t p = 0; p < ch.y_half_rate.size(); ++p) {
-    if (ch.y_half_rate[p].size() != ch.t.size()) return;
+  std::vector<ChannelData> half_data(ch.half_rate.size());
+  for (size_t p = 0; p < ch.half_rate.size(); ++p) {
+    if (ch.half_rate[p].y.size() != ch.t.size()) return;
     half_data[p].t = ch.t;
-    half_data[p].y = ch.y_half_rate[p];
+    half_data[p].y = ch.half_rate[p].y;
     half_data[p].bias_nuisance = ch.bias_nuisance;
   }
   halves.reserve(half_data.size());
@@ -188,8 +189,13 @@ void AddRowRateSystematic(const ChannelData& ch, const DiagnoseOptions& o, Attri
     std::vector<double> d_param(static_cast<size_t>(c.p()), 0.0);
     double d_mag = 0.0;
     bool ok = true;
-    for (const Analyzer& an_half : halves) {
-      const Evaluated h = an_half.FitOnly(c);
+    for (size_t p = 0; p < halves.size(); ++p) {
+      // The candidate as rebuilt from the half-rate replay (the same parameters), else its own.
+      const auto& rebuilt = ch.half_rate[p].candidates;
+      const auto same = std::find_if(rebuilt.begin(), rebuilt.end(), [&](const Candidate& r) {
+        return r.effect == c.effect && r.names == c.names && r.X.size() == c.X.size();
+      });
+      const Evaluated h = halves[p].FitOnly(same != rebuilt.end() ? *same : c);
       ok = ok && h.full.ok;
       if (!ok) break;
       for (int j = 0; j < c.p(); ++j) {
