@@ -83,6 +83,10 @@ struct ChannelData {
     std::vector<Candidate> candidates;
   };
   std::vector<RowRateVariant> half_rate;
+  // The configured sensor's bias random walk, per √s (dynamics channel; 0: none). The intercept
+  // removes a constant bias only; what the walk adds moves each fit by an amount BiasWalkCov states
+  // (AnalyzeInertial adds it to the candidate's interval).
+  double bias_walk_per_sqrt_s = 0.0;
   // Compass channels: the nuisance baseline fitted under every candidate (its
   // coefficients are findings, never effects), the WMM prior, the currents and throttle per sample.
   bool compass = false;
@@ -229,6 +233,14 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
 // The open-loop dynamics channel ("dynamics": accelerometer against the specific force predicted
 // from motor commands, bus voltage, attitude and velocity); appends it or a not_diagnosed line.
 double HoverRotorTimeConstant_s(const vehicle::VehicleParams& vehicle);
+// The covariance of candidate c's coefficients (before c.scale) that a bias random walk of the
+// channel's configured size (ChannelData::bias_walk_per_sqrt_s, each axis on its own) adds to its
+// least-squares fit beside the intercept: with X̃ the demeaned regressors, A = Σ_k X̃_kᵀX̃_k and
+// T_j = Σ_{k≥j} X̃_k (the walk's step between samples j−1 and j moves every later sample),
+//   Cov = A⁻¹ · σ²·Σ_j (t_j − t_{j−1})·T_jᵀT_j · A⁻¹.
+// The block jackknife takes blocks as independent; a walk is not (each block inherits the offset of
+// the blocks before it). Empty where the channel has no walk, no intercept, or A is singular.
+Eigen::MatrixXd BiasWalkCov(const ChannelData& ch, const Candidate& c);
 void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, const LogInputs& in,
                     const std::vector<realdata::RowKind>& row_kind, ReplayResult* out);
 

@@ -121,6 +121,27 @@ double HoverRotorTimeConstant_s(const vehicle::VehicleParams& v) {
   return v.RotorInertia_kgm2(0) / (Kt * Kt / v.motor.winding_resistance_ohm + 2.0 * r.k_Q_Nmprps2 * omega_h);
 }
 
+Eigen::MatrixXd BiasWalkCov(const ChannelData& ch, const Candidate& c) {
+  const size_t n = ch.t.size();
+  const int p = c.p();
+  if (!(ch.bias_walk_per_sqrt_s > 0) || !ch.bias_nuisance || p == 0 || c.X.size() != n || n < 2) return {};
+  Mat3X mean = Mat3X::Zero(3, p);
+  for (const Mat3X& x : c.X) mean += x;
+  mean /= static_cast<double>(n);
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(p, p), V = Eigen::MatrixXd::Zero(p, p);
+  Mat3X tail = Mat3X::Zero(3, p);  // T_j, summed from the last sample back
+  for (size_t j = n; j-- > 0;) {
+    const Mat3X x = c.X[j] - mean;
+    A.noalias() += x.transpose() * x;
+    tail += x;
+    if (j > 0 && ch.t[j] > ch.t[j - 1]) V.noalias() += (ch.t[j] - ch.t[j - 1]) * (tail.transpose() * tail);
+  }
+  const Eigen::FullPivLU<Eigen::MatrixXd> lu(A);
+  if (!lu.isInvertible()) return {};
+  const Eigen::MatrixXd Ai = lu.inverse();
+  return ch.bias_walk_per_sqrt_s * ch.bias_walk_per_sqrt_s * Ai * V * Ai;
+}
+
 }  // namespace hexsim::gap::internal
 
 namespace hexsim::gap {
@@ -741,6 +762,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
   }
   const vehicle::NoiseParams& np = v.sensors.accel.noise;
   ch.bias_nuisance = np.bias_std > 0 || np.bias_walk_per_sqrt_s > 0;
+  ch.bias_walk_per_sqrt_s = np.bias_walk_per_sqrt_s;
   ch.explain_above_noise = true;
   Airborne air;
   CollectAirborne(in, v, omega, row_ok, row_kind, &ch, &air);
