@@ -292,6 +292,7 @@ class PowertrainReplay {
     pv.motor.inertia_kgm2 *= inertia_scale;
     for (auto& r : pv.rotors) r.inertia_kgm2 *= inertia_scale;
     vehicle::PowertrainState ps = vehicle::InitialPowertrainState(pv);
+    vehicle::PowertrainOutput step_out;  // reused: its motor records are not reallocated every step
     omega->assign(N, {});
     row_ok->assign(N, false);
     bool have_state = false;
@@ -321,7 +322,7 @@ class PowertrainReplay {
           const double w = ap_rate_hz_ > 0 ? std::floor(tau * ap_rate_hz_ + 1e-9) / (ap_rate_hz_ * dt) : tau / dt;
           for (size_t m = 0; m < n_rot; ++m) cmd[m] = (1 - w) * c0[m] + w * c1[m];
           SetBattery((1 - w) * E0 + w * E1, r_ohm, v_.battery.max_current_A, &pv);
-          vehicle::StepPowertrain(pv, cmd, h, &ps);
+          vehicle::StepPowertrain(pv, cmd, h, &ps, &step_out);
         }
       }
       have_state = true;
