@@ -150,7 +150,8 @@ TEST(GapDynamics, GivenAGroundEffectOfLargeRotorsWhenDiagnosedThenTheReplaysGeom
 class DynamicsWalk : public ::testing::TestWithParam<std::pair<const char*, uint64_t>> {};
 
 TEST_P(DynamicsWalk, GivenTheAccelerometersBiasWalkWhenAnEffectIsFittedThenItsIntervalHoldsTheTruth) {
-  const auto& [effect, seed] = GetParam();
+  const char* effect = GetParam().first;
+  const uint64_t seed = GetParam().second;
   const auto& range = *std::find_if(InjectableDynamicsEffects().begin(), InjectableDynamicsEffects().end(),
                                     [&](const EffectRange& e) { return std::string(e.effect) == effect; });
   RngStream rng(seed, "dynprobe");  // the stream the trials were drawn from when found
