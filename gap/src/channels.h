@@ -72,11 +72,21 @@ struct ChannelData {
   // structured residual but little of the whole one (noise included).
   bool explain_above_noise = false;
   std::string note;  // appended to the channel's explanation (e.g. fitted nuisance parameters)
-  // The residual y with the replay's between-row inputs read at half the log's row rate, one per
-  // phase (even rows kept, odd rows kept; dynamics channel; empty: none). Each candidate's fits to
-  // them beside its fit to y measure what the log's row rate leaves undetermined (AnalyzeInertial
-  // adds it to the candidate's interval).
-  std::vector<std::vector<Vec3>> y_half_rate;
+  // The channel replayed with its between-row inputs read at half the log's row rate, one per phase
+  // (even rows kept, odd rows kept; dynamics channel; empty: none): the residual, and the candidates
+  // whose regressors come from the replay's rotor speeds or from a fit to the residual itself,
+  // rebuilt from that replay (thrust_scale, rotor_drag, ground_effect, wind). Each candidate's fit
+  // there beside its fit to y measures what the log's row rate leaves undetermined (AnalyzeInertial
+  // adds it to the candidate's interval); a candidate not rebuilt is refitted with its own regressors.
+  struct RowRateVariant {
+    std::vector<Vec3> y;
+    std::vector<Candidate> candidates;
+  };
+  std::vector<RowRateVariant> half_rate;
+  // The configured sensor's bias random walk, per √s (dynamics channel; 0: none). The intercept
+  // removes a constant bias only; what the walk adds moves each fit by an amount BiasWalkCov states
+  // (AnalyzeInertial adds it to the candidate's interval).
+  double bias_walk_per_sqrt_s = 0.0;
   // Compass channels: the nuisance baseline fitted under every candidate (its
   // coefficients are findings, never effects), the WMM prior, the currents and throttle per sample.
   bool compass = false;
@@ -223,6 +233,14 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
 // The open-loop dynamics channel ("dynamics": accelerometer against the specific force predicted
 // from motor commands, bus voltage, attitude and velocity); appends it or a not_diagnosed line.
 double HoverRotorTimeConstant_s(const vehicle::VehicleParams& vehicle);
+// The covariance of candidate c's coefficients (before c.scale) that a bias random walk of the
+// channel's configured size (ChannelData::bias_walk_per_sqrt_s, each axis on its own) adds to its
+// least-squares fit beside the intercept: with X̃ the demeaned regressors, A = Σ_k X̃_kᵀX̃_k and
+// T_j = Σ_{k≥j} X̃_k (the walk's step between samples j−1 and j moves every later sample),
+//   Cov = A⁻¹ · σ²·Σ_j (t_j − t_{j−1})·T_jᵀT_j · A⁻¹.
+// The block jackknife takes blocks as independent; a walk is not (each block inherits the offset of
+// the blocks before it). Empty where the channel has no walk, no intercept, or A is singular.
+Eigen::MatrixXd BiasWalkCov(const ChannelData& ch, const Candidate& c);
 void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, const LogInputs& in,
                     const std::vector<realdata::RowKind>& row_kind, ReplayResult* out);
 

@@ -121,6 +121,27 @@ double HoverRotorTimeConstant_s(const vehicle::VehicleParams& v) {
   return v.RotorInertia_kgm2(0) / (Kt * Kt / v.motor.winding_resistance_ohm + 2.0 * r.k_Q_Nmprps2 * omega_h);
 }
 
+Eigen::MatrixXd BiasWalkCov(const ChannelData& ch, const Candidate& c) {
+  const size_t n = ch.t.size();
+  const int p = c.p();
+  if (!(ch.bias_walk_per_sqrt_s > 0) || !ch.bias_nuisance || p == 0 || c.X.size() != n || n < 2) return {};
+  Mat3X mean = Mat3X::Zero(3, p);
+  for (const Mat3X& x : c.X) mean += x;
+  mean /= static_cast<double>(n);
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(p, p), V = Eigen::MatrixXd::Zero(p, p);
+  Mat3X tail = Mat3X::Zero(3, p);  // T_j, summed from the last sample back
+  for (size_t j = n; j-- > 0;) {
+    const Mat3X x = c.X[j] - mean;
+    A.noalias() += x.transpose() * x;
+    tail += x;
+    if (j > 0 && ch.t[j] > ch.t[j - 1]) V.noalias() += (ch.t[j] - ch.t[j - 1]) * (tail.transpose() * tail);
+  }
+  const Eigen::FullPivLU<Eigen::MatrixXd> lu(A);
+  if (!lu.isInvertible()) return {};
+  const Eigen::MatrixXd Ai = lu.inverse();
+  return ch.bias_walk_per_sqrt_s * ch.bias_walk_per_sqrt_s * Ai * V * Ai;
+}
+
 }  // namespace hexsim::gap::internal
 
 namespace hexsim::gap {
@@ -271,6 +292,7 @@ class PowertrainReplay {
     pv.motor.inertia_kgm2 *= inertia_scale;
     for (auto& r : pv.rotors) r.inertia_kgm2 *= inertia_scale;
     vehicle::PowertrainState ps = vehicle::InitialPowertrainState(pv);
+    vehicle::PowertrainOutput step_out;  // reused: its motor records are not reallocated every step
     omega->assign(N, {});
     row_ok->assign(N, false);
     bool have_state = false;
@@ -300,7 +322,7 @@ class PowertrainReplay {
           const double w = ap_rate_hz_ > 0 ? std::floor(tau * ap_rate_hz_ + 1e-9) / (ap_rate_hz_ * dt) : tau / dt;
           for (size_t m = 0; m < n_rot; ++m) cmd[m] = (1 - w) * c0[m] + w * c1[m];
           SetBattery((1 - w) * E0 + w * E1, r_ohm, v_.battery.max_current_A, &pv);
-          vehicle::StepPowertrain(pv, cmd, h, &ps);
+          vehicle::StepPowertrain(pv, cmd, h, &ps, &step_out);
         }
       }
       have_state = true;
@@ -454,36 +476,6 @@ std::vector<double> HalfRateColumn(const std::vector<double>& t, const std::vect
   return h;
 }
 
-// The channel's residual with the replay's between-row inputs (motor commands, bus voltage and
-// current) read at half the log's row rate, for each phase (even rows kept, odd rows kept): each
-// holds one realisation of the reconstruction's error at twice the row interval (AnalyzeInertial's
-// row-rate term). A kept sample whose half-rate replay has no rotor state keeps the log-rate residual.
-std::vector<std::vector<Vec3>> HalfRateResiduals(const DynamicsInputs& in, const vehicle::VehicleParams& v,
-                                                 const ChannelData& ch, const Airborne& air) {
-  const size_t n = ch.t.size();
-  std::vector<std::vector<Vec3>> ys;
-  for (size_t phase = 0; phase < 2; ++phase) {
-    DynamicsInputs h = in;
-    std::vector<std::vector<double>> mu;
-    for (const auto* m : in.mu) mu.push_back(HalfRateColumn(*in.t, *m, phase));
-    for (size_t m = 0; m < mu.size(); ++m) h.mu[m] = &mu[m];
-    const std::vector<double> V = in.V ? HalfRateColumn(*in.t, *in.V, phase) : std::vector<double>();
-    const std::vector<double> I = in.I ? HalfRateColumn(*in.t, *in.I, phase) : std::vector<double>();
-    if (in.V) h.V = &V;
-    if (in.I) h.I = &I;
-    std::vector<std::vector<double>> w;
-    std::vector<bool> ok;
-    PowertrainReplay(h, v).Run(1.0, 0.0, &w, &ok);
-    const std::vector<Vec3> F = ThrustAtKept(v, ch, w, ok);
-    std::vector<Vec3> y = ch.y;
-    for (size_t k = 0; k < n; ++k) {
-      if (ok[static_cast<size_t>(ch.row[k])]) y[k] -= (F[k] - air.F_T[k]) / air.mass[k];
-    }
-    ys.push_back(std::move(y));
-  }
-  return ys;
-}
-
 // motor_time_constant: the rotors respond slower than configured; the replay with every rotor's
 // inertia scaled by (1 + κ) (τ ∝ J at a given speed), fitted by the secant method over replays;
 // its columns (no regressor yet) give the extra time constant at hover Δτ = κ·τ_hover.
@@ -511,29 +503,43 @@ Candidate MotorTimeConstant(const PowertrainReplay& replay, const vehicle::Vehic
   return mt;
 }
 
-// thrust_scale, rotor_drag and motor_time_constant (regressors of all three in one pass).
+// thrust_scale: k_T (or the mass) off by a factor, from the replay's thrust. Over one flight's
+// thrust range it is nearly collinear with battery_sag (both grow with the thrust); the bootstrap
+// then says "ambiguous".
+Candidate ThrustScale(const Airborne& air) {
+  Candidate ts = MakeCandidate("thrust_scale", {"thrust_scale_minus_1"}, {1.0}, "1", "thrust_N");
+  for (size_t k = 0; k < air.F_T.size(); ++k) {
+    ts.X.emplace_back(air.F_T[k] / air.mass[k]);
+    ts.regressor.push_back(air.F_T[k].norm());
+  }
+  return ts;
+}
+
+// rotor_drag from the replay's rotor speeds: regressor in units of 10⁴ (rad/s)·(m/s) so the
+// coefficient is O(1).
+Candidate RotorDrag(const Airborne& air) {
+  constexpr double kDragUnit = 1e-4;
+  Candidate rd = MakeCandidate("rotor_drag", {"rotor_drag_N_per_radps_mps"}, {kDragUnit}, "N/(rad/s*m/s)", "omega_sum_x_speed");
+  for (size_t k = 0; k < air.omega_sum.size(); ++k) {
+    rd.X.emplace_back(-air.omega_sum[k] * kDragUnit * Vec3(air.v_B[k].x(), air.v_B[k].y(), 0.0) / air.mass[k]);
+    rd.regressor.push_back(air.omega_sum[k] * std::hypot(air.v_B[k].x(), air.v_B[k].y()));
+  }
+  return rd;
+}
+
+// thrust_scale, rotor_drag and motor_time_constant.
 void AddThrustCandidates(const PowertrainReplay& replay, const vehicle::VehicleParams& v, const Airborne& air,
                          ChannelData* ch) {
   const size_t n = ch->t.size();
-  // thrust_scale: k_T (or the mass) off by a factor. Over one flight's thrust range it is nearly
-  // collinear with battery_sag (both grow with the thrust); the bootstrap then says "ambiguous".
-  Candidate ts = MakeCandidate("thrust_scale", {"thrust_scale_minus_1"}, {1.0}, "1", "thrust_N");
-  // rotor_drag: regressor in units of 10⁴ (rad/s)·(m/s) so the coefficient is O(1).
-  constexpr double kDragUnit = 1e-4;
-  Candidate rd = MakeCandidate("rotor_drag", {"rotor_drag_N_per_radps_mps"}, {kDragUnit}, "N/(rad/s*m/s)", "omega_sum_x_speed");
   Candidate mt = MotorTimeConstant(replay, v, *ch, air);
   const auto& F_T = air.F_T;
   for (size_t k = 0; k < n; ++k) {
-    ts.X.emplace_back(F_T[k] / air.mass[k]);
-    ts.regressor.push_back(F_T[k].norm());
-    rd.X.emplace_back(-air.omega_sum[k] * kDragUnit * Vec3(air.v_B[k].x(), air.v_B[k].y(), 0.0) / air.mass[k]);
-    rd.regressor.push_back(air.omega_sum[k] * std::hypot(air.v_B[k].x(), air.v_B[k].y()));
     const size_t a = k > 0 && ch->row[k - 1] == ch->row[k] - 1 ? k - 1 : k;
     const size_t b = k + 1 < n && ch->row[k + 1] == ch->row[k] + 1 ? k + 1 : k;
     mt.regressor.push_back(b > a ? (F_T[b] - F_T[a]).norm() / (ch->t[b] - ch->t[a]) : 0.0);
   }
-  ch->candidates.push_back(std::move(ts));
-  ch->candidates.push_back(std::move(rd));
+  ch->candidates.push_back(ThrustScale(air));
+  ch->candidates.push_back(RotorDrag(air));
   if (!mt.X.empty()) ch->candidates.push_back(std::move(mt));
 }
 
@@ -676,6 +682,56 @@ void AddWind(const vehicle::VehicleParams& v, const Airborne& air, ChannelData* 
   ch->candidates.push_back(std::move(wi));
 }
 
+// The channel with the replay's between-row inputs (motor commands, bus voltage and current) read at
+// half the log's row rate, for each phase (even rows kept, odd rows kept): each holds one
+// realisation of the reconstruction's error at twice the row interval (AnalyzeInertial's row-rate
+// term). Its residual, and the candidates built from the replay's rotor speeds or fitted to the
+// residual (thrust_scale, rotor_drag, ground_effect, wind) rebuilt from its own replay and residual:
+// a rotor speed reconstructed between rows enters rotor_drag's and ground_effect's regressors as
+// it enters the residual. A kept sample whose half-rate replay has no rotor state keeps the
+// log-rate values. motor_time_constant and battery_sag keep their log-rate regressors (differences
+// of whole replays, which a secant fit per phase would repeat).
+std::vector<ChannelData::RowRateVariant> HalfRateVariants(const DynamicsInputs& in, const vehicle::VehicleParams& v,
+                                                          const ChannelData& ch, const Airborne& air) {
+  const size_t n = ch.t.size(), n_rot = v.rotors.size();
+  std::vector<ChannelData::RowRateVariant> variants;
+  for (size_t phase = 0; phase < 2; ++phase) {
+    DynamicsInputs h = in;
+    std::vector<std::vector<double>> mu;
+    for (const auto* m : in.mu) mu.push_back(HalfRateColumn(*in.t, *m, phase));
+    for (size_t m = 0; m < mu.size(); ++m) h.mu[m] = &mu[m];
+    const std::vector<double> V = in.V ? HalfRateColumn(*in.t, *in.V, phase) : std::vector<double>();
+    const std::vector<double> I = in.I ? HalfRateColumn(*in.t, *in.I, phase) : std::vector<double>();
+    if (in.V) h.V = &V;
+    if (in.I) h.I = &I;
+    std::vector<std::vector<double>> w;
+    std::vector<bool> ok;
+    PowertrainReplay(h, v).Run(1.0, 0.0, &w, &ok);
+    ChannelData half;
+    half.t = ch.t;
+    half.y = ch.y;
+    half.row = ch.row;
+    half.bias_nuisance = ch.bias_nuisance;
+    Airborne air_h = air;
+    for (size_t k = 0; k < n; ++k) {
+      const size_t i = static_cast<size_t>(ch.row[k]);
+      if (!ok[i]) continue;
+      const Vec3 F = vehicle::RotorWrench(v, w[i]).force_B_N;
+      half.y[k] -= (F - air.F_T[k]) / air.mass[k];
+      air_h.F_T[k] = F;
+      air_h.omega[k] = w[i];
+      air_h.omega_sum[k] = 0.0;
+      for (size_t m = 0; m < n_rot; ++m) air_h.omega_sum[k] += w[i][m];
+    }
+    half.candidates.push_back(ThrustScale(air_h));
+    half.candidates.push_back(RotorDrag(air_h));
+    AddGroundEffect(v, air_h, &half);
+    AddWind(v, air_h, &half);
+    variants.push_back({std::move(half.y), std::move(half.candidates)});
+  }
+  return variants;
+}
+
 }  // namespace
 
 void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v, const LogInputs& log_in,
@@ -707,6 +763,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
   }
   const vehicle::NoiseParams& np = v.sensors.accel.noise;
   ch.bias_nuisance = np.bias_std > 0 || np.bias_walk_per_sqrt_s > 0;
+  ch.bias_walk_per_sqrt_s = np.bias_walk_per_sqrt_s;
   ch.explain_above_noise = true;
   Airborne air;
   CollectAirborne(in, v, omega, row_ok, row_kind, &ch, &air);
@@ -714,7 +771,7 @@ void ReplayDynamics(const logs::FlightLog& log, const vehicle::VehicleParams& v,
     skip(fmt::format("no airborne samples with motor outputs (dropped {} on the ground or disarmed)", air.dropped_ground));
     return;
   }
-  ch.y_half_rate = HalfRateResiduals(in, v, ch, air);
+  ch.half_rate = HalfRateVariants(in, v, ch, air);
   AddThrustCandidates(replay, v, air, &ch);
   AddBatterySag(replay, in, v, air, &ch);
   AddGroundEffect(v, air, &ch);

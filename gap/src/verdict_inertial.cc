@@ -162,50 +162,78 @@ void StateVehicleMismatch(ChannelResult* res) {
 // at 1 kHz). The same fit to the residual replayed from every other row's inputs moves by Δ_p
 // (phase p: even or odd rows kept); each Δ_p is one realisation of the reconstruction's error at
 // twice the row interval, which is not smaller than the error at the log's own: the RMS of the two,
-// measured per log, is added in quadrature to the statistical half-widths.
-void AddRowRateSystematic(const ChannelData& ch, const DiagnoseOptions& o, Attribution* at) {
+// measured per log, is added in quadrature to the statistical half-widths. A candidate whose
+// regressors the replay builds is refitted as rebuilt from the half-rate replay (ChannelData::half_rate).
+// Beside it, the configured sensor's bias random walk (BiasWalkCov: its 95 % half-width, 1.96 σ),
+// also in quadrature: the jackknife sees the walk's part inside each block, not its carry-over
+// from block to block (so the two overlap somewhat: the sum errs wide).
+void AddSystematicTerms(const ChannelData& ch, const DiagnoseOptions& o, Attribution* at) {
   std::vector<Analyzer> halves;
-  std::vector<ChannelData> half_data(ch.y_half_rate.size());
-  for (size_t p = 0; p < ch.y_half_rate.size(); ++p) {
-    if (ch.y_half_rate[p].size() != ch.t.size()) return;
+  std::vector<ChannelData> half_data(ch.half_rate.size());
+  bool half_ok = true;
+  for (size_t p = 0; p < ch.half_rate.size(); ++p) {
+    half_ok = half_ok && ch.half_rate[p].y.size() == ch.t.size();
     half_data[p].t = ch.t;
-    half_data[p].y = ch.y_half_rate[p];
+    half_data[p].y = ch.half_rate[p].y;
     half_data[p].bias_nuisance = ch.bias_nuisance;
   }
+  if (!half_ok) half_data.clear();
   halves.reserve(half_data.size());
   for (const ChannelData& h : half_data) halves.emplace_back(h, o);
-  if (halves.empty()) return;
+  if (halves.empty() && !(ch.bias_walk_per_sqrt_s > 0)) return;
   // [lo, hi] about mid, widened by delta in quadrature on each side.
   auto widen = [](double delta, double mid, double* lo, double* hi) {
     const double below = mid - *lo, above = *hi - mid;
     *lo = mid - std::sqrt(below * below + delta * delta);
     *hi = mid + std::sqrt(above * above + delta * delta);
   };
+  constexpr double kZ95 = 1.959964;
   for (size_t f = 0; f < at->results.size(); ++f) {
     const Evaluated& e = at->all[at->fam_best[f]];
     const Candidate& c = *e.cand;
     if (!c.grid_name.empty() || !e.full.ok) continue;  // profiled (grid) parameters keep their grid intervals
-    std::vector<double> d_param(static_cast<size_t>(c.p()), 0.0);
+    const size_t p = static_cast<size_t>(c.p());
+    // Squared half-widths per parameter (physical units) and of the magnitude.
+    std::vector<double> d_param(p, 0.0);
     double d_mag = 0.0;
     bool ok = true;
-    for (const Analyzer& an_half : halves) {
-      const Evaluated h = an_half.FitOnly(c);
-      ok = ok && h.full.ok;
+    for (size_t h_i = 0; h_i < halves.size() && ok; ++h_i) {
+      // The candidate as rebuilt from the half-rate replay (the same parameters), else its own.
+      const auto& rebuilt = ch.half_rate[h_i].candidates;
+      const auto same = std::find_if(rebuilt.begin(), rebuilt.end(), [&](const Candidate& r) {
+        return r.effect == c.effect && r.names == c.names && r.X.size() == c.X.size();
+      });
+      const Evaluated h = halves[h_i].FitOnly(same != rebuilt.end() ? *same : c);
+      ok = h.full.ok;
       if (!ok) break;
-      for (int j = 0; j < c.p(); ++j) {
-        const double d = (h.full.beta[h.off + j] - e.full.beta[e.off + j]) * c.scale[static_cast<size_t>(j)];
-        d_param[static_cast<size_t>(j)] += d * d / static_cast<double>(halves.size());
+      for (size_t j = 0; j < p; ++j) {
+        const double d = (h.full.beta[h.off + static_cast<int>(j)] - e.full.beta[e.off + static_cast<int>(j)]) * c.scale[j];
+        d_param[j] += d * d / static_cast<double>(halves.size());
       }
       const double d = MagnitudeOf(h) - MagnitudeOf(e);
       d_mag += d * d / static_cast<double>(halves.size());
     }
-    if (!ok) continue;
+    if (!ok) {  // a half-rate refit failed: no row-rate term
+      std::fill(d_param.begin(), d_param.end(), 0.0);
+      d_mag = 0.0;
+    }
+    if (const Eigen::MatrixXd W = BiasWalkCov(ch, c); W.rows() == static_cast<int>(p)) {
+      // Physical units; the magnitude by the delta method (a norm: along the fitted direction).
+      Eigen::VectorXd s(static_cast<int>(p)), g = Eigen::VectorXd::Zero(static_cast<int>(p));
+      for (size_t j = 0; j < p; ++j) s[static_cast<int>(j)] = c.scale[j];
+      const Eigen::MatrixXd Ws = s.asDiagonal() * W * s.asDiagonal();
+      for (size_t j = 0; j < p; ++j) d_param[j] += kZ95 * kZ95 * Ws(static_cast<int>(j), static_cast<int>(j));
+      const int pm = c.magnitude_params > 0 ? c.magnitude_params : c.p();
+      const Eigen::VectorXd v = (e.full.beta.segment(e.off, pm).array() * s.head(pm).array()).matrix();
+      if (pm == 1) g[0] = 1.0;
+      else if (v.norm() > 0) g.head(pm) = v / v.norm();
+      d_mag += kZ95 * kZ95 * g.dot(Ws * g);
+    }
     CandidateResult& r = at->results[f];
-    for (int j = 0; j < c.p(); ++j) {
-      const auto it = r.ci95.find(c.names[static_cast<size_t>(j)]);
+    for (size_t j = 0; j < p; ++j) {
+      const auto it = r.ci95.find(c.names[j]);
       if (it == r.ci95.end()) continue;
-      widen(std::sqrt(d_param[static_cast<size_t>(j)]), e.full.beta[e.off + j] * c.scale[static_cast<size_t>(j)],
-            &it->second.lo, &it->second.hi);
+      widen(std::sqrt(d_param[j]), e.full.beta[e.off + static_cast<int>(j)] * c.scale[j], &it->second.lo, &it->second.hi);
     }
     widen(std::sqrt(d_mag), r.magnitude, &r.magnitude_ci95[0], &r.magnitude_ci95[1]);
     // A norm (several parameters) is never negative.
@@ -236,7 +264,7 @@ ChannelResult AnalyzeInertial(const ChannelData& ch, const logs::FlightLog& log,
   res.noise_rms = std::sqrt(noise_var);
   const double noise_sse = noise_var * an.total_n();
   Attribution at = Attribute(ch, an, o, rng, noise_sse);
-  AddRowRateSystematic(ch, o, &at);
+  AddSystematicTerms(ch, o, &at);
   for (CandidateResult& r : at.results) {
     if (r.id == Effect::kLatency && ch.known_hold_max_s > 0) {
       // Report the total latency: the known sample hold removed in the replay plus the excess.
