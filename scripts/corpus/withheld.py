@@ -6,7 +6,8 @@ Cases per (log, compass): sizes drawn from --seed, forms
   current   k·I, |k| 3..8 mG/A, a random direction      -> a current family material, and the
                                                            absolute current term moves by k
   scale     one horizontal axis 10..20 % large          -> scale_error material, its interval
-                                                           holding the spread (a few per cent is
+                                                           holding the log's own x-y gain
+                                                           difference plus the planted one (a few per cent is
                                                            below materiality on a real log's
                                                            structure: that is the rule, not a miss)
   latency   the compass 40..100 ms later                -> latency material, timing moves by tau
@@ -79,11 +80,18 @@ def judge(form, truth, base, ch):
         said += "; lag %s, truth %.2f s" % ("-" if lag is None else "%.2f [%.2f, %.2f]" % (
             lag["value"], *lag["ci95"]), truth["lagpow"]["tau_s"])
     if "scale" in form:
-        sc = next((c for c in ch.get("candidates", []) if c["effect"] == "scale_error"), None)
-        ok &= "scale_error" in eff and sc is not None and within(truth["scale_error"]["s"], *sc["magnitude_ci95"])
-        if sc is not None:
-            said += "; scale_error %.3f [%.3f, %.3f], truth %.3f" % (sc["magnitude"], *sc["magnitude_ci95"],
-                                                                  truth["scale_error"]["s"])
+        # The family's signed parameter d = s_x - s_y: the planted axis adds +s (x) or -s (y) to the
+        # log's own d (a real compass has its own scale difference).
+        def d_of(c):
+            sc = next((k for k in (c or {}).get("candidates", []) if k["effect"] == "scale_error"), None)
+            return (sc["params"].get("gain_x_minus_y"), sc.get("ci95", {}).get("gain_x_minus_y")) if sc else (None, None)
+        d0, _ = d_of(base)
+        d1, ci = d_of(ch)
+        planted = truth["scale_error"]["s"] * (1 if truth["scale_error"]["axis"] == 0 else -1)
+        ok &= "scale_error" in eff and d0 is not None and ci is not None and within(d0 + planted, *ci)
+        if d1 is not None and ci is not None and d0 is not None:
+            said += "; scale x-y %.3f [%.3f, %.3f], truth %.3f (the log's own %.3f + planted %.3f)" % (
+                d1, ci[0], ci[1], d0 + planted, d0, planted)
     if "latency" in form:
         ok &= "latency" in eff
         l0 = base.get("timing", {}).get("latency_s") if base else None
