@@ -87,6 +87,12 @@ Interval JudgedInterval(double value, double sd_sandwich, double sd_jackknife, d
   return {value - half, value + half};
 }
 
+OffsetReading ReadOffset(double offset_uT, const Interval& judged) {
+  if (!plausibility::IsPlausible("hard_iron_offset", offset_uT)) return OffsetReading::kImplausible;
+  const plausibility::PhysicalRange* off = plausibility::FindRange("hard_iron_offset");
+  return judged.lo > off->normal_hi ? OffsetReading::kBeyondNormal : OffsetReading::kNormal;
+}
+
 namespace {
 
 // The baseline's terms read off its fit: the offset b, the field correction d, their covariances
@@ -183,7 +189,14 @@ void JudgeNormal(const ChannelData& ch, const BaselineTerms& t, NuisanceReport* 
   const plausibility::PhysicalRange* off = plausibility::FindRange("hard_iron_offset");
   const plausibility::PhysicalRange* an = plausibility::FindRange("local_anomaly");
   const plausibility::PhysicalRange* sc = plausibility::FindRange("field_scale");
-  if (JudgedInterval(t.b_norm, t.b_sd, t.b_ci_sd, t.t975).lo > off->normal_hi) {
+  const OffsetReading offset = ReadOffset(t.b_norm, JudgedInterval(t.b_norm, t.b_sd, t.b_ci_sd, t.t975));
+  if (offset == OffsetReading::kImplausible) {
+    nr.findings.push_back(fmt::format("{}: residual offset ({:.0f}, {:.0f}, {:.0f}) mG, outside the physical range {}: "
+                                      "implausible, model mismatch (too little rotation to separate an offset from "
+                                      "the field, or the log's compass units)",
+                                      ch.name, kMilliGaussPerMicroTesla * t.b.x(), kMilliGaussPerMicroTesla * t.b.y(),
+                                      kMilliGaussPerMicroTesla * t.b.z(), plausibility::RangeText("hard_iron_offset")));
+  } else if (offset == OffsetReading::kBeyondNormal) {
     nr.out_of_range = "hard_iron_offset";
     nr.beyond_normal.emplace_back("hard_iron_offset");
     nr.findings.push_back(fmt::format("{}: residual offset ({:.0f}, {:.0f}, {:.0f}) mG, beyond the normal {:.0f} mG: "

@@ -33,6 +33,12 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
 void PropagatePlugIns(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
                      const Vec3& B_N_uT, const CompassReplayOptions& used, const CompassTiming& timing,
                      const realdata::LagEstimate& stale, const DiagnoseOptions& o, ChannelResult* res);
+// How a residual offset reads against hard_iron_offset's ranges (plausibility table): a point
+// outside the physical range is a model mismatch (too little rotation to separate an offset from the
+// field, or the log's compass units), never a finding or the verdict; beyond the normal range where
+// its judged interval is too (JudgedInterval), a finding to recalibrate; else normal.
+enum class OffsetReading { kNormal, kBeyondNormal, kImplausible };
+OffsetReading ReadOffset(double offset_uT, const Interval& judged);
 // ΔB/ΔI between flight and ground with the flight's baseline (compassmot's principle).
 GroundVsFlight CompareGroundFlight(const ChannelData& flight, const ChannelData& ground, const Nuisance& nuisance);
 

@@ -327,6 +327,12 @@ void NameVerdict(const NuisanceReport& nu, const Structure& st, const std::strin
       res.findings.push_back(fmt::format("what the reported effects leave still holds {}: structure no candidate describes",
                                          left_found));
     }
+  } else if (!res.gap_detected && !plausibility::IsPlausible("hard_iron_offset", nu.nuisance.offset_uT.norm())) {
+    // The baseline itself is a model mismatch (nuisance.cc ReadOffset): no "no gap" on top of it.
+    res.verdict = "unexplained";
+    res.gap_detected = true;
+    res.explanation = "the nuisance baseline's offset is outside its physical range " +
+                      plausibility::RangeText("hard_iron_offset") + ": model mismatch, nothing to attribute";
   } else if (!res.gap_detected) {
     res.verdict = nu.out_of_range.empty() ? "none" : nu.out_of_range;
     res.gap_detected = !nu.out_of_range.empty();  // a gap, and it is that term

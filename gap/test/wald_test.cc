@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 
 #include "../src/attribution.h"
+#include "../src/nuisance.h"
 #include "../src/verdict.h"
 
 namespace hexsim::gap::internal {
@@ -50,6 +51,15 @@ TEST(GapNuisanceJudgement, GivenAJackknifeWiderThanTheSandwich_ThenTheTermIsJudg
   EXPECT_LT(wide.lo, 5.0);  // not beyond the normal 5 uT: not a finding
   EXPECT_NEAR(wide.hi, 35.6 + t975 * 17.2, 1e-12);
   EXPECT_GT(JudgedInterval(35.6, 5.0, 4.0, t975).lo, 5.0);  // both narrow: beyond it
+}
+
+// A public PX4 log (compass at 2 Hz, a 27-s flight without rotation) fitted a 124.8 uT offset
+// [78.2, 171.4]: the verdict named it "hard_iron_offset 1247.9 mG (a nuisance term outside its normal
+// range)" although it lies outside the offset's physical range 0..85 uT.
+TEST(GapNuisanceJudgement, GivenAnOffsetOutsideItsPhysicalRange_ThenItIsAModelMismatchNotTheVerdict) {
+  EXPECT_EQ(ReadOffset(124.8, Interval{78.2, 171.4}), OffsetReading::kImplausible);
+  EXPECT_EQ(ReadOffset(13.7, Interval{8.7, 18.3}), OffsetReading::kBeyondNormal);
+  EXPECT_EQ(ReadOffset(13.7, Interval{3.0, 24.0}), OffsetReading::kNormal);
 }
 
 }  // namespace
