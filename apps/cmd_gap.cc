@@ -117,7 +117,7 @@ void AddGapCommand(CLI::App& app, int* exit_code) {
   diag->add_option("--real", d->real, "FlightLog CSV (its .meta.json beside it), or an ArduPilot .bin / PX4 .ulg "
                                       "(imported in memory)")->required();
   diag->add_option("--sim", d->options.vehicle, "Vehicle name under worlds/vehicles or a vehicle YAML (default: the vehicle identified from the log on "
-                 "fitting blocks, diagnosed on held-out blocks)");
+                 "fitting blocks; gyro, accel and dynamics diagnosed on held-out blocks, the compasses on every block)");
   diag->add_option("--out", d->out, "Output directory (gap.json, gap.html, <vehicle>.updated.yaml)")->required();
   diag->add_option("--seed", d->options.seed, "Bootstrap seed")->capture_default_str();
   diag->add_option("--from", d->options.from_s, "Diagnose only from this log time (s), overriding the flight windows");

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
@@ -10,6 +11,7 @@
 
 #include "detection.h"
 #include "hexsim/common/plausibility.h"
+#include "hexsim/gap/compass_terms.h"
 #include "replay_util.h"
 
 namespace hexsim::gap::internal {
@@ -376,10 +378,10 @@ std::string MaterialWhy(bool by_noise, bool modelled_lag, const CandidateResult&
                        Percent(r.explained_share), Percent(o.min_effect_share), Percent(o.materiality));
   }
   if (TurnsHeading(h, o)) {
-    return fmt::format("by the heading it turns: {:.1f} deg RMS over the flight (95 % low end {:.1f} deg, at or above {:g} "
+    return fmt::format("by the heading it turns: {:.1f} deg RMS over the flight{} (95 % low end {:.1f} deg, at or above {:g} "
                        "deg), although held out it removes {} of the structure above the noise floor, less than {} of "
                        "the floor's power (what else the residual holds, or the sensor's noise, hides it)",
-                       h.deg, h.lo_deg, o.material_heading_deg, Percent(r.explained_share), Percent(o.materiality));
+                       h.deg, DrivenByCurrent(r.id) ? " from motors off" : "", h.lo_deg, o.material_heading_deg, Percent(r.explained_share), Percent(o.materiality));
   }
   return "";
 }
@@ -416,8 +418,19 @@ void JudgeRange(double field_scale, CandidateResult* r) {
 // A first effect must be material on its own (MaterialWhy): held out against the noise power, by
 // its timing (the modelled field's lag), or by the heading it turns. Per family why it is material
 // (empty: it is not, and it is no longer eligible).
+// A current-driven family that is significant and plausible but not material (the largest such, by
+// its held-out share), where no current-driven effect was selected: the user's question is whether
+// the motor current disturbs the compass, and "resolved, too small to matter" is an answer (the
+// absolute current term and the parameters to paste are printed beside it).
+struct NotMaterial {
+  size_t family = SIZE_MAX;
+  double noise_fraction = 0.0;  // of the noise floor's power it removes on held-out blocks
+  HeadingTurn turn;
+};
+
 std::vector<std::string> MaterialOnTheirOwn(const ChannelData& ch, const Analyzer& an, const Attribution& at, double cv0,
-                                            double noise_var, const DiagnoseOptions& o, std::vector<bool>* eligible) {
+                                            double noise_var, const DiagnoseOptions& o, std::vector<bool>* eligible,
+                                            NotMaterial* current_not_material) {
   const size_t F = at.fam_names.size();
   std::vector<std::string> why(F);
   for (size_t f = 0; f < F; ++f) {
@@ -426,6 +439,11 @@ std::vector<std::string> MaterialOnTheirOwn(const ChannelData& ch, const Analyze
     const HeadingTurn turn = HeadingTurnOf(ch, an, e);
     why[f] = MaterialWhy(IsMaterial(an, e, cv0, noise_var, o), DelaysModelledField(*e.cand), at.results[f], turn, o);
     (*eligible)[f] = !why[f].empty();
+    const size_t& best = current_not_material->family;
+    if (why[f].empty() && DrivenByCurrent(at.results[f].id) &&
+        (best == SIZE_MAX || at.results[f].explained_share > at.results[best].explained_share)) {
+      *current_not_material = {f, (cv0 - e.cv_sse) / an.total_n() / noise_var, turn};
+    }
   }
   // Decided with the current's variation: where current_soft_iron depends on the current beyond any
   // constant field matrix (its p-value holds that partial test), the static per-axis gains are its
@@ -437,6 +455,25 @@ std::vector<std::string> MaterialOnTheirOwn(const ChannelData& ch, const Analyze
   }
   if (soft < F && axis < F && (*eligible)[soft]) (*eligible)[axis] = false;
   return why;
+}
+
+void NotMaterialFinding(const Attribution& at, const NotMaterial& nm, const DiagnoseOptions& o, ChannelResult* res) {
+  if (nm.family == SIZE_MAX) return;
+  if (std::any_of(res->effects.begin(), res->effects.end(), [](const EffectShare& e) { return DrivenByCurrent(e.id); })) {
+    return;
+  }
+  const CandidateResult& r = at.results[nm.family];
+  const bool per_amp = r.magnitude_unit == "uT/A";  // printed in the autopilot's mG/A
+  const double k = per_amp ? kMilliGaussPerMicroTesla : 1.0;
+  const std::string size = per_amp ? fmt::format("{:.1f} [{:.1f}, {:.1f}] mG/A", k * r.magnitude, k * r.magnitude_ci95[0],
+                                                k * r.magnitude_ci95[1])
+                                    : fmt::format("{:.3g} [{:.3g}, {:.3g}] {}", r.magnitude, r.magnitude_ci95[0],
+                                                  r.magnitude_ci95[1], r.magnitude_unit);
+  res->findings.push_back(fmt::format(
+      "{} {} is resolved (p {:.2g}) but not material: held out it removes {} of the noise "
+      "floor's power (needs {}) and its field turns the heading {:.1f} deg RMS from motors off (95 % low end {:.1f} "
+      "deg, needs {:g}); the absolute current term sizes it for COMPASS_MOT",
+      r.effect, size, r.p_value, Percent(nm.noise_fraction), Percent(o.materiality), nm.turn.deg, nm.turn.lo_deg, o.material_heading_deg));
 }
 
 }  // namespace
@@ -478,7 +515,9 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
   const double cv0 = an.baseline().cv_sse;
   FamilyPValues(an, FieldMatrix(ch), &at);
   std::vector<bool> eligible = Eligible(at, o);
-  const std::vector<std::string> why = MaterialOnTheirOwn(ch, an, at, cv0, st.noise_var, o, &eligible);
+  NotMaterial current_not_material;
+  const std::vector<std::string> why =
+      MaterialOnTheirOwn(ch, an, at, cv0, st.noise_var, o, &eligible, &current_not_material);
   const size_t first = ChooseFirst(at, eligible);
   if (first < F && at.results[first].p_value < o.alpha / 3.0) {
     res.p_value = std::min(res.p_value, std::min(1.0, 3.0 * at.results[first].p_value));
@@ -519,6 +558,7 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
     }
   }
   SortEffects(&res.effects);
+  NotMaterialFinding(at, current_not_material, o, &res);
   // What the baseline absorbed beyond its normal range (the gap is relative to the vehicle file): an
   // effect beside the fitted ones, after them (its share is not over the baseline that absorbed it).
   // Without a fitted effect the term is named by NameVerdict's rule (1), as before.

@@ -58,9 +58,10 @@ size_t ChooseFirst(const Attribution& at, const std::vector<bool>& eligible);
 // Material: removes at least o.materiality of the noise floor's power on held-out blocks.
 bool IsMaterial(const Analyzer& an, const Evaluated& e, double cv_before, double noise_var, const DiagnoseOptions& o);
 // What a compass effect's fitted field does to the heading: the RMS over the flight of the angle
-// by which its variation about its flight mean (a constant part is the offset's) turns the
-// horizontal Earth field (the prior plus the baseline's correction), in degrees, and the low end of
-// its 95 % interval (delta method on the block jackknife). Zero where the channel is no compass.
+// by which its field turns the horizontal Earth field (the prior plus the baseline's correction), in
+// degrees, and the low end of its 95 % interval (delta method on the block jackknife). A current or
+// throttle field is measured from the motors-off state the compass was calibrated in (its whole
+// field); any other effect by its variation about its flight mean. Zero where the channel is no compass.
 struct HeadingTurn {
   double deg = 0.0, lo_deg = 0.0;
 };

@@ -5,6 +5,7 @@
 #include <Eigen/LU>
 
 #include "hexsim/common/rotation.h"
+#include "hexsim/gap/effects.h"
 #include "stats.h"
 #include "verdict.h"
 
@@ -26,8 +27,17 @@ HeadingTurn HeadingTurnOf(const ChannelData& ch, const Analyzer& an, const Evalu
   if (!(bh2 > 0)) return h;
   // The heading turn of a small NED field δ: (B_N·δ_E − B_E·δ_N)/|B_h|², δ = (M·R)⁻¹·δ_S.
   const Eigen::RowVector3d turn(-B.y() / bh2, B.x() / bh2, 0.0);
+  // A field the motor current or the throttle drives turns the heading from the state the compass was
+  // calibrated in, motors off (ArduPilot's and PX4's compass calibrations are done disarmed): its whole
+  // field counts, its flight mean too (the baseline's offset holds that mean on top of the
+  // calibration's own). Any other effect: its variation about the flight mean (a constant part is
+  // the offset's, and it has no state of its own to be measured from).
+  const EffectKind kind = Info(c->id).kind;
+  const bool from_motors_off = kind == EffectKind::kCurrentField || kind == EffectKind::kThrottleField;
   Mat3X mean_x = Mat3X::Zero(3, p);
-  for (const Mat3X& x : c->X) mean_x += x / static_cast<double>(n);
+  if (!from_motors_off) {
+    for (const Mat3X& x : c->X) mean_x += x / static_cast<double>(n);
+  }
   // Per sample the row a_k = turnᵀ·(M·R)_k⁻¹·(X_k − X̄): δψ_k = a_k·β. H = mean of a_kᵀ·a_k.
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(p, p);
   for (size_t k = 0; k < n; ++k) {

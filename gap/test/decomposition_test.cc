@@ -136,8 +136,9 @@ TEST(GapDecomposition, GivenACurrentFieldAndAnOffsetBeyondItsNormalRange_WhenDia
 }
 
 // Adds to mag2 white noise (noise_uT per axis) and a current field along its x axis whose variation
-// has the RMS field_uT; returns its size, µT/A.
-double AddToMag2(double noise_uT, double field_uT, uint64_t seed, logs::FlightLog* log) {
+// has the RMS field_uT; returns its size, µT/A. centered: the field k·(I − Ī) (its variation only);
+// else k·I, zero with the motors off, as a real wiring field.
+double AddToMag2(double noise_uT, double field_uT, uint64_t seed, logs::FlightLog* log, bool centered = true) {
   const std::vector<double> I = log->Column("current_A");
   double mean = 0, var = 0;
   size_t n = 0;
@@ -159,7 +160,7 @@ double AddToMag2(double noise_uT, double field_uT, uint64_t seed, logs::FlightLo
       double& m = log->MutableColumn(cx + a)[i];
       if (!std::isfinite(m) || !std::isfinite(I[i])) continue;
       m += rng.Normal(0.0, noise_uT);
-      if (a == 0) m += k * (I[i] - mean);
+      if (a == 0) m += k * (I[i] - (centered ? mean : 0.0));
     }
   }
   return k;
@@ -197,6 +198,38 @@ TEST(GapDecomposition, GivenANoisyCompassWithACurrentFieldThatTurnsTheHeading_Wh
   const ChannelResult* mag2_off = gaptest::FindChannel(*off, "mag2");
   ASSERT_NE(mag2_off, nullptr);
   EXPECT_FALSE(InEffects(*mag2_off, "current_hard_iron")) << Summary(*off);
+}
+
+// Given a noisy compass whose current field varies little about a large flight mean (k·I, zero with
+// the motors off, where the compass was calibrated), when diagnosed, then the field is material by
+// the heading its whole field turns from motors off, not only by its variation's; and a current
+// field too weak to be material is named in a finding (resolved, not material), not left unsaid.
+TEST(GapDecomposition, GivenACurrentFieldWithALargeFlightMean_WhenDiagnosed_ThenItsWholeFieldTurnsTheHeading) {
+  gaptest::Flown f = gaptest::FlyInjected({}, 2108, "decomposition", "selftest_flight");
+  logs::FlightLog weak = f.log;
+  const double k = AddToMag2(3.0, 0.25, 2108, &f.log, /*centered=*/false);
+  ASSERT_GT(k, 0.0);
+  DiagnoseOptions o;
+  o.channels = {"mag2"};
+  auto rep = Diagnose(f.log, f.trial.configured, o);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr);
+  ASSERT_TRUE(InEffects(*mag2, "current_hard_iron")) << Summary(*rep);
+  bool said = false;
+  for (const std::string& s : mag2->findings) said = said || s.find("from motors off") != std::string::npos;
+  EXPECT_TRUE(said) << Summary(*rep);
+
+  AddToMag2(3.0, 0.25, 2108, &weak, /*centered=*/true);
+  o.material_heading_deg = 3.0;  // a stricter heading rule: the same field's variation is not material
+  auto rep2 = Diagnose(weak, f.trial.configured, o);
+  ASSERT_TRUE(rep2.ok());
+  const ChannelResult* w = gaptest::FindChannel(*rep2, "mag2");
+  ASSERT_NE(w, nullptr);
+  EXPECT_FALSE(InEffects(*w, "current_hard_iron")) << Summary(*rep2);
+  bool named = false;
+  for (const std::string& s : w->findings) named = named || s.find("is resolved (p") != std::string::npos;
+  EXPECT_TRUE(named) << Summary(*rep2);
 }
 
 }  // namespace

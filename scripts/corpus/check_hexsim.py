@@ -7,7 +7,9 @@ and PASS/FAIL against issue 29's "Done when":
   * internal compass, usable current: gap's verdict (or an effect of its decomposition) current-
     or throttle-driven, with the mG/A point of its absolute current term (gap.json absolute_terms:
     the in-flight compass model's, which calibrate prints too; gap's own candidate where there is
-    none) inside [lo - 0.2 w, hi + 0.2 w] of the reference interval (w = hi - lo);
+    none) inside [lo - 0.2 w, hi + 0.2 w] of the reference interval (w = hi - lo). Where the
+    reference's own interval holds 0 (it cannot tell the field from none), a verdict that is not
+    current-driven agrees with it (a note, not a failure); a current-driven one is judged by size;
   * external compass: no material current effect, or one whose interval includes 0 - unless
     the reference resolves one (its k interval excludes 0): then a reported effect must lie in
     the widened reference interval like an internal compass's (real logs have such masts);
@@ -179,7 +181,12 @@ def judge(c, ref_c, usable, gaps, cal, notes):
         if not usable and is_cur and g["mg"] is not None and "throttle" not in (g["verdict"] or ""):
             fails.append("%s: current-based verdict %s on an unusable current" % (path, g["verdict"]))
         if usable and ext is False and rc_.get("status") == "fitted":
-            if not is_cur:
+            if not is_cur and rc_.get("zero_inside"):
+                # the reference cannot tell the current field from none (a short or steady flight):
+                # a diagnosis that does not claim one agrees with it
+                notes.append("%s: internal compass not current-driven (%s); the reference's interval "
+                             "holds 0 too" % (path, g["verdict"]))
+            elif not is_cur:
                 fails.append("%s: internal compass not current-driven (%s)" % (path, g["verdict"]))
             elif (g.get("abs") or g["mg"]) is None:
                 fails.append("%s: current verdict without a mG/A size" % path)
