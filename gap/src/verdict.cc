@@ -419,7 +419,8 @@ void JudgeRange(double field_scale, CandidateResult* r) {
 // its timing (the modelled field's lag), or by the heading it turns. Per family why it is material
 // (empty: it is not, and it is no longer eligible).
 // A current-driven family that is significant and plausible but not material (the largest such, by
-// its held-out share), where no current-driven effect was selected: the user's question is whether
+// its held-out share, at least min_effect_share of the structure), where no current-driven effect
+// was selected: the user's question is whether
 // the motor current disturbs the compass, and "resolved, too small to matter" is an answer (the
 // absolute current term and the parameters to paste are printed beside it).
 struct NotMaterial {
@@ -440,7 +441,9 @@ std::vector<std::string> MaterialOnTheirOwn(const ChannelData& ch, const Analyze
     why[f] = MaterialWhy(IsMaterial(an, e, cv0, noise_var, o), DelaysModelledField(*e.cand), at.results[f], turn, o);
     (*eligible)[f] = !why[f].empty();
     const size_t& best = current_not_material->family;
-    if (why[f].empty() && DrivenByCurrent(at.results[f].id) &&
+    // Named only where it describes a share of the held-out structure an effect would need
+    // (min_effect_share): a fit significant in-sample that predicts nothing held out is no finding.
+    if (why[f].empty() && DrivenByCurrent(at.results[f].id) && at.results[f].explained_share >= o.min_effect_share &&
         (best == SIZE_MAX || at.results[f].explained_share > at.results[best].explained_share)) {
       *current_not_material = {f, (cv0 - e.cv_sse) / an.total_n() / noise_var, turn};
     }
