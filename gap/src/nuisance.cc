@@ -191,6 +191,7 @@ void JudgeNormal(const ChannelData& ch, const BaselineTerms& t, NuisanceReport* 
   const plausibility::PhysicalRange* sc = plausibility::FindRange("field_scale");
   const OffsetReading offset = ReadOffset(t.b_norm, JudgedInterval(t.b_norm, t.b_sd, t.b_ci_sd, t.t975));
   if (offset == OffsetReading::kImplausible) {
+    nr.offset_implausible = true;
     nr.findings.push_back(fmt::format("{}: residual offset ({:.0f}, {:.0f}, {:.0f}) mG, outside the physical range {}: "
                                       "implausible, model mismatch (too little rotation to separate an offset from "
                                       "the field, or the log's compass units)",
@@ -250,6 +251,7 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
   const BaselineTerms t = ReadBaseline(ch, base);
   AddTerms(ch, t, o, &nr);
   if (o.nuisance_ranges == "exact") {
+    nr.offset_implausible = !plausibility::IsPlausible("hard_iron_offset", t.b_norm);
     JudgeExact(t.b, t.Vb, t.d, t.Vd, t.Bhat, t.s_along, t.s_sd, t.G, o.alpha, &nr);
   } else {
     JudgeNormal(ch, t, &nr);

@@ -329,8 +329,8 @@ void NameVerdict(const NuisanceReport& nu, const Structure& st, const std::strin
       res.findings.push_back(fmt::format("what the reported effects leave still holds {}: structure no candidate describes",
                                          left_found));
     }
-  } else if (!res.gap_detected && !plausibility::IsPlausible("hard_iron_offset", nu.nuisance.offset_uT.norm())) {
-    // The baseline itself is a model mismatch (nuisance.cc ReadOffset): no "no gap" on top of it.
+  } else if (!res.gap_detected && nu.offset_implausible) {
+    // The baseline itself is a model mismatch (NuisanceReport::offset_implausible): no "no gap" on top of it.
     res.verdict = "unexplained";
     res.gap_detected = true;
     res.explanation = "the nuisance baseline's offset is outside its physical range " +

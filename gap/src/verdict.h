@@ -117,6 +117,9 @@ struct NuisanceReport {
   // baseline absorbed that differs from the vehicle file. Beside fitted effects each is an effect too.
   std::vector<std::string> beyond_normal;
   std::vector<std::string> findings;   // plain language
+  // The offset outside hard_iron_offset's physical range (nuisance.h ReadOffset): the baseline is a
+  // model mismatch, so the verdict is unexplained, never "no gap" on top of it.
+  bool offset_implausible = false;
 };
 NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& baseline, const DiagnoseOptions& o);
 // The interval a nuisance term is judged by: value ± t975 times the wider of its two spreads, the
