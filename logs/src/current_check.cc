@@ -92,6 +92,12 @@ std::vector<size_t> FlightRows(const FlightLog& log, int motors) {
   return rows;
 }
 
+bool HasMeasured(const FlightLog& log, const std::string& column) {
+  if (!log.Has(column)) return false;
+  const std::vector<double>& v = log.Column(column);
+  return std::any_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
+}
+
 std::vector<double> ValuesAt(const std::vector<double>& column, const std::vector<size_t>& rows) {
   std::vector<double> v;
   v.reserve(rows.size());
@@ -110,7 +116,7 @@ CurrentSensorCheck CheckCurrentSensor(const FlightLog& log) {
   const std::vector<size_t> flight = FlightRows(log, c.motors);
   c.flight_rows = flight.size();
   std::vector<std::string> reasons;
-  if (!log.Has("current_A")) {
+  if (!HasMeasured(log, "current_A")) {  // absent, or "not available" in every sample
     c.usable = false;
     c.why = std::string(kUnusable) + ": the log has no current";
     return c;
@@ -123,8 +129,8 @@ CurrentSensorCheck CheckCurrentSensor(const FlightLog& log) {
     if (!(c.median_current_A >= kMinFlightCurrentPerMotor_A * per)) {
       reasons.push_back(fmt::format("flight median {:.3g} A over {} motors{} ({:.3g} A per motor, a flying motor draws "
                                     "at least {:g} A)",
-                                    c.median_current_A, per, c.motors > 0 ? "" : " (count unknown: at least 3)",
-                                    c.median_current_A / per, kMinFlightCurrentPerMotor_A));
+                                    c.median_current_A + 0.0, per, c.motors > 0 ? "" : " (count unknown: at least 3)",
+                                    c.median_current_A / per + 0.0, kMinFlightCurrentPerMotor_A));
     }
   } else {
     c.note = flight.empty() ? fmt::format("current not checked: no flight rows (mean motor output never {:g} or more "
@@ -212,7 +218,9 @@ std::string CurrentCheckLine(const CurrentSensorCheck& c) {
   if (!c.usable) return "current: " + c.why;
   std::string s = "current: usable";
   if (c.checked) {
-    s += fmt::format(" (flight median {:.3g} A over {} motors", c.median_current_A, c.motors);
+    // + 0.0: a median of -0 A prints as 0 A
+    s += c.motors > 0 ? fmt::format(" (flight median {:.3g} A over {} motors", c.median_current_A + 0.0, c.motors)
+                      : fmt::format(" (flight median {:.3g} A, motor count unknown", c.median_current_A + 0.0);
     if (std::isfinite(c.median_voltage_V)) s += fmt::format(", {:.3g} V", c.median_voltage_V);
     s += ")";
   }

@@ -166,6 +166,41 @@ TEST(CurrentCheck, GivenALogWithoutFlight_WhenChecked_ThenTheCurrentIsNotJudgedA
   EXPECT_NE(c.note.find("no flight rows"), std::string::npos) << c.note;
 }
 
+TEST(CurrentCheck, GivenAFlightWithoutAMotorCount_WhenPrinted_ThenTheLineSaysTheCountIsUnknownNotZeroMotors) {
+  // Given: a flight known from control_u alone (ArduCopter 3.1: no RCOU, no frame in the log)
+  FlightLog log;
+  for (int i = 0; i < 50; ++i) {
+    log.AppendRow();
+    log.Set("t_s", 0.1 * i);
+    log.Set("current_A", 27.4);
+    log.Set("voltage_V", 15.0);
+    log.Set("control_u", 550.0);
+  }
+  // When
+  const CurrentSensorCheck c = CheckCurrentSensor(log);
+  const std::string line = CurrentCheckLine(c);
+  // Then
+  EXPECT_TRUE(c.usable) << c.why;
+  EXPECT_TRUE(c.checked);
+  EXPECT_EQ(c.motors, 0);
+  EXPECT_EQ(line.find("0 motors"), std::string::npos) << line;
+  EXPECT_NE(line.find("motor count unknown"), std::string::npos) << line;
+}
+
+TEST(CurrentCheck, GivenACurrentColumnWithoutANumber_WhenChecked_ThenTheLogHasNoCurrent) {
+  FlightLog log;
+  for (int i = 0; i < 50; ++i) {
+    log.AppendRow();
+    log.Set("t_s", 0.1 * i);
+    log.Set("current_A", std::nan(""));
+    log.Set("voltage_V", 15.0);
+    log.Set("motor_1_u", 0.5);
+  }
+  const CurrentSensorCheck c = CheckCurrentSensor(log);
+  EXPECT_FALSE(c.usable);
+  EXPECT_NE(c.why.find("the log has no current"), std::string::npos) << c.why;
+}
+
 TEST(DamageLines, GivenALogCutInsideItsLastMessage_WhenImported_ThenOneTruncationLineAndACleanLogSaysNothing) {
   const std::string clean = HoverLog(CurrForm::kFloat34, 14.0, 15.2).bytes();
   const ImportResult ok = MustImport(clean);
