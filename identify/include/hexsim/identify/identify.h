@@ -38,6 +38,11 @@ struct IdentifyOptions {
   double min_flight_s = 10.0;  // less flight than this is not identifiable (bad input)
   // Fit only on these blocks (empty: all). gap diagnose fits on even blocks and tests on odd ones.
   std::vector<int> fit_blocks;
+  // The base vehicle's mass is this airframe's (a vehicle file given for it, `--base`): the logged
+  // electrical power is then judged per newton of its weight. False: the base is the shipped vehicle
+  // of the frame class, whose mass says nothing of the log's airframe (a 12S heavy-lift quad draws
+  // 270 W per newton of a 1.5 kg quad's weight and 16 of its own); the power is not judged.
+  bool base_mass_known = false;
   std::string IsValid() const;  // empty when valid
 };
 
