@@ -199,3 +199,25 @@ def test_dataflash_without_rcou_flies_on_ctun(tmp_path):
     assert f.thr is not None
     assert sum(b - a for a, b in f.segs) == pytest.approx(29.9 - 4.0, abs=0.2)
     assert math.isfinite(float(np.median(f.thr)))
+
+
+def test_ulog_internal_compass_only_in_sensor_mag_is_read(tmp_path):
+    # PX4 1.16 (a public quad): vehicle_magnetometer carries the external compass only; the internal
+    # one is logged as sensor_mag alone. Both are compasses of the log (before: only the first).
+    w = ULogBytes(1_000_000)
+    w.fmt("vehicle_attitude:uint64_t timestamp;float[4] q;")
+    w.fmt("vehicle_magnetometer:uint64_t timestamp;uint32_t device_id;float[3] magnetometer_ga;")
+    w.fmt("sensor_mag:uint64_t timestamp;uint32_t device_id;float x;float y;float z;")
+    for t in ("vehicle_attitude", "vehicle_magnetometer"):
+        w.sub(t)
+    w.sub("sensor_mag", 0)
+    w.sub("sensor_mag", 1)
+    for k in range(30):
+        t = 1_000_000 + 100_000 * k
+        w.data("vehicle_attitude", struct.pack("<Q4f", t, 1, 0, 0, 0))
+        w.data("vehicle_magnetometer", struct.pack("<QI3f", t, 10, 0.2, 0.0, 0.4))
+        w.data("sensor_mag", struct.pack("<QI3f", t, 10, 0.2, 0.0, 0.4), multi=0)
+        w.data("sensor_mag", struct.pack("<QI3f", t, 20, 0.1, 0.1, 0.5), multi=1)
+    f = extract.read(write(tmp_path, "two.ulg", w.b))
+    assert [c["name"] for c in f.compasses] == ["vehicle_magnetometer[0]", "sensor_mag[1]"]
+    assert [c["device_id"] for c in f.compasses] == [10, 20]

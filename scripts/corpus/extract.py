@@ -316,7 +316,10 @@ def _ulog_external(log, dev, multi):
 
 def _ulog_compasses(log):
     """Body-frame compass series. vehicle_magnetometer (PX4's own rotated, calibrated stream)
-    where logged, else sensor_mag turned into the body frame by CAL_MAGn_ROT."""
+    where logged, and sensor_mag (turned into the body frame by CAL_MAGn_ROT) for each device
+    vehicle_magnetometer does not carry: PX4 publishes vehicle_magnetometer for the selected or
+    the calibrated compasses only, and logs every driver's sensor_mag (PX4 1.16: the external one
+    as vehicle_magnetometer, the internal one only as sensor_mag)."""
     out = []
     for multi in range(4):
         vm = log.topic("vehicle_magnetometer", multi)
@@ -328,13 +331,16 @@ def _ulog_compasses(log):
         out.append({"name": "vehicle_magnetometer[%d]" % multi,
                     "t": np.array(vm["timestamp"]) * 1e-6, "xyz": xyz, "external": ext,
                     "device_id": dev, "use": None, "motct": None, "mot": [None] * 3})
-    if out:
+    covered = {c["device_id"] for c in out}
+    if None in covered:          # PX4 <= 1.11: no device_id to tell which sensor_mag is covered
         return out
     for multi in range(4):
         sm = log.topic("sensor_mag", multi)
         if sm is None:
             continue
         dev = sm.get("device_id", [None])[0]
+        if out and (dev is None or dev in covered):
+            continue
         xyz = np.vstack([sm["x"], sm["y"], sm["z"]]).T * 100.0  # gauss -> uT
         ext, rot = _ulog_external(log, dev, multi)
         if "is_external" in sm:
