@@ -221,3 +221,20 @@ def test_ulog_internal_compass_only_in_sensor_mag_is_read(tmp_path):
     f = extract.read(write(tmp_path, "two.ulg", w.b))
     assert [c["name"] for c in f.compasses] == ["vehicle_magnetometer[0]", "sensor_mag[1]"]
     assert [c["device_id"] for c in f.compasses] == [10, 20]
+
+
+def test_dataflash_4x_motor_compensation_is_taken_back_out(tmp_path):
+    # ArduCopter 4.x logs the compensation it added as MOX/MOY/MOZ (3.x: MOfsX..): the reference
+    # takes it back out for the absolute field (before: a 4.5.7 log with COMPASS_MOTCT 2 read
+    # the compensated residual, 1.4 mG/A where the firmware's own COMPASS_MOT3 was 5.9)
+    w = DataFlashBytes()
+    w.fmt(129, "MSG", "QZ", "TimeUS,Message")
+    w.fmt(130, "ATT", "QccccCCCC", "TimeUS,DesRoll,Roll,DesPitch,Pitch,DesYaw,Yaw,ErrRP,ErrYaw")
+    w.fmt(134, "MAG", "QBfffffffff", "TimeUS,I,MagX,MagY,MagZ,OfsX,OfsY,OfsZ,MOX,MOY,MOZ")
+    w.msg(129, 1000, b"Frame: QUAD/X")
+    for k in range(10):
+        t = 1_000_000 + 100_000 * k
+        w.msg(130, t, 0, 0, 0, 0, 0, 0, 0, 0)
+        w.msg(134, t, 0, 0.25, 0.0, 0.40, 0, 0, 0, 0.05, 0.0, -0.01)
+    f = extract.read(write(tmp_path, "mox.bin", w.b))
+    assert f.compasses[0]["xyz"][0] == pytest.approx([20.0, 0.0, 41.0], abs=1e-4)

@@ -181,8 +181,12 @@ def read_dataflash(path):
         mm = log.msgs[m]
         t = np.array(log.time_s(m))
         xyz = np.vstack([mm["MagX"], mm["MagY"], mm["MagZ"]]).T * 100.0  # gauss -> uT
-        if "MOfsX" in mm:   # undo the autopilot's own motor compensation (COMPASS_MOTCT 1/2):
-            xyz -= np.vstack([mm["MOfsX"], mm["MOfsY"], mm["MOfsZ"]]).T * 100.0  # absolute k
+        # undo the autopilot's own motor compensation (COMPASS_MOTCT 1/2) for the absolute k: the
+        # offset it added is logged as MOfsX/Y/Z (ArduCopter <= 3.x) or MOX/Y/Z (4.x)
+        for mo in (("MOfsX", "MOfsY", "MOfsZ"), ("MOX", "MOY", "MOZ")):
+            if mo[0] in mm:
+                xyz -= np.vstack([mm[a] for a in mo]).T * 100.0
+                break
         if "I" in mm:   # one MAG table with instances (ArduPilot 4.x)
             ids = np.array(mm["I"])
             for k in sorted(set(ids.tolist())):
@@ -196,8 +200,10 @@ def read_dataflash(path):
             c = log.msgs[m]
             t = np.array(log.time_s(m))
             sel = np.ones(len(t), bool)
-            if "Instance" in c:
-                sel = np.array(c["Instance"]) == 0
+            for inst in ("Instance", "Inst"):   # the first battery monitor (3.x, 4.x names)
+                if inst in c:
+                    sel = np.array(c[inst]) == 0
+                    break
             sel &= np.isfinite(np.array(c["Curr"], float))  # 4.x logs NaN: no current sensor
             if sel.any():
                 f.cur_t, f.cur_a = t[sel], np.array(c["Curr"], float)[sel]
