@@ -202,6 +202,34 @@ TEST(Identify, GivenAHighFlightPowerAndOnlyTheFrameClassDefaultMass_WhenIdentifi
   EXPECT_TRUE(said(*judged));
 }
 
+// A 12S heavy-lift quad identified on quad_x (4S): quad_x's motors at 52 V give nine times their thrust,
+// and "held-out dynamics residual 131 m/s^2, the base's 62.5" (a public ArduCopter 4.5.7 log) measured
+// the voltage. The comparison is refused with the reason; nothing is written on it.
+TEST(Identify, GivenABusVoltageFarOutsideTheBaseBattery_WhenIdentified_ThenTheVehiclesAreNotComparedAndTheLineSaysWhy) {
+  const Flight& f = QuadFlight();
+  auto base = vehicle::LoadVehicleFile(*ResolveWorldFile("vehicles", "quad_x"));
+  ASSERT_TRUE(base.ok());
+  logs::FlightLog log = f.log;
+  auto& V = log.MutableColumn(static_cast<size_t>(log.ColumnIndex("voltage_V")));
+  for (double& v : V) v *= 3.2;
+  if (const logs::FlightLog* b = log.Stream("batt"); b != nullptr && b->Has("voltage_V")) {
+    logs::FlightLog batt = *b;
+    for (double& v : batt.MutableColumn(static_cast<size_t>(batt.ColumnIndex("voltage_V")))) v *= 3.2;
+    log.SetStream("batt", std::move(batt));
+  }
+  auto r = Identify(log, *base, {});
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_FALSE(r->improves_on_base);
+  EXPECT_NE(r->dynamics_not_comparable.find("bus voltage"), std::string::npos) << r->dynamics_not_comparable;
+  const std::string line = ImprovementLine(*r);
+  EXPECT_EQ(line.rfind("not compared with its base quad_x", 0), 0u) << line;
+  EXPECT_EQ(Summary(*r).find("held-out dynamics residual (3 axes"), std::string::npos) << Summary(*r);
+  // The clean flight (quad_x's own battery) is compared as before.
+  auto clean = Identify(f.log, *base, {});
+  ASSERT_TRUE(clean.ok());
+  EXPECT_TRUE(clean->dynamics_not_comparable.empty()) << clean->dynamics_not_comparable;
+}
+
 // The import's current check (logs/current_check.h) switches the current-based battery fit off.
 TEST(Identify, GivenACurrentTheImportFoundUnusable_WhenIdentified_ThenTheBatteryIsKeptFromTheBaseWithThatReason) {
   const Flight& f = QuadFlight();
