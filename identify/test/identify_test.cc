@@ -257,6 +257,19 @@ TEST(Identify, GivenFrameParameters_WhenTheFrameIsAsked_ThenClassAndTypeDecide) 
   EXPECT_EQ(DefaultBaseFor("hex-plus"), "default_hex");
 }
 
+// A PX4 log of three rotors and no frame parameters (a public PX4 1.17 fixture) was refused with
+// "frame: not determined (not determined)": the reason now says what the log holds.
+TEST(Identify, GivenNoFrameParametersAndThreeMotors_WhenTheFrameIsAsked_ThenTheSourceNamesTheCounts) {
+  logs::FlightLog log;
+  log.meta["params"] = nlohmann::json::object();
+  log.meta["motor_count"] = 3;
+  log.meta["motor_count_source"] = "CA_ROTOR_COUNT";
+  std::string source;
+  EXPECT_EQ(FrameOfLog(log, &source), "");
+  EXPECT_NE(source.find("no frame parameters, and 3 motors (CA_ROTOR_COUNT), 0 active motor outputs"),
+            std::string::npos) << source;
+}
+
 // An octocopter log (ArduPilot FRAME_CLASS 3) had no base: "frame: no shipped vehicle for 'octo-x'",
 // and no 8-rotor vehicle to give as --base. The shipped octo_x numbers and spins its rotors as the
 // OCTA X table, and a flight of it is identified on it with no base given.

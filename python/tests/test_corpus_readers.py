@@ -238,3 +238,19 @@ def test_dataflash_4x_motor_compensation_is_taken_back_out(tmp_path):
         w.msg(134, t, 0, 0.25, 0.0, 0.40, 0, 0, 0, 0.05, 0.0, -0.01)
     f = extract.read(write(tmp_path, "mox.bin", w.b))
     assert f.compasses[0]["xyz"][0] == pytest.approx([20.0, 0.0, 41.0], abs=1e-4)
+
+
+def test_index_reads_the_sources_gathered_beside_the_logs(tmp_path):
+    # gather.py writes CORPUS/sources.json; index.py listed the script folder's sources instead
+    # (a second corpus was indexed with the first one's 22 logs, all "unreadable")
+    import json
+    import index
+    (tmp_path / "c").mkdir()
+    (tmp_path / "c" / "quadx.bin").write_bytes(hover_dataflash("Frame: QUAD/X"))
+    (tmp_path / "c" / "sources.json").write_text(json.dumps([
+        {"file": "quadx.bin", "repo": "example/repo", "path": "quadx.bin", "commit": "0" * 40,
+         "licence": "test"}]))
+    index.main(str(tmp_path / "c"))
+    text = (tmp_path / "c" / "README.md").read_text()
+    assert "`quadx.bin`" in text and "QUAD/X, 4" in text
+    assert "Sources: 1 logs from 1 repositories." in text
