@@ -92,6 +92,29 @@ std::vector<size_t> FlightRows(const FlightLog& log, int motors) {
   return rows;
 }
 
+double Percentile(std::vector<double> v, double q) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::sort(v.begin(), v.end());
+  return v[static_cast<size_t>(q * static_cast<double>(v.size() - 1))];
+}
+
+// The height span (5th..95th percentile) over `rows` and the column it came from; NaN when the log
+// has no height at ten of them.
+double HeightSpan(const FlightLog& log, const std::vector<size_t>& rows, std::string* column) {
+  constexpr size_t kMinHeightSamples = 10;
+  for (const char* c : {"baro_alt_m", "pos_D_m"}) {
+    if (!log.Has(c)) continue;
+    std::vector<double> h;
+    for (size_t r : rows) {
+      if (std::isfinite(log.Column(c)[r])) h.push_back(log.Column(c)[r]);
+    }
+    if (h.size() < kMinHeightSamples) continue;
+    *column = c;
+    return Percentile(h, 0.95) - Percentile(h, 0.05);
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
 bool HasMeasured(const FlightLog& log, const std::string& column) {
   if (!log.Has(column)) return false;
   const std::vector<double>& v = log.Column(column);
@@ -113,7 +136,14 @@ CurrentSensorCheck CheckCurrentSensor(const FlightLog& log) {
   CurrentSensorCheck c;
   c.motors = MotorsOf(log);
   c.cells = CellsFromParams(log, &c.cells_source);
-  const std::vector<size_t> flight = FlightRows(log, c.motors);
+  std::vector<size_t> flight = FlightRows(log, c.motors);
+  std::string height_column, ground_run;
+  if (const double span_m = HeightSpan(log, flight, &height_column); span_m < kMinFlightClimb_m) {
+    ground_run = fmt::format("current not checked: the motors ran at flight output for {} rows but {} spans {:.2g} m "
+                             "over them (a flight climbs {:g} m or more): a run on the ground",
+                             flight.size(), height_column, span_m, kMinFlightClimb_m);
+    flight.clear();
+  }
   c.flight_rows = flight.size();
   std::vector<std::string> reasons;
   if (!HasMeasured(log, "current_A")) {  // absent, or "not available" in every sample
@@ -132,6 +162,8 @@ CurrentSensorCheck CheckCurrentSensor(const FlightLog& log) {
                                     c.median_current_A + 0.0, per, c.motors > 0 ? "" : " (count unknown: at least 3)",
                                     c.median_current_A / per + 0.0, kMinFlightCurrentPerMotor_A));
     }
+  } else if (!ground_run.empty()) {
+    c.note = ground_run;
   } else {
     c.note = flight.empty() ? fmt::format("current not checked: no flight rows (mean motor output never {:g} or more "
                                           "while armed, or no motor outputs)",

@@ -187,6 +187,32 @@ TEST(CurrentCheck, GivenAFlightWithoutAMotorCount_WhenPrinted_ThenTheLineSaysThe
   EXPECT_NE(line.find("motor count unknown"), std::string::npos) << line;
 }
 
+TEST(CurrentCheck, GivenMotorsAtFlightOutputButNoClimb_WhenChecked_ThenTheCurrentIsNotJudgedAsAFlightCurrent) {
+  // Given: 30 s at motor output 0.49 and 2.6 A on a 12S pack, the barometer within ±0.05 m (a
+  // props-off run of a 4.7.0-dev heavy quad), and the same with a climb to 5 m
+  auto make = [](double climb_m) {
+    FlightLog log;
+    for (int i = 0; i < 300; ++i) {
+      log.AppendRow();
+      log.Set("t_s", 0.1 * i);
+      log.Set("current_A", 2.6);
+      log.Set("voltage_V", 51.2);
+      log.Set("motor_1_u", 0.49);
+      log.Set("baro_alt_m", 0.05 * std::sin(0.7 * i) + climb_m * std::min(1.0, i / 100.0));
+    }
+    return log;
+  };
+  // When
+  const CurrentSensorCheck ground = CheckCurrentSensor(make(0.0));
+  const CurrentSensorCheck flown = CheckCurrentSensor(make(5.0));
+  // Then
+  EXPECT_FALSE(ground.checked);
+  EXPECT_EQ(ground.flight_rows, 0u);
+  EXPECT_NE(ground.note.find("a run on the ground"), std::string::npos) << ground.note;
+  EXPECT_TRUE(flown.checked);
+  EXPECT_EQ(flown.flight_rows, 300u);
+}
+
 TEST(CurrentCheck, GivenACurrentColumnWithoutANumber_WhenChecked_ThenTheLogHasNoCurrent) {
   FlightLog log;
   for (int i = 0; i < 50; ++i) {

@@ -254,3 +254,23 @@ def test_index_reads_the_sources_gathered_beside_the_logs(tmp_path):
     text = (tmp_path / "c" / "README.md").read_text()
     assert "`quadx.bin`" in text and "QUAD/X, 4" in text
     assert "Sources: 1 logs from 1 repositories." in text
+
+
+def test_dataflash_motors_run_without_a_climb_are_no_flight(tmp_path):
+    # 30 s armed at output 0.5 with the barometer flat (a props-off run: ArduCopter 4.7.0-dev log
+    # 00000002, 2.6 A at 51 V) is no flight window; the same with a 5-m climb is one
+    def log(climb):
+        w = DataFlashBytes()
+        w.fmt(129, "MSG", "QZ", "TimeUS,Message")
+        w.fmt(130, "ATT", "QccccCCCC", "TimeUS,DesRoll,Roll,DesPitch,Pitch,DesYaw,Yaw,ErrRP,ErrYaw")
+        w.fmt(131, "RCOU", "QHHHH", "TimeUS,C1,C2,C3,C4")
+        w.fmt(135, "BARO", "QBf", "TimeUS,I,Alt")
+        w.msg(129, 1000, b"Frame: QUAD/X")
+        for k in range(300):
+            t = 1_000_000 + 100_000 * k
+            w.msg(130, t, 0, 100, 0, -50, 0, 9000, 0, 0)
+            w.msg(131, t, 1500, 1500, 1500, 1500)
+            w.msg(135, t, 0, 0.05 * math.sin(0.7 * k) + climb * min(1.0, k / 100.0))
+        return w.b
+    assert extract.read(write(tmp_path, "ground.bin", log(0.0))).segs == []
+    assert len(extract.read(write(tmp_path, "flown.bin", log(5.0))).segs) == 1

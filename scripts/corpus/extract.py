@@ -14,6 +14,9 @@ FRAME_CLASS_MOTORS = {1: 4, 2: 6, 3: 8, 4: 8, 5: 6, 7: 3, 10: 1, 12: 4, 14: 4}
 FLIGHT_OUTPUT_MIN = 0.25
 EDGE_S = 2.0          # seconds cut at each end of a flight segment (take-off, landing)
 MIN_SEGMENT_S = 5.0   # shorter airborne segments are not flight
+# a segment in which the barometer's height spans less than this (5th..95th percentile) never left
+# the ground: motors run props-off or tied down (a barometer on the ground reads within +-0.1 m)
+MIN_CLIMB_M = 0.5
 
 
 def euler_to_r(roll, pitch, yaw):
@@ -64,6 +67,19 @@ def segments(t, mask):
         if t[j] - t[i] >= MIN_SEGMENT_S + 2 * EDGE_S:
             out.append((t[i] + EDGE_S, t[j] - EDGE_S))
         i = j + 1
+    return out
+
+
+def climbed(segs, t_h, h):
+    """The segments over which the height series (t_h, h) spans MIN_CLIMB_M or more; all of them
+    where no height is logged (fewer than ten samples in a segment keep it too)."""
+    if t_h is None or not len(t_h):
+        return segs
+    out = []
+    for a, b in segs:
+        m = (t_h >= a) & (t_h <= b) & np.isfinite(h)
+        if m.sum() < 10 or np.percentile(h[m], 95) - np.percentile(h[m], 5) >= MIN_CLIMB_M:
+            out.append((a, b))
     return out
 
 
@@ -217,6 +233,12 @@ def read_dataflash(path):
     if f.thr is not None:
         flying = _df_armed(log, f.thr_t) & (f.thr > FLIGHT_OUTPUT_MIN)
         f.segs = segments(f.thr_t, flying)
+        if "BARO" in log.msgs and "Alt" in log.msgs["BARO"]:
+            b = log.msgs["BARO"]
+            sel = np.ones(len(b["Alt"]), bool)
+            if "I" in b:
+                sel = np.array(b["I"]) == 0
+            f.segs = climbed(f.segs, np.array(log.time_s("BARO"))[sel], np.array(b["Alt"], float)[sel])
     else:
         f.segs = []
     return f
@@ -302,6 +324,9 @@ def read_ulog(path):
         f.segs = segments(grid, air[idx])
     elif f.thr is not None:
         f.segs = segments(f.thr_t, f.thr > FLIGHT_OUTPUT_MIN)
+        air = log.topic("vehicle_air_data")
+        if air is not None and "baro_alt_meter" in air:
+            f.segs = climbed(f.segs, np.array(air["timestamp"]) * 1e-6, np.array(air["baro_alt_meter"], float))
     else:
         f.segs = []
     return f
