@@ -343,7 +343,9 @@ TEST(Identify, GivenAFrameTheTablesDoNotName_WhenTheFrameIsAsked_ThenTheMotorCou
   logs::FlightLog none;
   auto refused = ChooseBaseVehicle(none, "", "auto", "v.bin", "give --sim VEHICLE");
   ASSERT_FALSE(refused.ok());
-  EXPECT_EQ(refused.status().message(), "v.bin: frame: not determined (not determined); give --sim VEHICLE");
+  EXPECT_EQ(refused.status().message(),
+            "v.bin: frame: not determined (no frame parameters, and no motor count, 0 active motor outputs: not a quad, "
+            "hex or octo); give --sim VEHICLE");
 }
 
 TEST(Identify, GivenABaseWithAnotherRotorCount_WhenIdentified_ThenItIsRefusedNamingBothCounts) {

@@ -159,7 +159,10 @@ CurrentSensorCheck CheckCurrentSensor(const FlightLog& log) {
     if (!(c.median_current_A >= kMinFlightCurrentPerMotor_A * per)) {
       reasons.push_back(fmt::format("flight median {:.3g} A over {} motors{} ({:.3g} A per motor, a flying motor draws "
                                     "at least {:g} A)",
-                                    c.median_current_A + 0.0, per, c.motors > 0 ? "" : " (count unknown: at least 3)",
+                                    c.median_current_A + 0.0, per,
+                                    c.motors <= 0                         ? " (count unknown: at least 3)"
+                                    : c.motors < kMinMultirotorMotors ? fmt::format(" (the log says {}: a multirotor has at least 3)", c.motors)
+                                                                      : std::string(),
                                     c.median_current_A / per + 0.0, kMinFlightCurrentPerMotor_A));
     }
   } else if (!ground_run.empty()) {

@@ -213,6 +213,22 @@ TEST(CurrentCheck, GivenMotorsAtFlightOutputButNoClimb_WhenChecked_ThenTheCurren
   EXPECT_EQ(flown.flight_rows, 300u);
 }
 
+TEST(CurrentCheck, GivenALogOfOneMotor_WhenTheCurrentIsJudged_ThenTheLineSaysTheLogsCountBesideTheThree) {
+  // A PX4 1.17 log with CA_ROTOR_COUNT 1 was judged "over 3 motors", the log's own count unsaid
+  FlightLog log;
+  log.meta["motor_count"] = 1;
+  for (int i = 0; i < 50; ++i) {
+    log.AppendRow();
+    log.Set("t_s", 0.1 * i);
+    log.Set("current_A", 0.0);
+    log.Set("voltage_V", 15.0);
+    log.Set("motor_1_u", 0.5);
+  }
+  const CurrentSensorCheck c = CheckCurrentSensor(log);
+  EXPECT_FALSE(c.usable);
+  EXPECT_NE(c.why.find("over 3 motors (the log says 1: a multirotor has at least 3)"), std::string::npos) << c.why;
+}
+
 TEST(CurrentCheck, GivenACurrentColumnWithoutANumber_WhenChecked_ThenTheLogHasNoCurrent) {
   FlightLog log;
   for (int i = 0; i < 50; ++i) {
