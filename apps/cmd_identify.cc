@@ -35,7 +35,9 @@ Status IdentifyCommand(const IdentifyArgs& a, int* exit_code) {
   for (const auto& line : notes) std::printf("log: %s\n", line.c_str());
   auto base = identify::ChooseBaseVehicle(*log, a.base, a.options.frame, a.log, "give --frame or --base");
   if (!base.ok()) return base.status();
-  auto r = identify::Identify(*log, base->params, a.options);
+  identify::IdentifyOptions options = a.options;
+  options.base_mass_known = !a.base.empty();  // a vehicle file given for this airframe
+  auto r = identify::Identify(*log, base->params, options);
   if (!r.ok()) {
     // Identify names the log by its meta's source already; other errors get the path.
     const std::string source = log->meta.value("source", std::string());

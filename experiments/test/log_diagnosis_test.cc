@@ -43,7 +43,9 @@ TEST(DiagnoseLog, GivenNoVehicleAndNoWayToTellTheFrameThenItAsksForOne) {
   auto d = DiagnoseLog(FramelessLog(), o);
   ASSERT_FALSE(d.ok());
   EXPECT_EQ(d.status().code(), StatusCode::kBadInput);
-  EXPECT_EQ(d.status().message(), "flight.csv: frame: not determined (not determined); give --sim VEHICLE");
+  EXPECT_EQ(d.status().message(),
+            "flight.csv: frame: not determined (no frame parameters, and no motor count, 0 active motor outputs: not a "
+            "quad, hex or octo); give --sim VEHICLE");
 }
 
 TEST(DiagnoseLog, GivenAVehicleAndAToBeforeTheFromThenItIsBadInput) {

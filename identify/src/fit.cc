@@ -332,9 +332,33 @@ void HeldoutAndTraces(const FlightSamples& s, const internal::BlockStats& st, do
   res->traces = {tv, ty};
 }
 
+// How far the log's bus voltage may lie outside the base vehicle's battery (empty..full open-circuit
+// voltage) for the base's powertrain to stand for the airframe: 25 %, one cell of a 4S pack. Beyond it
+// the pack has another cell count, and a motor's thrust, which grows with the square of its voltage,
+// is off by half or more (a 12S log on quad_x's 4S motors: 9 times).
+constexpr double kBusVoltageMargin = 1.25;
+
+// Why the base vehicle's powertrain cannot be driven with the log's voltage ("" when it can).
+std::string VoltageMismatch(const FlightSamples& s, const vehicle::VehicleParams& base) {
+  const double full_V = base.battery.OpenCircuitVoltage_V(1.0), empty_V = base.battery.OpenCircuitVoltage_V(0.0);
+  if (!(s.V_ref > 0) || !(full_V > 0) || (s.V_ref <= kBusVoltageMargin * full_V && s.V_ref >= empty_V / kBusVoltageMargin)) {
+    return "";
+  }
+  return fmt::format("the log's bus voltage {:.3g} V is outside the base vehicle's battery ({:.3g}..{:.3g} V) by more than "
+                     "{:.0f} %: its motors would be driven at a voltage they never see, so neither vehicle's held-out "
+                     "dynamics residual measures the vehicle (give --base with a vehicle of this airframe's battery)",
+                     s.V_ref, empty_V, full_V, 100.0 * (kBusVoltageMargin - 1.0));
+}
+
 // The held-out dynamics residual of the base and of the identified vehicle (even-block fit).
 void DynamicsComparison(const FlightSamples& s, const vehicle::VehicleParams& base, double expo,
                         const internal::BlockStats& st, const std::vector<int>& fit, IdentifyResult* res) {
+  res->dynamics_not_comparable = VoltageMismatch(s, base);
+  if (!res->dynamics_not_comparable.empty()) {
+    res->dynamics_rms_base = res->dynamics_rms_identified = std::nan("");
+    res->improves_on_base = false;
+    return;
+  }
   IdentifyResult even = *res;
   std::vector<double> w(st.lateral.size(), 0.0);
   for (int b : fit) {

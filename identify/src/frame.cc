@@ -141,7 +141,10 @@ std::string FrameOfLog(const logs::FlightLog& log, std::string* source) {
                           n == motors ? motors_from : fmt::format("{} active motor outputs", active));
     return ClassName(n) + "-x";
   }
-  *source = unnamed.empty() ? "not determined" : unnamed + ", and the motor count is not a quad, hex or octo";
+  const std::string counts = (motors > 0 ? fmt::format("{} motors ({})", motors, motors_from) : "no motor count") +
+                             fmt::format(", {} active motor outputs", active);
+  *source = unnamed.empty() ? "no frame parameters, and " + counts + ": not a quad, hex or octo"
+                            : unnamed + ", and the motor count is not a quad, hex or octo (" + counts + ")";
   return "";
 }
 

@@ -58,10 +58,11 @@ nlohmann::json ToJson(const IdentifyResult& r) {
   }
   held["dynamics_specific_force"] = {
       {"unit", "m/s^2"},
-      {"rms_base_vehicle", r.dynamics_rms_base},
-      {"rms_identified_vehicle", r.dynamics_rms_identified},
+      {"rms_base_vehicle", Num(r.dynamics_rms_base)},
+      {"rms_identified_vehicle", Num(r.dynamics_rms_identified)},
       {"drop", r.dynamics_rms_base > 0 ? 1.0 - r.dynamics_rms_identified / r.dynamics_rms_base : 0.0},
       {"improves_on_base", r.improves_on_base},
+      {"not_comparable", r.dynamics_not_comparable},
       {"how", "3-axis RMS about zero on the odd blocks; thrust from hexsim's steady powertrain at the logged outputs "
               "and voltage, drag from the vehicle; identified vehicle fitted on the even blocks"}};
   j["heldout_fit"] = held;
@@ -87,8 +88,10 @@ std::string Summary(const IdentifyResult& r) {
     s += fmt::format("  held-out {:<24} RMS {:.4g} -> residual {:.4g} {} (R² {:.2f}, {} samples)\n", h.output,
                      h.rms_measured, h.rms_residual, h.unit, h.r2, h.samples);
   }
-  s += fmt::format("  held-out dynamics residual (3 axes, RMS): base vehicle {:.3g} m/s^2, identified {:.3g} m/s^2\n",
-                   r.dynamics_rms_base, r.dynamics_rms_identified);
+  if (r.dynamics_not_comparable.empty()) {
+    s += fmt::format("  held-out dynamics residual (3 axes, RMS): base vehicle {:.3g} m/s^2, identified {:.3g} m/s^2\n",
+                     r.dynamics_rms_base, r.dynamics_rms_identified);
+  }
   if (!r.hover_output.empty()) {
     s += fmt::format("  steady hover in the log: median motor output {:.3f} at {:.2f} V ({} samples)\n",
                      Median(r.hover_output), Median(r.hover_voltage_V), r.hover_output.size());
@@ -99,6 +102,10 @@ std::string Summary(const IdentifyResult& r) {
 }
 
 std::string ImprovementLine(const IdentifyResult& r) {
+  if (!r.dynamics_not_comparable.empty()) {
+    return fmt::format("not compared with its base {}: {}; the identified vehicle is not used", r.base_name,
+                       r.dynamics_not_comparable);
+  }
   if (r.improves_on_base) {
     return fmt::format("improves on its base: held-out dynamics residual {:.3g} m/s^2 against the base's {:.3g} m/s^2",
                        r.dynamics_rms_identified, r.dynamics_rms_base);

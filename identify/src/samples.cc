@@ -216,9 +216,11 @@ void BatterySamples(const logs::FlightLog& log, const logs::FlightLog& batt, con
       out->V_ref = 0.0;
       drop_battery();
     }
-    // Electrical power in flight per newton of the base vehicle's weight (the log does not give the
-    // mass): a current below what the induced power needs is not a measurement (an uncalibrated
-    // current sensor), and the battery cannot be fitted from it.
+    // Electrical power in flight per newton of the base vehicle's weight, where that is the airframe's
+    // (IdentifyOptions::base_mass_known; weight_N NaN otherwise: the log does not give the mass): a
+    // current below what the induced power needs is not a measurement (an uncalibrated current
+    // sensor), and the battery cannot be fitted from it. Without the mass the import's per-motor
+    // check (logs/current_check.h) still refuses a current no flying motor draws.
     std::vector<double> P_W;
     for (size_t k = 0; k < out->batt_V.size(); ++k) P_W.push_back(out->batt_V[k] * out->batt_I[k]);
     const double P_per_N = P_W.empty() || !(weight_N > 0) ? std::nan("") : Median(P_W) / weight_N;
@@ -445,7 +447,7 @@ Result<FlightSamples> BuildSamples(const logs::FlightLog& log, const std::vector
   auto blocks = FlightBlocks(log, tr, mu, *alt, up, options, name, &out);
   if (!blocks.ok()) return blocks.status();
   const BlockMap& bm = *blocks;
-  BatterySamples(log, batt, bm, weight_N, &out);
+  BatterySamples(log, batt, bm, options.base_mass_known ? weight_N : std::nan(""), &out);
   const CommandFeatures cf = LaggedFeatures(batt, tr, mu, spins, out.V_ref);
   ImuSamples(log, imu, tr, mu, cf, bm, rcou_from_table, &out);
   if (out.t_s.size() < 100) {

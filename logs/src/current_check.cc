@@ -92,6 +92,35 @@ std::vector<size_t> FlightRows(const FlightLog& log, int motors) {
   return rows;
 }
 
+double Percentile(std::vector<double> v, double q) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::sort(v.begin(), v.end());
+  return v[static_cast<size_t>(q * static_cast<double>(v.size() - 1))];
+}
+
+// The height span (5th..95th percentile) over `rows` and the column it came from; NaN when the log
+// has no height at ten of them.
+double HeightSpan(const FlightLog& log, const std::vector<size_t>& rows, std::string* column) {
+  constexpr size_t kMinHeightSamples = 10;
+  for (const char* c : {"baro_alt_m", "pos_D_m"}) {
+    if (!log.Has(c)) continue;
+    std::vector<double> h;
+    for (size_t r : rows) {
+      if (std::isfinite(log.Column(c)[r])) h.push_back(log.Column(c)[r]);
+    }
+    if (h.size() < kMinHeightSamples) continue;
+    *column = c;
+    return Percentile(h, 0.95) - Percentile(h, 0.05);
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+bool HasMeasured(const FlightLog& log, const std::string& column) {
+  if (!log.Has(column)) return false;
+  const std::vector<double>& v = log.Column(column);
+  return std::any_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
+}
+
 std::vector<double> ValuesAt(const std::vector<double>& column, const std::vector<size_t>& rows) {
   std::vector<double> v;
   v.reserve(rows.size());
@@ -107,10 +136,17 @@ CurrentSensorCheck CheckCurrentSensor(const FlightLog& log) {
   CurrentSensorCheck c;
   c.motors = MotorsOf(log);
   c.cells = CellsFromParams(log, &c.cells_source);
-  const std::vector<size_t> flight = FlightRows(log, c.motors);
+  std::vector<size_t> flight = FlightRows(log, c.motors);
+  std::string height_column, ground_run;
+  if (const double span_m = HeightSpan(log, flight, &height_column); span_m < kMinFlightClimb_m) {
+    ground_run = fmt::format("current not checked: the motors ran at flight output for {} rows but {} spans {:.2g} m "
+                             "over them (a flight climbs {:g} m or more): a run on the ground",
+                             flight.size(), height_column, span_m, kMinFlightClimb_m);
+    flight.clear();
+  }
   c.flight_rows = flight.size();
   std::vector<std::string> reasons;
-  if (!log.Has("current_A")) {
+  if (!HasMeasured(log, "current_A")) {  // absent, or "not available" in every sample
     c.usable = false;
     c.why = std::string(kUnusable) + ": the log has no current";
     return c;
@@ -123,9 +159,14 @@ CurrentSensorCheck CheckCurrentSensor(const FlightLog& log) {
     if (!(c.median_current_A >= kMinFlightCurrentPerMotor_A * per)) {
       reasons.push_back(fmt::format("flight median {:.3g} A over {} motors{} ({:.3g} A per motor, a flying motor draws "
                                     "at least {:g} A)",
-                                    c.median_current_A, per, c.motors > 0 ? "" : " (count unknown: at least 3)",
-                                    c.median_current_A / per, kMinFlightCurrentPerMotor_A));
+                                    c.median_current_A + 0.0, per,
+                                    c.motors <= 0                         ? " (count unknown: at least 3)"
+                                    : c.motors < kMinMultirotorMotors ? fmt::format(" (the log says {}: a multirotor has at least 3)", c.motors)
+                                                                      : std::string(),
+                                    c.median_current_A / per + 0.0, kMinFlightCurrentPerMotor_A));
     }
+  } else if (!ground_run.empty()) {
+    c.note = ground_run;
   } else {
     c.note = flight.empty() ? fmt::format("current not checked: no flight rows (mean motor output never {:g} or more "
                                           "while armed, or no motor outputs)",
@@ -212,7 +253,9 @@ std::string CurrentCheckLine(const CurrentSensorCheck& c) {
   if (!c.usable) return "current: " + c.why;
   std::string s = "current: usable";
   if (c.checked) {
-    s += fmt::format(" (flight median {:.3g} A over {} motors", c.median_current_A, c.motors);
+    // + 0.0: a median of -0 A prints as 0 A
+    s += c.motors > 0 ? fmt::format(" (flight median {:.3g} A over {} motors", c.median_current_A + 0.0, c.motors)
+                      : fmt::format(" (flight median {:.3g} A, motor count unknown", c.median_current_A + 0.0);
     if (std::isfinite(c.median_voltage_V)) s += fmt::format(", {:.3g} V", c.median_voltage_V);
     s += ")";
   }

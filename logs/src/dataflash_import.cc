@@ -375,6 +375,21 @@ std::vector<size_t> AllColumns(const Channel& ch) {
   return v;
 }
 
+// The columns that hold at least one number: a battery monitor without a current sensor logs its
+// current as "not available" (NaN) in every record, and a log without a current has no current_A.
+std::vector<size_t> MeasuredColumns(const Channel& ch) {
+  std::vector<size_t> v;
+  for (size_t c = 0; c < ch.columns.size(); ++c) {
+    for (size_t s = 0; s < ch.size(); ++s) {
+      if (std::isfinite(ch.At(s, c))) {
+        v.push_back(c);
+        break;
+      }
+    }
+  }
+  return v;
+}
+
 std::string FirmwareOf(const std::vector<std::string>& texts) {
   for (const auto& t : texts) {
     if (t.find("APM:") != std::string::npos || t.find("Ardu") != std::string::npos ||
@@ -769,7 +784,7 @@ void FillTable(const std::string& bytes, const Collected& c, const Channel* ekf,
   AddHeld(c.baro, AllColumns(c.baro), log);
   AddGps(c, log);
   AddHeld(c.ctun, AllColumns(c.ctun), log);
-  AddHeld(c.batt, AllColumns(c.batt), log);
+  AddHeld(c.batt, MeasuredColumns(c.batt), log);
   f->frame_name = FrameNameOf(c.texts);
   f->motors = MotorCount(c, f->frame_name, &f->motors_source);
   AddMotors(c, f->motors, f->pwm, log);

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <string_view>
 
 #include <fmt/format.h>
@@ -81,6 +83,21 @@ bool NameMatches(std::string_view name, std::string_view base) {
 
 bool IsFloatChar(char c) { return c == 'f' || c == 'd'; }
 
+// ArduPilot logs a value it does not have as its own quiet NaN, AP_Logger::quiet_nanf() =
+// nanf("0x4152") ("AR"), bits 0x7FC04152: a battery monitor without a current sensor writes it as
+// BAT Curr, CurrTot and EnrgTot in every record (ArduCopter 4.x), and one with a sensor writes it
+// until its first reading. The value is absent, not damage; random bytes hit this pattern with
+// probability 2^-32 per field.
+constexpr uint32_t kArduPilotNotAvailable = 0x7FC04152u;
+
+bool IsArduPilotNotAvailable(char format_char, double v) {
+  if (format_char != 'f' || !std::isnan(v)) return false;
+  const auto f = static_cast<float>(v);  // a NaN keeps its payload through float -> double -> float
+  uint32_t bits = 0;
+  std::memcpy(&bits, &f, sizeof bits);
+  return bits == kArduPilotNotAvailable;
+}
+
 // A float field whose bytes cannot be a logged number.
 bool FloatContradictsType(double v) { return !std::isfinite(v) || (v != 0.0 && std::fabs(v) < kSubnormal); }
 
@@ -103,6 +120,7 @@ Verdict CheckField(const DataFlashMessage& m, int index, double lo, double hi, U
   if (index < 0) return Verdict::kOk;
   const auto i = static_cast<size_t>(index);
   double v = m.GetIndex(i);
+  if (IsArduPilotNotAvailable(m.format().format[i], v)) return Verdict::kOk;  // absent, read as NaN
   if (IsFloatChar(m.format().format[i]) && FloatContradictsType(v)) return Verdict::kType;
   if (!std::isfinite(v)) return Verdict::kType;
   if (unit == Unit::kMilliGauss) v = AsMilliGauss(m, i, v);

@@ -28,6 +28,28 @@ struct Samples {
     t.push_back(t_s);
     for (size_t i = 0; i < columns.size(); ++i) v.push_back(i < values.size() ? values[i] : kNaN);
   }
+  // Removes the columns without a single number (ArduPilot's "not available" NaN in every sample).
+  void DropUnmeasured() {
+    const size_t w = columns.size();
+    std::vector<size_t> keep;
+    for (size_t c = 0; c < w; ++c) {
+      for (size_t i = 0; i < t.size(); ++i) {
+        if (std::isfinite(v[i * w + c])) {
+          keep.push_back(c);
+          break;
+        }
+      }
+    }
+    if (keep.size() == w) return;
+    std::vector<std::string> nc;
+    std::vector<double> nv;
+    for (size_t c : keep) nc.push_back(columns[c]);
+    for (size_t i = 0; i < t.size(); ++i) {
+      for (size_t c : keep) nv.push_back(v[i * w + c]);
+    }
+    columns.swap(nc);
+    v.swap(nv);
+  }
   // The table, dropping samples with damaged time (see DataFlashStreams).
   FlightLog Table(size_t* dropped) const {
     FlightLog out;
@@ -181,6 +203,7 @@ std::vector<std::pair<std::string, FlightLog>> DataFlashStreams(std::string_view
     if (it == s.end()) continue;
     if (!s.count("ekf")) s["ekf"] = it->second;
   }
+  if (auto it = s.find("batt"); it != s.end()) it->second.DropUnmeasured();  // a current never measured
   std::vector<std::pair<std::string, FlightLog>> out;
   for (const char* name : {"imu", "imu2", "imu3", "rcou", "batt", "baro", "gps", "mag", "mag2", "mag3", "ekf", "ctun"}) {
     auto it = s.find(name);

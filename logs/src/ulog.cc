@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <set>
+#include <string_view>
 
 #include <fmt/format.h>
 
@@ -13,6 +15,13 @@ namespace {
 constexpr char kMagic[7] = {'U', 'L', 'o', 'g', 0x01, 0x12, 0x35};
 constexpr size_t kHeaderBytes = 16;
 constexpr int kMaxNesting = 8;  // nested formats deeper than this are damage (PX4 uses 2–3)
+// The sync message's magic: PX4's logger writes one every few kB, so that a reader can find the
+// next message after damage.
+constexpr char kSyncMagic[8] = {0x2F, 0x73, 0x13, 0x20, 0x25, 0x0C, static_cast<char>(0xBB), 0x12};
+// The message types of the format (B F I M P Q A R D L C S O); no message of any type is empty.
+bool IsMessageHeader(char type, size_t size) {
+  return size > 0 && type != '\0' && std::string_view("BFIMPQARDLCSO").find(type) != std::string_view::npos;
+}
 
 // Little-endian reads from a byte buffer (ULog is little-endian).
 template <typename T>
@@ -140,12 +149,26 @@ Result<ULog> ParseULog(const std::string& bytes, const std::string& name) {
   ULog log;
   log.version = static_cast<uint8_t>(bytes[7]);
   log.start_us = Read<uint64_t>(bytes.data() + 8);
+  log.file_bytes = bytes.size();
   Formats formats;
   std::map<uint16_t, size_t> by_msg_id;  // subscription → index in topics
+  std::set<uint16_t> unread_ids;         // subscriptions whose format we cannot flatten
   size_t pos = kHeaderBytes;
   while (pos + 3 <= bytes.size()) {
     const size_t size = Read<uint16_t>(bytes.data() + pos);
     const char type = bytes[pos + 2];
+    const bool orphan = type == 'D' && size >= 2 && by_msg_id.count(Read<uint16_t>(bytes.data() + pos + 3)) == 0 &&
+                        unread_ids.count(Read<uint16_t>(bytes.data() + pos + 3)) == 0;
+    if (!IsMessageHeader(type, size) || orphan || (type == 'D' && size < 2)) {
+      // Damage: no message starts here (or data of no subscription). Resume at the next sync
+      // message (its 3-byte header precedes the magic); without one the rest is lost.
+      const size_t magic = bytes.find(std::string_view(kSyncMagic, sizeof kSyncMagic), pos + 4);
+      const size_t resume = magic == std::string::npos ? bytes.size() : magic - 3;
+      log.bytes_damaged += resume - pos;
+      ++log.damaged_runs;
+      pos = resume;
+      continue;
+    }
     if (pos + 3 + size > bytes.size()) break;  // truncated tail
     const char* p = bytes.data() + pos + 3;
     pos += 3 + size;
@@ -186,7 +209,10 @@ Result<ULog> ParseULog(const std::string& bytes, const std::string& name) {
         ULogTopic topic;
         topic.name.assign(p + 3, size - 3);
         topic.multi_id = multi;
-        if (!Flatten(formats, topic.name, "", 0, 0, &topic.fields, &topic.record_size) || topic.record_size < 8) break;
+        if (!Flatten(formats, topic.name, "", 0, 0, &topic.fields, &topic.record_size) || topic.record_size < 8) {
+          unread_ids.insert(msg_id);
+          break;
+        }
         // PX4's logger drops a format's trailing padding from every record: a record may end
         // where its last real field ends.
         for (const auto& f : topic.fields) topic.logged_size = std::max(topic.logged_size, f.offset + BasicSize(f.type));
@@ -197,7 +223,7 @@ Result<ULog> ParseULog(const std::string& bytes, const std::string& name) {
       case 'D': {
         if (size < 2) break;
         const auto it = by_msg_id.find(Read<uint16_t>(p));
-        if (it == by_msg_id.end()) break;
+        if (it == by_msg_id.end()) break;  // a subscription we cannot read
         ULogTopic& t = log.topics[it->second];
         if (size - 2 < t.logged_size) break;  // short record: damage, skipped
         t.records.emplace_back(p + 2, std::min<size_t>(size - 2, t.record_size));

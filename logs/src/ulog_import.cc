@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <functional>
+#include <limits>
 
 #include <fmt/format.h>
 
@@ -20,6 +21,7 @@ using internal::MagFrame;
 constexpr double kRadToDeg = 57.29577951308232;
 constexpr double kMicroteslaPerGauss = 100.0;
 constexpr double kGps3dFix = 3;  // vehicle_gps_position fix_type: 3 = 3-D fix
+constexpr double kCurrentUnknown_A = -1.0;  // battery_status.current_a: "-1 if unknown"
 
 // vehicle_gps_position: PX4 1.14 on logs latitude_deg/longitude_deg/altitude_msl_m; before, lat/lon in
 // 1e-7 deg and alt in mm.
@@ -414,7 +416,11 @@ Channel MotorOutputs(const ULog& u, int motors) {
 // The power side: battery current and voltage, the motors' outputs, the collective thrust (control_u).
 void AddPowerChannels(const ULog& u, int motors, std::vector<Channel>* channels) {
   if (const ULogTopic* b = u.Find("battery_status"); b != nullptr) {
-    channels->push_back({b, "batt", {{"current_A", [b](size_t i) { return b->Get(i, "current_a"); }},
+    // PX4's battery_status: current_a is -1 where the monitor has no current ("-1 if unknown")
+    channels->push_back({b, "batt", {{"current_A", [b](size_t i) {
+                                        const double a = b->Get(i, "current_a");
+                                        return a == kCurrentUnknown_A ? std::numeric_limits<double>::quiet_NaN() : a;
+                                      }},
                                      {"voltage_V", [b](size_t i) { return b->Get(i, "voltage_v"); }}}, nullptr});
   }
   if (Channel c = MotorOutputs(u, motors); c.topic != nullptr) channels->push_back(std::move(c));
@@ -525,6 +531,13 @@ void WriteMeta(const ULog& u, const std::string& name, const ImportFacts& f, ULo
   meta["compass_units"] = "uT (PX4 logs gauss: x100)";
   meta["messages_text"] = u.messages;
   meta["bytes_skipped"] = u.bytes_skipped;
+  meta["bytes_damaged"] = u.bytes_damaged;
+  if (u.bytes_damaged > 0) {
+    out->warnings.push_back(fmt::format("{}: damaged: {} bytes in {} places hold no readable message ({:.2g} % of the "
+                                        "file); each was skipped to the next sync message, its records are lost",
+                                        name, u.bytes_damaged, u.damaged_runs,
+                                        100.0 * static_cast<double>(u.bytes_damaged) / static_cast<double>(u.file_bytes)));
+  }
   meta["stream_samples_dropped"] = f.dropped;
   if (u.bytes_skipped > 0) {
     out->warnings.push_back(fmt::format("{}: truncated: the file ends inside a record ({} bytes of it); everything before "

@@ -48,7 +48,11 @@ std::string ULogInfo(const ULog& u, const std::string& name) {
     if (OfInterest(p)) params += fmt::format("    {} = {:g}\n", p, v);
   }
   if (!params.empty()) out += "  parameters of interest:\n" + params;
-  if (u.bytes_skipped > 0) out += fmt::format("  damaged or truncated: {} bytes skipped\n", u.bytes_skipped);
+  if (u.bytes_damaged > 0) {
+    out += fmt::format("  damaged: {} bytes in {} places skipped to the next sync message\n", u.bytes_damaged,
+                       u.damaged_runs);
+  }
+  if (u.bytes_skipped > 0) out += fmt::format("  truncated: the last {} bytes are a cut message\n", u.bytes_skipped);
   return out;
 }
 

@@ -166,6 +166,83 @@ TEST(CurrentCheck, GivenALogWithoutFlight_WhenChecked_ThenTheCurrentIsNotJudgedA
   EXPECT_NE(c.note.find("no flight rows"), std::string::npos) << c.note;
 }
 
+TEST(CurrentCheck, GivenAFlightWithoutAMotorCount_WhenPrinted_ThenTheLineSaysTheCountIsUnknownNotZeroMotors) {
+  // Given: a flight known from control_u alone (ArduCopter 3.1: no RCOU, no frame in the log)
+  FlightLog log;
+  for (int i = 0; i < 50; ++i) {
+    log.AppendRow();
+    log.Set("t_s", 0.1 * i);
+    log.Set("current_A", 27.4);
+    log.Set("voltage_V", 15.0);
+    log.Set("control_u", 550.0);
+  }
+  // When
+  const CurrentSensorCheck c = CheckCurrentSensor(log);
+  const std::string line = CurrentCheckLine(c);
+  // Then
+  EXPECT_TRUE(c.usable) << c.why;
+  EXPECT_TRUE(c.checked);
+  EXPECT_EQ(c.motors, 0);
+  EXPECT_EQ(line.find("0 motors"), std::string::npos) << line;
+  EXPECT_NE(line.find("motor count unknown"), std::string::npos) << line;
+}
+
+TEST(CurrentCheck, GivenMotorsAtFlightOutputButNoClimb_WhenChecked_ThenTheCurrentIsNotJudgedAsAFlightCurrent) {
+  // Given: 30 s at motor output 0.49 and 2.6 A on a 12S pack, the barometer within ±0.05 m (a
+  // props-off run of a 4.7.0-dev heavy quad), and the same with a climb to 5 m
+  auto make = [](double climb_m) {
+    FlightLog log;
+    for (int i = 0; i < 300; ++i) {
+      log.AppendRow();
+      log.Set("t_s", 0.1 * i);
+      log.Set("current_A", 2.6);
+      log.Set("voltage_V", 51.2);
+      log.Set("motor_1_u", 0.49);
+      log.Set("baro_alt_m", 0.05 * std::sin(0.7 * i) + climb_m * std::min(1.0, i / 100.0));
+    }
+    return log;
+  };
+  // When
+  const CurrentSensorCheck ground = CheckCurrentSensor(make(0.0));
+  const CurrentSensorCheck flown = CheckCurrentSensor(make(5.0));
+  // Then
+  EXPECT_FALSE(ground.checked);
+  EXPECT_EQ(ground.flight_rows, 0u);
+  EXPECT_NE(ground.note.find("a run on the ground"), std::string::npos) << ground.note;
+  EXPECT_TRUE(flown.checked);
+  EXPECT_EQ(flown.flight_rows, 300u);
+}
+
+TEST(CurrentCheck, GivenALogOfOneMotor_WhenTheCurrentIsJudged_ThenTheLineSaysTheLogsCountBesideTheThree) {
+  // A PX4 1.17 log with CA_ROTOR_COUNT 1 was judged "over 3 motors", the log's own count unsaid
+  FlightLog log;
+  log.meta["motor_count"] = 1;
+  for (int i = 0; i < 50; ++i) {
+    log.AppendRow();
+    log.Set("t_s", 0.1 * i);
+    log.Set("current_A", 0.0);
+    log.Set("voltage_V", 15.0);
+    log.Set("motor_1_u", 0.5);
+  }
+  const CurrentSensorCheck c = CheckCurrentSensor(log);
+  EXPECT_FALSE(c.usable);
+  EXPECT_NE(c.why.find("over 3 motors (the log says 1: a multirotor has at least 3)"), std::string::npos) << c.why;
+}
+
+TEST(CurrentCheck, GivenACurrentColumnWithoutANumber_WhenChecked_ThenTheLogHasNoCurrent) {
+  FlightLog log;
+  for (int i = 0; i < 50; ++i) {
+    log.AppendRow();
+    log.Set("t_s", 0.1 * i);
+    log.Set("current_A", std::nan(""));
+    log.Set("voltage_V", 15.0);
+    log.Set("motor_1_u", 0.5);
+  }
+  const CurrentSensorCheck c = CheckCurrentSensor(log);
+  EXPECT_FALSE(c.usable);
+  EXPECT_NE(c.why.find("the log has no current"), std::string::npos) << c.why;
+}
+
 TEST(DamageLines, GivenALogCutInsideItsLastMessage_WhenImported_ThenOneTruncationLineAndACleanLogSaysNothing) {
   const std::string clean = HoverLog(CurrForm::kFloat34, 14.0, 15.2).bytes();
   const ImportResult ok = MustImport(clean);

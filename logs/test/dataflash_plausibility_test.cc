@@ -3,6 +3,7 @@
 #include "hexsim/logs/dataflash_plausibility.h"
 
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <set>
 
@@ -135,6 +136,53 @@ TEST(DataFlashPlausibility, GivenFloatsAndNamesTheirFmtCannotMean_WhenImported_T
   EXPECT_EQ(r->records.by_message.at("MAG"), 2u);
   EXPECT_EQ(r->records.by_message.at("PARM"), 1u);
   EXPECT_EQ(r->log.meta["params"].size(), 1u) << r->log.meta["params"].dump();
+}
+
+// ArduPilot's "not available" value, AP_Logger::quiet_nanf() (bits 0x7FC04152), as the writer's double.
+double ArduPilotNotAvailable() {
+  const uint32_t bits = 0x7FC04152u;
+  float f = 0;
+  std::memcpy(&f, &bits, sizeof f);
+  return static_cast<double>(f);
+}
+
+TEST(DataFlashPlausibility, GivenABatteryMonitorWithoutCurrent_WhenImported_ThenItsRecordsStayWithVoltageAndNoCurrent) {
+  // Given: ArduCopter 4.x BAT records of a voltage-only monitor: Curr, CurrTot, EnrgTot are
+  // ArduPilot's "not available" NaN in every record (a real 4.5.7 log: all 293 BAT records)
+  DataFlashWriter w = SmallLog(20);
+  w.Fmt(134, "BAT", "QBffffff", "TimeUS,Inst,Volt,VoltR,Curr,CurrTot,EnrgTot,Temp");
+  const double na = ArduPilotNotAvailable();
+  for (int i = 0; i < 20; ++i) w.Msg(134, "QBffffff", {1e6 + 1e5 * i, 0, 50.4, 50.4, na, na, na, 0});
+  // When
+  auto r = ImportDataFlash(w.bytes(), "voltage_only.bin");
+  // Then: nothing is damage, the voltage is imported, and there is no current column at all
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_EQ(r->records.type, 0u);
+  EXPECT_EQ(r->records.by_message.count("BAT"), 0u);
+  EXPECT_TRUE(r->log.Has("voltage_V"));
+  EXPECT_FALSE(r->log.Has("current_A"));
+  const FlightLog* batt = r->log.Stream("batt");
+  ASSERT_NE(batt, nullptr);
+  EXPECT_TRUE(batt->Has("voltage_V"));
+  EXPECT_FALSE(batt->Has("current_A"));
+}
+
+TEST(DataFlashPlausibility, GivenCurrentNotAvailableOnlyBeforeTheSensorsFirstReading_WhenImported_ThenTheReadingsStay) {
+  // Given: the first 5 BAT records before the monitor's first current reading, then 15 readings
+  DataFlashWriter w = SmallLog(20);
+  w.Fmt(134, "BAT", "Qfff", "TimeUS,Volt,Curr,CurrTot");
+  for (int i = 0; i < 20; ++i) {
+    const double a = i < 5 ? ArduPilotNotAvailable() : 12.5;
+    w.Msg(134, "Qfff", {1e6 + 1e5 * i, 16.0, a, a});
+  }
+  // When
+  auto r = ImportDataFlash(w.bytes(), "late_current.bin");
+  // Then
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_EQ(r->records.type, 0u);
+  ASSERT_TRUE(r->log.Has("current_A"));
+  const std::vector<double>& cur = r->log.Column("current_A");
+  EXPECT_EQ(cur.back(), 12.5);
 }
 
 TEST(DataFlashPlausibility, GivenAFewNonZeroMotorOffsetsWithoutCompensation_WhenImported_ThenNoMotorColumns) {

@@ -130,5 +130,85 @@ TEST(ULog, GivenDamagedOrForeignBytes_WhenImported_ThenBadInputOrSkippedNeverACr
   EXPECT_EQ(ImportULog(w.bytes(), "loop.ulg").status().code(), StatusCode::kBadInput);
 }
 
+// A level vehicle's attitude at 10 Hz for `seconds`, from `t0_us`, into `w` (msg_id `att`).
+void Attitudes(ULogWriter* w, uint16_t att, uint64_t t0_us, int n) {
+  for (int k = 0; k < n; ++k) {
+    const uint64_t t_us = t0_us + 100000ull * static_cast<uint64_t>(k);
+    w->Data(att, Pack(t_us) + Pack<float>(1) + Pack<float>(0) + Pack<float>(0) + Pack<float>(0));
+  }
+}
+
+std::string SyncMessage() {
+  const char magic[8] = {0x2F, 0x73, 0x13, 0x20, 0x25, 0x0C, static_cast<char>(0xBB), 0x12};
+  return Pack<uint16_t>(8) + "S" + std::string(magic, 8);
+}
+
+TEST(ULog, GivenGarbageInsideTheFileBeforeASyncMessage_WhenImported_ThenTheDataAfterItIsReadAndTheDamageIsNamed) {
+  // Given: 5 s of attitude, 300 bytes where no message starts (an unknown type, then a size that
+  // would reach past the end of the file), a sync message, 5 more seconds
+  ULogWriter w;
+  w.Format("vehicle_attitude:uint64_t timestamp;float[4] q;");
+  const uint16_t att = w.Subscribe("vehicle_attitude", 0);
+  Attitudes(&w, att, 1000000, 50);
+  const std::string before = w.bytes();
+  Attitudes(&w, att, 6000000, 50);
+  std::string garbage = Pack<uint16_t>(40) + "#" + std::string(37, '\x5a');
+  garbage += Pack<uint16_t>(65000) + "D" + std::string(257, '\x11');
+  const std::string bytes = before + garbage + SyncMessage() + w.bytes().substr(before.size());
+  // When
+  auto r = ImportULog(bytes, "damaged.ulg");
+  // Then: all 100 rows, the damage counted as damage (not as a truncated file)
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  EXPECT_EQ(r->log.rows(), 100u);
+  EXPECT_EQ(r->log.meta["bytes_damaged"].get<size_t>(), garbage.size());
+  EXPECT_EQ(r->log.meta["bytes_skipped"].get<size_t>(), 0u);
+  ASSERT_EQ(r->warnings.size(), 1u);
+  EXPECT_NE(r->warnings[0].find("damaged: 300 bytes in 1 places"), std::string::npos) << r->warnings[0];
+  EXPECT_EQ(r->warnings[0].find("truncated"), std::string::npos) << r->warnings[0];
+}
+
+TEST(ULog, GivenDataOfASubscriptionItCannotReadAndOfNone_WhenParsed_ThenOnlyTheUnsubscribedIsDamage) {
+  // Given: a subscription to a format with an unknown type (its data is skipped quietly), and one
+  // data message whose msg_id no subscription has (damage: the parser resumes at the next sync)
+  ULogWriter w;
+  w.Format("vehicle_attitude:uint64_t timestamp;float[4] q;");
+  w.Format("odd:uint64_t timestamp;quaternion_t q;");
+  const uint16_t att = w.Subscribe("vehicle_attitude", 0);
+  const uint16_t odd = w.Subscribe("odd", 0);
+  for (int k = 0; k < 10; ++k) w.Data(odd, Pack<uint64_t>(1000000 + k) + std::string(16, '\0'));
+  Attitudes(&w, att, 1000000, 20);
+  const std::string before = w.bytes();
+  Attitudes(&w, att, 3000000, 20);
+  const std::string stray = Pack<uint16_t>(10) + "D" + Pack<uint16_t>(77) + std::string(8, '\0');
+  const std::string bytes = before + stray + SyncMessage() + w.bytes().substr(before.size());
+  // When
+  auto u = ParseULog(bytes, "stray.ulg");
+  // Then
+  ASSERT_TRUE(u.ok()) << u.status().message();
+  EXPECT_EQ(u->bytes_damaged, stray.size());
+  EXPECT_EQ(u->damaged_runs, 1u);
+  ASSERT_NE(u->Find("vehicle_attitude"), nullptr);
+  EXPECT_EQ(u->Find("vehicle_attitude")->records.size(), 40u);
+}
+
+TEST(ULog, GivenABatteryWithoutACurrent_WhenImported_ThenThereIsNoCurrentNotMinusOneAmp) {
+  // Given: PX4's battery_status of a voltage-only monitor: current_a -1 ("-1 if unknown")
+  ULogWriter w;
+  w.Format("vehicle_attitude:uint64_t timestamp;float[4] q;");
+  w.Format("battery_status:uint64_t timestamp;float voltage_v;float current_a;");
+  const uint16_t att = w.Subscribe("vehicle_attitude", 0);
+  const uint16_t bat = w.Subscribe("battery_status", 0);
+  Attitudes(&w, att, 1000000, 30);
+  for (int k = 0; k < 30; ++k) w.Data(bat, Pack<uint64_t>(1000000 + 100000ull * k) + Pack(15.9f) + Pack(-1.0f));
+  // When
+  auto r = ImportULog(w.bytes(), "volts.ulg");
+  // Then
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  for (double a : r->log.Column("current_A")) EXPECT_FALSE(std::isfinite(a)) << a;
+  EXPECT_FALSE(r->log.meta["current_usable"].get<bool>());
+  EXPECT_NE(r->log.meta["current_unusable_why"].get<std::string>().find("the log has no current"), std::string::npos)
+      << r->log.meta["current_unusable_why"];
+}
+
 }  // namespace
 }  // namespace hexsim::logs

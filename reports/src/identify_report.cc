@@ -73,9 +73,15 @@ std::string HeldOutTable(const identify::IdentifyResult& r) {
                         "class=\"n\">{:.3f}</td><td class=\"n\">{}</td></tr>",
                         h.output, HtmlEscape(h.unit), h.rms_measured, h.rms_residual, h.r2, h.samples);
   }
-  html += fmt::format("<tr><td>dynamics (3 axes, RMS about zero)</td><td>m/s^2</td><td class=\"n\">base vehicle "
-                      "{:.3g}</td><td class=\"n\">identified {:.3g}</td><td></td><td></td></tr></table></div>",
-                      r.dynamics_rms_base, r.dynamics_rms_identified);
+  if (r.dynamics_not_comparable.empty()) {
+    html += fmt::format("<tr><td>dynamics (3 axes, RMS about zero)</td><td>m/s^2</td><td class=\"n\">base vehicle "
+                        "{:.3g}</td><td class=\"n\">identified {:.3g}</td><td></td><td></td></tr>",
+                        r.dynamics_rms_base, r.dynamics_rms_identified);
+  } else {
+    html += "<tr><td>dynamics (3 axes, RMS about zero)</td><td>m/s^2</td><td colspan=\"4\">not compared: " +
+            render::HtmlEscape(r.dynamics_not_comparable) + "</td></tr>";
+  }
+  html += "</table></div>";
   return html;
 }
 

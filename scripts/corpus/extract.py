@@ -14,6 +14,9 @@ FRAME_CLASS_MOTORS = {1: 4, 2: 6, 3: 8, 4: 8, 5: 6, 7: 3, 10: 1, 12: 4, 14: 4}
 FLIGHT_OUTPUT_MIN = 0.25
 EDGE_S = 2.0          # seconds cut at each end of a flight segment (take-off, landing)
 MIN_SEGMENT_S = 5.0   # shorter airborne segments are not flight
+# a segment in which the barometer's height spans less than this (5th..95th percentile) never left
+# the ground: motors run props-off or tied down (a barometer on the ground reads within +-0.1 m)
+MIN_CLIMB_M = 0.5
 
 
 def euler_to_r(roll, pitch, yaw):
@@ -67,6 +70,19 @@ def segments(t, mask):
     return out
 
 
+def climbed(segs, t_h, h):
+    """The segments over which the height series (t_h, h) spans MIN_CLIMB_M or more; all of them
+    where no height is logged (fewer than ten samples in a segment keep it too)."""
+    if t_h is None or not len(t_h):
+        return segs
+    out = []
+    for a, b in segs:
+        m = (t_h >= a) & (t_h <= b) & np.isfinite(h)
+        if m.sum() < 10 or np.percentile(h[m], 95) - np.percentile(h[m], 5) >= MIN_CLIMB_M:
+            out.append((a, b))
+    return out
+
+
 def in_segments(t, segs):
     m = np.zeros(len(t), bool)
     for a, b in segs:
@@ -91,7 +107,8 @@ def _df_frame(log):
     for _, s in log.texts:
         if s.startswith("Frame:"):
             name = s.split(":", 1)[1].strip().split()[0].upper()
-            return name, FRAME_MOTORS.get(name)
+            # ArduCopter 4.x prints class/type ("QUAD/X", "HEXA/H"): the class names the motors
+            return name, FRAME_MOTORS.get(name.split("/")[0])
     fc = log.params.get("FRAME_CLASS")
     if fc is not None:
         return "FRAME_CLASS %d" % fc, FRAME_CLASS_MOTORS.get(int(fc))
@@ -101,7 +118,7 @@ def _df_frame(log):
 def _df_outputs(log, motors):
     rc = log.msgs.get("RCOU")
     if rc is None:
-        return None, None
+        return _df_ctun_throttle(log)
     t = np.array(log.time_s("RCOU"))
     chans = []
     for k in range(1, 15):
@@ -121,6 +138,21 @@ def _df_outputs(log, motors):
         return t, None
     out = (np.vstack(good).mean(axis=0) - lo) / (hi - lo)
     return t, out
+
+
+def _df_ctun_throttle(log):
+    """The throttle output 0..1 of CTUN (ThrOut, or ThO from 3.4 on) where the log has no RCOU
+    (LOG_BITMASK without RC outputs: ArduCopter 3.1 logs); None where CTUN has none either."""
+    ct = log.msgs.get("CTUN")
+    if ct is None:
+        return None, None
+    for name in ("ThO", "ThrOut"):
+        if name in ct:
+            v = np.array(ct[name], float)
+            if np.nanmax(v) > 2.0:   # an unscaled 0..1000 integer (a log whose FMTU omits it)
+                v = v / 1000.0
+            return np.array(log.time_s("CTUN")), v
+    return None, None
 
 
 def _df_armed(log, t):
@@ -165,8 +197,12 @@ def read_dataflash(path):
         mm = log.msgs[m]
         t = np.array(log.time_s(m))
         xyz = np.vstack([mm["MagX"], mm["MagY"], mm["MagZ"]]).T * 100.0  # gauss -> uT
-        if "MOfsX" in mm:   # undo the autopilot's own motor compensation (COMPASS_MOTCT 1/2):
-            xyz -= np.vstack([mm["MOfsX"], mm["MOfsY"], mm["MOfsZ"]]).T * 100.0  # absolute k
+        # undo the autopilot's own motor compensation (COMPASS_MOTCT 1/2) for the absolute k: the
+        # offset it added is logged as MOfsX/Y/Z (ArduCopter <= 3.x) or MOX/Y/Z (4.x)
+        for mo in (("MOfsX", "MOfsY", "MOfsZ"), ("MOX", "MOY", "MOZ")):
+            if mo[0] in mm:
+                xyz -= np.vstack([mm[a] for a in mo]).T * 100.0
+                break
         if "I" in mm:   # one MAG table with instances (ArduPilot 4.x)
             ids = np.array(mm["I"])
             for k in sorted(set(ids.tolist())):
@@ -180,10 +216,14 @@ def read_dataflash(path):
             c = log.msgs[m]
             t = np.array(log.time_s(m))
             sel = np.ones(len(t), bool)
-            if "Instance" in c:
-                sel = np.array(c["Instance"]) == 0
-            f.cur_t, f.cur_a = t[sel], np.array(c["Curr"], float)[sel]
-            f.volt_v = np.array(c["Volt"], float)[sel]
+            for inst in ("Instance", "Inst"):   # the first battery monitor (3.x, 4.x names)
+                if inst in c:
+                    sel = np.array(c[inst]) == 0
+                    break
+            sel &= np.isfinite(np.array(c["Curr"], float))  # 4.x logs NaN: no current sensor
+            if sel.any():
+                f.cur_t, f.cur_a = t[sel], np.array(c["Curr"], float)[sel]
+                f.volt_v = np.array(c["Volt"], float)[sel]
             break
     vmax = log.params.get("MOT_BAT_VOLT_MAX")
     f.cells = int(round(vmax / 4.2)) if vmax else None
@@ -193,6 +233,12 @@ def read_dataflash(path):
     if f.thr is not None:
         flying = _df_armed(log, f.thr_t) & (f.thr > FLIGHT_OUTPUT_MIN)
         f.segs = segments(f.thr_t, flying)
+        if "BARO" in log.msgs and "Alt" in log.msgs["BARO"]:
+            b = log.msgs["BARO"]
+            sel = np.ones(len(b["Alt"]), bool)
+            if "I" in b:
+                sel = np.array(b["I"]) == 0
+            f.segs = climbed(f.segs, np.array(log.time_s("BARO"))[sel], np.array(b["Alt"], float)[sel])
     else:
         f.segs = []
     return f
@@ -226,9 +272,13 @@ def read_ulog(path):
     f.motors = None
     t_all = [np.array(v["timestamp"]) * 1e-6 for v in log.topics.values() if "timestamp" in v
              and len(v["timestamp"])]
-    f.t0 = min(x.min() for x in t_all)
-    f.duration_s = max(x.max() for x in t_all) - f.t0
+    if not t_all:
+        raise ValueError("no timestamped topic in the log")
+    f.t0, end = ulog_span(log.start_us * 1e-6, t_all)
+    f.duration_s = end - f.t0
     va = log.topic("vehicle_attitude")
+    if va is None:
+        raise ValueError("no vehicle_attitude topic (not a PX4 flight log)")
     f.att_t = np.array(va["timestamp"]) * 1e-6
     f.att_r = quat_to_r(*(np.array(va["q[%d]" % k]) for k in range(4)))
     f.compasses = _ulog_compasses(log)
@@ -236,9 +286,12 @@ def read_ulog(path):
     f.cur_t = f.cur_a = f.volt_v = None
     f.cells = None
     if bs is not None:
-        f.cur_t = np.array(bs["timestamp"]) * 1e-6
-        f.cur_a = np.array(bs["current_a"], float)
-        f.volt_v = np.array(bs.get("voltage_v", bs.get("voltage_filtered_v")), float)
+        cur = np.array(bs["current_a"], float)
+        measured = cur >= 0.0     # PX4 writes current_a -1 where no current is measured
+        if measured.any():
+            f.cur_t = (np.array(bs["timestamp"]) * 1e-6)[measured]
+            f.cur_a = cur[measured]
+            f.volt_v = np.array(bs.get("voltage_v", bs.get("voltage_filtered_v")), float)[measured]
         if "cell_count" in bs:
             f.cells = int(np.median(bs["cell_count"])) or None
     if f.cells is None and log.params.get("BAT_N_CELLS"):
@@ -271,6 +324,9 @@ def read_ulog(path):
         f.segs = segments(grid, air[idx])
     elif f.thr is not None:
         f.segs = segments(f.thr_t, f.thr > FLIGHT_OUTPUT_MIN)
+        air = log.topic("vehicle_air_data")
+        if air is not None and "baro_alt_meter" in air:
+            f.segs = climbed(f.segs, np.array(air["timestamp"]) * 1e-6, np.array(air["baro_alt_meter"], float))
     else:
         f.segs = []
     return f
@@ -291,25 +347,31 @@ def _ulog_external(log, dev, multi):
 
 def _ulog_compasses(log):
     """Body-frame compass series. vehicle_magnetometer (PX4's own rotated, calibrated stream)
-    where logged, else sensor_mag turned into the body frame by CAL_MAGn_ROT."""
+    where logged, and sensor_mag (turned into the body frame by CAL_MAGn_ROT) for each device
+    vehicle_magnetometer does not carry: PX4 publishes vehicle_magnetometer for the selected or
+    the calibrated compasses only, and logs every driver's sensor_mag (PX4 1.16: the external one
+    as vehicle_magnetometer, the internal one only as sensor_mag)."""
     out = []
     for multi in range(4):
         vm = log.topic("vehicle_magnetometer", multi)
         if vm is None:
             continue
-        dev = vm["device_id"][0]
+        dev = vm.get("device_id", [None])[0]    # PX4 <= 1.11 logs no device_id here
         ext, _ = _ulog_external(log, dev, multi)
         xyz = np.vstack([vm["magnetometer_ga[%d]" % k] for k in range(3)]).T * 100.0
         out.append({"name": "vehicle_magnetometer[%d]" % multi,
                     "t": np.array(vm["timestamp"]) * 1e-6, "xyz": xyz, "external": ext,
                     "device_id": dev, "use": None, "motct": None, "mot": [None] * 3})
-    if out:
+    covered = {c["device_id"] for c in out}
+    if None in covered:          # PX4 <= 1.11: no device_id to tell which sensor_mag is covered
         return out
     for multi in range(4):
         sm = log.topic("sensor_mag", multi)
         if sm is None:
             continue
         dev = sm.get("device_id", [None])[0]
+        if out and (dev is None or dev in covered):
+            continue
         xyz = np.vstack([sm["x"], sm["y"], sm["z"]]).T * 100.0  # gauss -> uT
         ext, rot = _ulog_external(log, dev, multi)
         if "is_external" in sm:
@@ -321,7 +383,40 @@ def _ulog_compasses(log):
         out.append({"name": "sensor_mag[%d]" % multi, "t": np.array(sm["timestamp"]) * 1e-6,
                     "xyz": xyz, "external": ext, "device_id": dev, "use": None,
                     "motct": None, "mot": [None] * 3})
-    return out
+    if out:
+        return out
+    return _ulog_combined_mag(log)
+
+
+def _ulog_combined_mag(log):
+    """PX4 <= 1.6 logs the compass only inside sensor_combined (magnetometer_ga, body frame,
+    its own time as magnetometer_timestamp_relative): one sample per new compass time."""
+    sc = log.topic("sensor_combined")
+    if sc is None or "magnetometer_ga[0]" not in sc:
+        return []
+    t = np.array(sc["timestamp"], float)
+    rel = np.array(sc.get("magnetometer_timestamp_relative", np.zeros(len(t))), float)
+    ok = rel != RELATIVE_TIMESTAMP_INVALID
+    tm = (t + rel)[ok] * 1e-6
+    xyz = np.vstack([np.array(sc["magnetometer_ga[%d]" % k])[ok] for k in range(3)]).T * 100.0
+    first = np.concatenate([[True], np.diff(tm) > 0])
+    return [{"name": "sensor_combined.magnetometer", "t": tm[first], "xyz": xyz[first],
+             "external": None, "device_id": None, "use": None, "motct": None, "mot": [None] * 3}]
+
+
+RELATIVE_TIMESTAMP_INVALID = 0x7FFFFFFF   # PX4 sensor_combined: that sensor had no new sample
+
+
+def ulog_span(header_s, stamps):
+    """(start, end) of a ULog in seconds since boot. The start is the logger's start (the file
+    header's timestamp): topics published before it carry earlier stamps (a transponder_report
+    stamped 0, a parameter_update from boot: 2400 s before a 30-s log of flugdrohne log_41). Where
+    the header is not a time inside the data (0), the earliest non-zero stamp stands for it."""
+    end = max(float(x.max()) for x in stamps)
+    if 0.0 < header_s <= end:
+        return header_s, end
+    firsts = [float(x[x > 0].min()) for x in stamps if (x > 0).any()]
+    return (min(firsts) if firsts else 0.0), end
 
 
 def read(path):

@@ -1,6 +1,7 @@
 """Write the corpus index (README.md beside the logs) from sources.json and the logs themselves.
 
-usage: index.py CORPUS_DIR  (sources.json is read from this script's folder)
+usage: index.py CORPUS_DIR  (the sources are CORPUS_DIR/sources.json, which gather.py writes beside
+the logs; where it is absent, the sources.json of this script's folder)
 """
 
 import datetime
@@ -28,7 +29,8 @@ def describe(root, src):
 
 def main(root):
     here = os.path.dirname(os.path.abspath(__file__))
-    sources = json.load(open(os.path.join(here, "sources.json")))
+    beside = os.path.join(root, "sources.json")
+    sources = json.load(open(beside if os.path.exists(beside) else os.path.join(here, "sources.json")))
     out = ["# Real-log corpus", "",
            "Public real flight logs for hexsim's issue-29 checks, gathered with the search tool's "
            "`fetch` (snapshots of public GitHub repositories). Written by "
@@ -55,7 +57,7 @@ def main(root):
         len(sources), len(set(s["repo"] for s in sources))), "",
             "Beside this file, written by `bash scripts/corpus/run.sh HEXSIM`: `reference.md`/`.json` "
             "(the independent reference per compass), `check.md`/`.json` (hexsim against it) and "
-            "`STATUS.md` (the failures only; `STATUS-main.md` is the run on main 45f04d0)."]
+            "`STATUS.md` (the failures only)."]
     with open(os.path.join(root, "README.md"), "w") as fh:
         fh.write("\n".join(out) + "\n")
 

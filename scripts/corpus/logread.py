@@ -175,14 +175,23 @@ UL_TYPES = {
 }
 
 
+# ULog message types (format spec: B F I M P Q A R D L C S O) and the sync marker written
+# after a dropout; a message larger than UL_MAX_MSG is corruption (PX4's largest topic is ~2 kB;
+# pyulog uses 10000 too)
+UL_MSG_TYPES = set(b"BFIMPQARDLCSO")
+UL_SYNC = bytes([0x2F, 0x73, 0x13, 0x20, 0x25, 0x0C, 0xBB, 0x12])
+UL_MAX_MSG = 10000
+
+
 class ULog:
     """topics[(name, multi_id)][field] -> list; params; info; truncated flag."""
 
     def __init__(self, path):
         with open(path, "rb") as fh:
             self.raw = fh.read()
-        if self.raw[:4] != b"ULog":
+        if self.raw[:4] != b"ULog" or len(self.raw) < 16:
             raise ValueError("not a ULog file")
+        self.start_us = struct.unpack_from("<Q", self.raw, 8)[0]   # the logger's start time
         self.formats = {}
         self.subs = {}
         self.params = {}
@@ -190,6 +199,7 @@ class ULog:
         self.texts = []
         self.topics = {}
         self.truncated = False
+        self.damaged_bytes = 0
         self._rows = {}
         self._parse()
 
@@ -223,58 +233,30 @@ class ULog:
         while i + 3 <= n:
             size, typ = struct.unpack_from("<HB", raw, i)
             body_start, body_end = i + 3, i + 3 + size
-            if body_end > n:
+            t = chr(typ)
+            ok = typ in UL_MSG_TYPES and 0 < size <= UL_MAX_MSG
+            if ok and body_end > n:
                 self.truncated = True
                 break
-            body = raw[body_start:body_end]
-            t = chr(typ)
-            if t == "F":
-                s = body.decode("latin-1")
-                name, fields = s.split(":", 1)
-                decl = []
-                for f in fields.split(";"):
-                    if f.strip():
-                        a, b = f.strip().split(" ", 1)
-                        decl.append((a, b))
-                self.formats[name] = decl
-            elif t == "A":
-                multi, mid = struct.unpack_from("<BH", body, 0)
-                name = body[3:].decode("latin-1")
-                lay = self._layout(name)
-                while lay and lay[-1][0] is None:   # trailing padding is not logged
-                    lay.pop()
-                st = struct.Struct("<" + "".join(c for _, c, _ in lay))
-                self.subs[mid] = (name, multi, lay, st)
-            elif t == "D":
-                mid = struct.unpack_from("<H", body, 0)[0]
-                if mid in self.subs:
-                    st = self.subs[mid][3]
-                    if len(body) - 2 >= st.size:
-                        self._rows.setdefault(mid, []).append(st.unpack_from(body, 2))
-            elif t in ("I", "P", "M", "Q"):
-                off = 1 if t == "M" else (1 if t == "Q" else 0)
-                klen = body[off]
-                key = body[off + 1:off + 1 + klen].decode("latin-1")
-                val = body[off + 1 + klen:]
-                typ_s, kname = key.split(" ", 1)
-                if typ_s == "float":
-                    v = struct.unpack("<f", val[:4])[0]
-                elif typ_s in ("int32_t", "uint32_t", "int64_t", "uint64_t"):
-                    code = {"int32_t": "<i", "uint32_t": "<I", "int64_t": "<q",
-                            "uint64_t": "<Q"}[typ_s]
-                    v = struct.unpack(code, val[:struct.calcsize(code)])[0]
-                elif typ_s.startswith("char"):
-                    v = val.decode("latin-1", "replace")
-                else:
-                    v = val
-                if t == "P" or (t == "Q" and kname not in self.params):
-                    self.params[kname] = v
-                elif t in ("I", "M"):
-                    self.info[kname] = v
-            elif t == "L":
-                ts = struct.unpack_from("<BQ", body, 0)
-                self.texts.append((ts[1] * 1e-6, body[9:].decode("latin-1", "replace")))
-            i = body_end
+            if ok:
+                try:
+                    ok = self._message(t, raw[body_start:body_end])
+                except (ValueError, KeyError, IndexError, struct.error, UnicodeError):
+                    ok = False
+            if ok:
+                i = body_end
+                continue
+            if ok is None:                 # well-framed but unusable (data of no subscription)
+                self.damaged_bytes += body_end - i
+                i = body_end
+                continue
+            # a corrupt message (unknown type, impossible size, unreadable body): resume at the
+            # next sync marker, as PX4's logger writes one after a dropout (pyulog does the same);
+            # the sync message's own 3-byte header precedes its magic
+            nxt = raw.find(UL_SYNC, i + 4)
+            resume = n if nxt < 0 else nxt - 3
+            self.damaged_bytes += resume - i
+            i = resume
         for mid, rows in self._rows.items():
             name, multi, lay, st = self.subs[mid]
             cols = {}
@@ -294,6 +276,61 @@ class ULog:
                     k += count
             self.topics[(name, multi)] = cols
         self._rows = {}
+
+    def _message(self, t, body):
+        """Decode one message into the tables: True; False where its body cannot be this type's
+        (a corrupt stream: a field without a type, a name not UTF-8); None for data of no
+        subscription (skipped alone: its framing is intact)."""
+        if t == "F":
+            s = body.decode("utf-8")
+            name, fields = s.split(":", 1)
+            decl = []
+            for f in fields.split(";"):
+                if f.strip():
+                    a, b = f.strip().split(" ", 1)
+                    decl.append((a, b))
+            self.formats[name] = decl
+        elif t == "A":
+            multi, mid = struct.unpack_from("<BH", body, 0)
+            name = body[3:].decode("latin-1")
+            if name not in self.formats:
+                return False
+            lay = self._layout(name)
+            while lay and lay[-1][0] is None:   # trailing padding is not logged
+                lay.pop()
+            st = struct.Struct("<" + "".join(c for _, c, _ in lay))
+            self.subs[mid] = (name, multi, lay, st)
+        elif t == "D":
+            mid = struct.unpack_from("<H", body, 0)[0]
+            if mid not in self.subs:
+                return None
+            st = self.subs[mid][3]
+            if len(body) - 2 >= st.size:
+                self._rows.setdefault(mid, []).append(st.unpack_from(body, 2))
+        elif t in ("I", "P", "M", "Q"):
+            off = 1 if t in ("M", "Q") else 0
+            klen = body[off]
+            key = body[off + 1:off + 1 + klen].decode("latin-1")
+            val = body[off + 1 + klen:]
+            typ_s, kname = key.split(" ", 1)
+            if typ_s == "float":
+                v = struct.unpack("<f", val[:4])[0]
+            elif typ_s in ("int32_t", "uint32_t", "int64_t", "uint64_t"):
+                code = {"int32_t": "<i", "uint32_t": "<I", "int64_t": "<q",
+                        "uint64_t": "<Q"}[typ_s]
+                v = struct.unpack(code, val[:struct.calcsize(code)])[0]
+            elif typ_s.startswith("char"):
+                v = val.decode("latin-1", "replace")
+            else:
+                v = val
+            if t == "P" or (t == "Q" and kname not in self.params):
+                self.params[kname] = v
+            elif t in ("I", "M"):
+                self.info[kname] = v
+        elif t == "L":
+            ts = struct.unpack_from("<BQ", body, 0)
+            self.texts.append((ts[1] * 1e-6, body[9:].decode("latin-1", "replace")))
+        return True
 
     def topic(self, name, multi=0):
         return self.topics.get((name, multi))

@@ -38,6 +38,11 @@ struct IdentifyOptions {
   double min_flight_s = 10.0;  // less flight than this is not identifiable (bad input)
   // Fit only on these blocks (empty: all). gap diagnose fits on even blocks and tests on odd ones.
   std::vector<int> fit_blocks;
+  // The base vehicle's mass is this airframe's (a vehicle file given for it, `--base`): the logged
+  // electrical power is then judged per newton of its weight. False: the base is the shipped vehicle
+  // of the frame class, whose mass says nothing of the log's airframe (a 12S heavy-lift quad draws
+  // 270 W per newton of a 1.5 kg quad's weight and 16 of its own); the power is not judged.
+  bool base_mass_known = false;
   std::string IsValid() const;  // empty when valid
 };
 
@@ -98,6 +103,10 @@ struct IdentifyResult {
   // against (−Σ_i T_i(u_i, V)·ẑ + F_drag(v_B))/m through hexsim's steady powertrain, for the base
   // vehicle and for the identified one (fitted on the even blocks).
   double dynamics_rms_base = 0.0, dynamics_rms_identified = 0.0;
+  // Why the two vehicles are not compared on this log (empty when they are): the log's bus voltage
+  // is not the base vehicle's battery, so the base's motors would be driven at a voltage they never
+  // see (the residuals, NaN then, would measure the voltage, not the vehicle).
+  std::string dynamics_not_comparable;
   // The identified vehicle's held-out residual is below the base's. When it is not, the
   // identification improves nothing: `hexsim identify` exits 1 without writing the vehicle, and
   // `gap diagnose` without --sim diagnoses against the base instead.

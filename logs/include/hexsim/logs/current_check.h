@@ -39,6 +39,12 @@ inline constexpr double kMinCellVoltage_V = 2.5;
 inline constexpr double kMinPackVoltageUnknownCells_V = 3.0;
 // Without a motor count: a multirotor has at least three.
 inline constexpr int kMinMultirotorMotors = 3;
+// A vehicle that flew climbed: over the rows at flight output its logged height (baro_alt_m, else the
+// estimator's pos_D_m) spans at least this (5th to 95th percentile; a barometer on the ground with
+// the motors running reads within ±0.1 m). Less is a run on the ground, props off or tied down (a
+// public ArduCopter 4.7.0-dev log ran its motors at 0.49 for 24 s at 2.6 A, the barometer within
+// 0.1 m): its current is no flight current and is not judged.
+inline constexpr double kMinFlightClimb_m = 0.5;
 
 struct CurrentSensorCheck {
   bool usable = true;

@@ -49,7 +49,10 @@ struct ULog {
   std::map<std::string, double> params;     // last value of each parameter
   std::vector<ULogTopic> topics;            // one per subscription (name, multi_id)
   std::vector<std::string> messages;        // logged text
-  size_t bytes_skipped = 0;                 // damaged or truncated tail
+  size_t bytes_skipped = 0;                 // the truncated tail: a message cut by the file's end
+  size_t bytes_damaged = 0;                 // bytes where no message started, skipped to a sync message
+  size_t damaged_runs = 0;                  // how many such places
+  size_t file_bytes = 0;                    // the whole file
 
   // The topic `name` with instance `multi_id`, or null.
   const ULogTopic* Find(std::string_view name, int multi_id = 0) const;
@@ -58,7 +61,9 @@ struct ULog {
 // True when `bytes` start with the ULog magic.
 bool IsULog(std::string_view bytes);
 // Bad input (kBadInput, naming `name`): no ULog magic, or no definitions before the data ends.
-// Damage after a valid start is skipped and counted in bytes_skipped.
+// Damage after a valid start is skipped: bytes where no message of a known type starts (or data of
+// no subscription) up to the next sync message count in bytes_damaged (damaged_runs places), a
+// message cut by the file's end in bytes_skipped.
 Result<ULog> ParseULog(const std::string& bytes, const std::string& name);
 
 // A human summary for `hexsim import --info LOG.ulg`: the system and release, the time span, each
