@@ -206,6 +206,7 @@ def main():
     ap.add_argument("--jobs", type=int, default=2, choices=[1, 2])
     ap.add_argument("--out", required=True)
     ap.add_argument("--hexsim", default=os.path.join(REPO, "build/apps/hexsim"))
+    ap.add_argument("--only", default="", help="comma list of case ids to run (of the drawn cases)")
     ap.add_argument("--forms", default="", help="comma list restricting the forms (a+b for a pair, clean)")
     ap.add_argument("--keep-logs", action="store_true")
     ap.add_argument("--attitude", default="truth", choices=["truth", "estimate"],
@@ -221,6 +222,9 @@ def main():
         forms = [tuple(f.split("+")) if "+" in f else f for f in args.forms.split(",")]
     drawn = [cases_mod.draw_case(rng, i, forms=forms) for i in range(args.cases)]
     todo = drawn[args.first:]
+    if args.only:
+        ids = {int(x) for x in args.only.split(",")}
+        todo = [c for c in todo if c["id"] in ids]
     if args.rejudge:
         prev = judge_mod.load(os.path.join(args.out, "results.json")) if os.path.exists(os.path.join(args.out, "results.json")) else {}
         args.seed = prev.get("seed", args.seed)
