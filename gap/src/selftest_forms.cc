@@ -67,11 +67,17 @@ const std::vector<LogForm>& BeyondLibraryForms() {
   //     to 0 / clips at its 60th percentile: current-driven, or the throttle form, which is what
   //     compensates a current field whose sensor misreads it (ArduPilot's COMPASS_MOTCT 1);
   //   lagged_temperature: an offset d·(T_c − T₀), the compass warming through a 30–60 s lag behind
-  //     the logged IMU temperature: temperature_drift.
+  //     the logged IMU temperature: temperature_drift;
+  //   vertical_axis_scale: the sensor's z axis reads 5–15 % large (scripts/withheld_sim: "one axis
+  //     a few per cent large" on z). A static gain, never current-driven; the library's per-axis
+  //     family holds the x−y gain difference only, and in near-level flight a z gain is the down
+  //     field times the gain, nearly constant: a calibration offset to within 1 − cos(tilt). Right:
+  //     scale_error, or hard_iron_offset (the same remedy, recalibration); a current name is wrong.
   static const std::vector<LogForm> kForms = {
       {"current_power_lag", kCurrentDriven},    {"battery_sag_field", kCurrentDriven},
       {"throttle_power_field", {Effect::kThrottleHardIron}}, {"current_dropout", kCurrentOrThrottle},
       {"current_clipped", kCurrentOrThrottle},  {"lagged_temperature", {Effect::kTemperatureDrift}},
+      {"vertical_axis_scale", {Effect::kScaleError, Effect::kHardIronOffset}},
   };
   return kForms;
 }
@@ -96,6 +102,12 @@ Result<FormTruth> InjectBeyondLibrary(logs::FlightLog* log, size_t compass, cons
   const std::vector<double> V = log->Column("voltage_V");
   const std::vector<double> u = log->Column("control_u");
   const size_t n = log->rows();
+  if (form == "vertical_axis_scale") {
+    // The chip's z gain scales all it reads on that axis (the Earth field and nearby parts' fields).
+    const double s = 0.05 + 0.10 * rng->Uniform();  // a few per cent to an uncalibrated axis' 15 %
+    for (double& m : log->MutableColumn(cx + 2)) m = std::isfinite(m) ? (1.0 + s) * m : m;
+    return FormTruth{};
+  }
   const Vec3 d = RandomUnit(rng);
   const double a = 3.0 + 3.0 * rng->Uniform();  // µT at the typical drive
   const double I_med = std::max(1.0, Quantile(I, 0.5));

@@ -94,6 +94,28 @@ TEST(GapSelftestForms, GivenAnOffsetLaggingTheLoggedTemperature_WhenInjected_The
   EXPECT_LE(truth->lag_s, 60.0);
 }
 
+TEST(GapSelftestForms, GivenAVerticalAxisScale_WhenInjected_ThenOnlyTheZAxisReadsAFewPerCentLargeWhateverTheCurrent) {
+  const logs::FlightLog clean = SyntheticLog();
+  logs::FlightLog log = clean;
+  RngStream rng(12, "forms");
+  ASSERT_TRUE(InjectBeyondLibrary(&log, 1, "vertical_axis_scale", &rng).ok());
+  const std::vector<Vec3> d = Added(clean, log);
+  const double s = log.Column("mag2_z_uT")[0] / clean.Column("mag2_z_uT")[0] - 1.0;
+  EXPECT_GE(s, 0.05);
+  EXPECT_LE(s, 0.15);
+  for (size_t i = 0; i < d.size(); i += 97) {
+    EXPECT_EQ(d[i].x(), 0.0);
+    EXPECT_EQ(d[i].y(), 0.0);
+    // A static gain: the same at 5 A and at 25 A (a current-driven field would step with it).
+    EXPECT_NEAR(d[i].z(), s * clean.Column("mag2_z_uT")[i], 1e-9);
+  }
+  EXPECT_NEAR(d[500].z(), d[1500].z(), 1e-9);
+  const LogForm* f = FindForm("vertical_axis_scale");
+  ASSERT_NE(f, nullptr);
+  EXPECT_NE(std::find(f->named_right.begin(), f->named_right.end(), Effect::kScaleError), f->named_right.end());
+  for (Effect e : f->named_right) EXPECT_FALSE(DrivenByCurrent(e));  // a static gain is not current-driven
+}
+
 TEST(GapSelftestForms, GivenAnUnknownFormOrALogWithoutCurrent_WhenInjected_ThenItIsBadInput) {
   logs::FlightLog log = SyntheticLog();
   RngStream rng(11, "forms");
@@ -104,7 +126,7 @@ TEST(GapSelftestForms, GivenAnUnknownFormOrALogWithoutCurrent_WhenInjected_ThenI
 }
 
 TEST(GapSelftestForms, GivenTheRegistry_WhenAFormIsLookedUp_ThenOnlyTheEffectItIsAFormOfNamesItRight) {
-  ASSERT_EQ(BeyondLibraryForms().size(), 6u);
+  ASSERT_EQ(BeyondLibraryForms().size(), 7u);
   const LogForm* lag = FindForm("current_power_lag");
   ASSERT_NE(lag, nullptr);
   EXPECT_NE(std::find(lag->named_right.begin(), lag->named_right.end(), Effect::kCurrentHardIron), lag->named_right.end());
