@@ -13,6 +13,8 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <string>
+#include <vector>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
@@ -257,6 +259,39 @@ NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& base, co
     JudgeNormal(ch, t, &nr);
   }
   return nr;
+}
+
+void RejudgeOffsetAtZeroCurrent(const ChannelData& ch, const Evaluated& joint, const DiagnoseOptions& o,
+                                NuisanceReport* nr, std::vector<std::string>* findings) {
+  auto& beyond = nr->beyond_normal;
+  const auto it = std::find(beyond.begin(), beyond.end(), std::string("hard_iron_offset"));
+  if (o.nuisance_ranges != "normal" || it == beyond.end() || !joint.full.ok || joint.full.beta.size() < 3 ||
+      joint.cov.rows() < 3 || joint.blocks.size() < 2) {
+    return;
+  }
+  const Vec3 b = joint.full.beta.head<3>();
+  const double b_norm = b.norm();
+  if (!(b_norm > 0)) return;
+  const Vec3 u = b / b_norm;
+  const Eigen::Matrix3d Vb = joint.cov.block<3, 3>(0, 0);
+  const Eigen::Matrix3d Jb = JackknifeCov(joint).block<3, 3>(0, 0);
+  const double t975 = StudentT975(static_cast<double>(joint.blocks.size() - 1));
+  const Interval judged = JudgedInterval(b_norm, std::sqrt(std::max(0.0, u.dot(Vb * u))),
+                                         std::sqrt(std::max(0.0, u.dot(Jb * u))), t975);
+  if (ReadOffset(b_norm, judged) != OffsetReading::kNormal) return;
+  beyond.erase(it);
+  if (nr->out_of_range == "hard_iron_offset") nr->out_of_range.clear();
+  const std::string head = ch.name + ": residual offset (";
+  for (std::string& f : *findings) {
+    if (f.rfind(head, 0) != 0 || f.find("recalibrate") == std::string::npos) continue;
+    const plausibility::PhysicalRange* off = plausibility::FindRange("hard_iron_offset");
+    f = fmt::format("{} on the current-free baseline, ({:.0f}, {:.0f}, {:.0f}) mG at zero current with the current "
+                    "field fitted: within the normal {:.0f} mG; the excess was the flight's mean current field, which "
+                    "the current term compensates: no recalibration",
+                    f.substr(0, f.find(", beyond the normal")), kMilliGaussPerMicroTesla * b.x(),
+                    kMilliGaussPerMicroTesla * b.y(), kMilliGaussPerMicroTesla * b.z(),
+                    kMilliGaussPerMicroTesla * off->normal_hi);
+  }
 }
 
 realdata::LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::vector<realdata::RowKind>& kinds,

@@ -122,6 +122,12 @@ struct NuisanceReport {
   bool offset_implausible = false;
 };
 NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& baseline, const DiagnoseOptions& o);
+// Where the reported model fits a field the motor current drives, the baseline's offset holds the
+// flight's mean field d·Ī on top of the calibration's own: the offset at zero current is the joint
+// fit's. An offset beyond its normal range only through that mean field is no recalibration: the
+// term leaves beyond_normal and its finding says so instead (normal ranges only).
+void RejudgeOffsetAtZeroCurrent(const ChannelData& ch, const Evaluated& joint, const DiagnoseOptions& o,
+                                NuisanceReport* nr, std::vector<std::string>* findings);
 // The interval a nuisance term is judged by: value ± t975 times the wider of its two spreads, the
 // cluster sandwich and the block jackknife its printed interval uses (on a real log's slow structure
 // the jackknife can be several times wider: a point beyond a range is then not resolved beyond it).

@@ -135,6 +135,26 @@ TEST(GapDecomposition, GivenACurrentFieldAndAnOffsetBeyondItsNormalRange_WhenDia
   EXPECT_TRUE(off->selected);
 }
 
+// Given a current field alone (zero with the motors off, k·I), when diagnosed with the normal
+// ranges, then the flight's mean field k·Ī the current-free baseline's offset holds is not a
+// residual offset to recalibrate: at zero current, with the current field fitted, the offset is
+// normal, and the finding says so.
+TEST(GapDecomposition, GivenACurrentFieldAlone_WhenDiagnosed_ThenItsMeanFieldIsNoOffsetToRecalibrate) {
+  gaptest::Flown f = gaptest::FlyInjected({{"current_hard_iron", 0.5}}, 2109, "decomposition");
+  auto rep = Diagnose(f.log, f.trial.configured);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr);
+  EXPECT_EQ(mag2->verdict, "current_hard_iron") << Summary(*rep);
+  EXPECT_FALSE(InEffects(*mag2, "hard_iron_offset")) << Summary(*rep);
+  bool zero_current = false;
+  for (const std::string& s : mag2->findings) {
+    EXPECT_EQ(s.find("recalibrate the compass"), std::string::npos) << s;
+    zero_current = zero_current || s.find("at zero current") != std::string::npos;
+  }
+  EXPECT_TRUE(zero_current) << Summary(*rep);
+}
+
 // Adds to mag2 white noise (noise_uT per axis) and a current field along its x axis whose variation
 // has the RMS field_uT; returns its size, µT/A. centered: the field k·(I − Ī) (its variation only);
 // else k·I, zero with the motors off, as a real wiring field.
