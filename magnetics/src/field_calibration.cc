@@ -168,6 +168,19 @@ Result<UnitGuess> DetectUnits(const std::vector<Vector3d>& raw, const std::strin
       if (g.unit == "mG" && units == "auto") {
         g.assumption += "; raw counts can look like milligauss: if these are counts, give --units counts --field-norm F";
       }
+      // Given units (or a log's own): the window's floor is for telling units apart; a hard iron that
+      // nearly cancels the Earth field puts a real compass's median raw norm below it, but as the
+      // vehicle turns its raw norm still reaches |offset| + |field| (a quantile of the norms, not the
+      // median). Outside the window only where even the 95th percentile is below it (or above it).
+      std::vector<double> norms = Norms(raw);
+      std::sort(norms.begin(), norms.end());
+      const double p95_uT = norms.empty() ? 0.0 : norms[(norms.size() - 1) * 95 / 100] * u.to_uT;
+      if (units == u.name && m_uT < lo_uT && p95_uT >= lo_uT && m_uT > 1e-6) {
+        g.assumption += Format("; the median norm is below the %g uT floor but the 95th percentile reads %.4g uT (a hard "
+                               "iron nearly cancelling the field)",
+                               lo_uT, p95_uT);
+        return g;
+      }
       if (m_uT < lo_uT || m_uT > hi_uT) {
         // Given units (or a log's own) that put the median outside what any compass reads: the
         // numbers are no field (a compass absent, disabled or logged as zeros) or not in that unit.

@@ -321,5 +321,23 @@ TEST(FieldCalibration, GivenAllZeroOrOutOfRangeReadingsInAGivenUnit_WhenUnitsChe
   EXPECT_TRUE(DetectUnits(Dump("sphere", 100, 0.1, 3), "uT", 0.0).ok());
 }
 
+// A hard iron nearly as large as the Earth field puts the median raw norm below the unit window's
+// floor (11 uT), but as the vehicle turns the raw norm still reaches |offset| + |field|: in the log's
+// own unit it is a compass field, not "not a compass field in these units" (a public ArduCopter log:
+// field 48 uT, offset 47.7 uT, median raw norm 10.5 uT).
+TEST(FieldCalibration, GivenAHardIronNearlyCancellingTheField_WhenUnitsGiven_ThenItIsAccepted) {
+  const Vector3d offset(0.0, 0.0, -46.0);
+  std::vector<Vector3d> raw;
+  for (int i = 0; i < 400; ++i) {
+    // Mostly near level with the field pointing down, so the offset cancels it; some rotation.
+    const double a = 0.05 * i, tilt = (i % 10 == 0) ? 1.2 : 0.15;
+    raw.push_back(offset + 48.0 * Vector3d(std::sin(tilt) * std::cos(a), std::sin(tilt) * std::sin(a), std::cos(tilt)));
+  }
+  auto g = DetectUnits(raw, "uT", 0.0);
+  ASSERT_TRUE(g.ok()) << g.status().message();
+  EXPECT_NE(g->assumption.find("95th percentile"), std::string::npos) << g->assumption;
+  EXPECT_FALSE(DetectUnits(raw, "nT", 0.0).ok());  // the same numbers in nT read no field at all
+}
+
 }  // namespace
 }  // namespace hexsim::magnetics
