@@ -1,6 +1,9 @@
 #include "compass_map.h"
 
 #include <optional>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -48,6 +51,7 @@ CompassMapping MapCompasses(const logs::FlightLog& log, const vehicle::VehiclePa
   }
   std::vector<bool> taken(v.compasses.size(), false);
   std::vector<std::pair<size_t, size_t>> chosen;  // log c, vehicle j
+  std::string shared;                             // log compasses sharing a vehicle compass, said why
   for (size_t c : log_compasses) {
     const std::optional<bool> ext = LogExternal(log.meta, MagPrefix(c));
     if (!ext) return ByIndex(log_compasses, v, fmt::format("the log meta does not say whether {} is external", MagPrefix(c)));
@@ -56,16 +60,26 @@ CompassMapping MapCompasses(const logs::FlightLog& log, const vehicle::VehiclePa
     for (size_t k = 0; k < v.compasses.size() && j == v.compasses.size(); ++k) {
       if (!taken[k] && v.compasses[k].external == *ext) j = k;
     }
+    // More log compasses of a kind than the vehicle file has: the first of its kind stands for them
+    // all (a second external compass on the mast is modelled as the file's external one is, never as
+    // an internal one on the board, whose wiring field is another).
+    for (size_t k = 0; k < v.compasses.size() && j == v.compasses.size(); ++k) {
+      if (v.compasses[k].external == *ext) {
+        j = k;
+        shared += fmt::format("{}{} shares compass {} (the vehicle file's {} ones are taken)", shared.empty() ? "" : "; ",
+                              MagPrefix(c), k + 1, KindWord(*ext));
+      }
+    }
     if (j == v.compasses.size()) {
       return ByIndex(log_compasses, v,
-                     fmt::format("the vehicle '{}' has no {} compass left for {}", v.name, KindWord(*ext), MagPrefix(c)));
+                     fmt::format("the vehicle '{}' has no {} compass for {}", v.name, KindWord(*ext), MagPrefix(c)));
     }
     taken[j] = true;
     chosen.emplace_back(c, j);
   }
   CompassMapping m;
   m.method = "external_flag";
-  m.why = "the log meta and the vehicle file both say which compass is external";
+  m.why = "the log meta and the vehicle file both say which compass is external" + (shared.empty() ? "" : "; " + shared);
   for (const auto& [c, j] : chosen) m.pairs.push_back({MagPrefix(c), static_cast<int>(j) + 1, v.compasses[j].external});
   return m;
 }

@@ -76,10 +76,30 @@ TEST(CompassMapping, GivenAFlagMissingOrAVehicleThatMarksNone_WhenMapped_ThenByI
   m = internal::MapCompasses(MappingTwoCompassLog(false, true), v);
   EXPECT_EQ(m.method, "index");
   EXPECT_NE(m.why.find("marks no compass external"), std::string::npos) << m.why;
-  // Two external compasses in the log, one in the vehicle: none left for the second.
-  m = internal::MapCompasses(MappingTwoCompassLog(true, true), MappingQuadX());
+  // An internal log compass and a vehicle with none internal: by index, saying so.
+  vehicle::VehicleParams ext_only = MappingQuadX();
+  for (auto& c : ext_only.compasses) c.external = true;
+  m = internal::MapCompasses(MappingTwoCompassLog(false, true), ext_only);
   EXPECT_EQ(m.method, "index");
-  EXPECT_NE(m.why.find("no external compass left"), std::string::npos) << m.why;
+  EXPECT_NE(m.why.find("no internal compass for mag"), std::string::npos) << m.why;
+}
+
+// Two external compasses in the log, one in the vehicle (quad_x): the second shares the file's
+// external compass, said so, and is never compared with an internal one on the board (whose wiring
+// field is another: a public ArduCopter 4.5.7 log's mast compass read 3.3 mG/A against quad_x's
+// internal compass's modelled field, its absolute term 1.8).
+TEST(CompassMapping, GivenMoreExternalCompassesThanTheVehicleHas_WhenMapped_ThenTheyShareItsExternalOne) {
+  const vehicle::VehicleParams v = MappingQuadX();
+  const CompassMapping m = internal::MapCompasses(MappingTwoCompassLog(true, true), v);
+  EXPECT_EQ(m.method, "external_flag");
+  ASSERT_EQ(m.pairs.size(), 2u);
+  EXPECT_EQ(m.pairs[0].vehicle_compass, 1);
+  EXPECT_EQ(m.pairs[1].vehicle_compass, 1);
+  EXPECT_TRUE(m.pairs[1].external);
+  EXPECT_NE(m.why.find("mag2 shares compass 1"), std::string::npos) << m.why;
+  const vehicle::VehicleParams r = internal::WithCompassesInLogOrder(v, m);
+  EXPECT_TRUE(r.compasses[1].external);
+  EXPECT_TRUE(r.compasses[1].position_B_m.isApprox(v.compasses[0].position_B_m));
 }
 
 // log171 with MAG and MAG2 swapped (a log whose first compass is the internal one, as PX4 logs
