@@ -3,6 +3,8 @@
 // currents in a frame plate, a slow current sensor, a soft-iron part magnetised by the current's own
 // field). The configured-wiring member (replay_compass.cc) lags only the field the vehicle file
 // models; this one has a free direction, so a withheld lagged field is described too.
+// And the timing scan's measurement of such a field's lag behind the logged current (nuisance.h,
+// ScanCurrentFieldLag), beside the wires' own unlagged field, whatever effect the channel names.
 #include <algorithm>
 #include <cmath>
 #include <vector>
