@@ -83,27 +83,18 @@ std::vector<std::vector<double>> LatencyProfile(CompassSampler* sampler, const C
   return sse;
 }
 
-}  // namespace
-
-CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
-                                const Vec3& B_N_uT, const CompassReplayOptions& base, const realdata::LagEstimate& stale,
-                                double shift_s, const DiagnoseOptions& o) {
-  CompassTiming tm;
-  // No usable current (in.current null): the staleness of a current the fit does not use is no finding.
-  tm.staleness_s = stale.ok() && in.current != nullptr ? stale.value_s : 0.0;
-  if (stale.ok() && in.current != nullptr) {
-    tm.report.current_staleness = {true,      stale.value_s,      {stale.ci95_s[0], stale.ci95_s[1]},
-                                   "control_u", stale.resolved(),
-                                   plausibility::IntervalPlausible("current_staleness", stale.ci95_s[0], stale.ci95_s[1]),
-                                   std::nan(""), shift_s};
-  }
+// The latency scan of ScanCompassTiming into *tm (unchanged where the profile cannot be had).
+void ScanLatency(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
+                 const Vec3& B_N_uT, const CompassReplayOptions& base, double shift_s, const DiagnoseOptions& o,
+                 CompassTiming* tm_out) {
+  CompassTiming& tm = *tm_out;
   // Latency grid: −0.1…0.3 s in 10 ms steps; every lag on the same compass samples.
   const std::vector<double> grid = realdata::LagGrid(-0.1, 0.3, 0.01);
   CompassSampler sampler(log, v, c, in, B_N_uT, base.calibrated_log, base.share_exponent);
   const std::vector<std::vector<double>> sse = LatencyProfile(&sampler, base, shift_s, grid, std::max(4, o.blocks));
-  if (sse.empty()) return tm;
+  if (sse.empty()) return;
   const realdata::LagEstimate lat = realdata::ProfileLag(grid, sse, o.bootstrap_samples, o.seed);
-  if (!lat.ok()) return tm;
+  if (!lat.ok()) return;
   tm.latency_ok = lat.resolved();
   tm.latency_s = lat.value_s;
   tm.latency_ci95_s[0] = lat.ci95_s[0];
@@ -119,13 +110,40 @@ CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::Vehic
   r1.latency_s = lat.value_s;
   const ChannelData c0 = ReplayCompass(log, v, c, in, B_N_uT, r0);
   const ChannelData c1 = ReplayCompass(log, v, c, in, B_N_uT, r1);
-  if (c0.t.size() < 100 || c1.t.size() < 100) return tm;
+  if (c0.t.size() < 100 || c1.t.size() < 100) return;
   const Analyzer a0(c0, o), a1(c1, o);
   const double cv0 = a0.baseline().cv_sse / static_cast<double>(c0.t.size());
   const double cv1 = a1.baseline().cv_sse / static_cast<double>(c1.t.size());
   const double noise = 3.0 * NoiseVariance(c1.t, a1.y());
   tm.latency_share = std::max(0.0, ExplainedShare(cv0, cv1, noise));
   tm.report.latency.explained_share = tm.latency_share;
+}
+
+}  // namespace
+
+CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
+                                const Vec3& B_N_uT, const CompassReplayOptions& base, const realdata::LagEstimate& stale,
+                                double shift_s, const DiagnoseOptions& o) {
+  CompassTiming tm;
+  // No usable current (in.current null): the staleness of a current the fit does not use is no finding.
+  tm.staleness_s = stale.ok() && in.current != nullptr ? stale.value_s : 0.0;
+  if (stale.ok() && in.current != nullptr) {
+    tm.report.current_staleness = {true,      stale.value_s,      {stale.ci95_s[0], stale.ci95_s[1]},
+                                   "control_u", stale.resolved(),
+                                   plausibility::IntervalPlausible("current_staleness", stale.ci95_s[0], stale.ci95_s[1]),
+                                   std::nan(""), shift_s};
+  }
+  ScanLatency(log, v, c, in, B_N_uT, base, shift_s, o, &tm);
+  // The current-driven field's lag behind the logged current, on the replay the diagnosis makes: the
+  // latency aligned where resolved clear of zero (DiagnoseCompass), the prediction's current shift.
+  if (in.current != nullptr) {
+    const bool align = tm.latency_ok && (tm.latency_ci95_s[0] > 0 || tm.latency_ci95_s[1] < 0);
+    CompassReplayOptions r = base;
+    r.baseline_only = true;
+    r.latency_s = align ? tm.latency_s : 0.0;
+    r.current_shift_s = shift_s;
+    tm.report.current_field_lag = ScanCurrentFieldLag(ReplayCompass(log, v, c, in, B_N_uT, r), in, r.latency_s, o);
+  }
   return tm;
 }
 

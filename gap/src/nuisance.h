@@ -23,6 +23,15 @@ double FitShareExponent(const logs::FlightLog& log, const LogInputs& in, const v
 CompassTiming ScanCompassTiming(const logs::FlightLog& log, const vehicle::VehicleParams& v, size_t c, const LogInputs& in,
                                 const Vec3& B_N_uT, const CompassReplayOptions& base, const realdata::LagEstimate& stale,
                                 double shift_s, const DiagnoseOptions& o);
+// The lag τ of a current-driven field behind the logged current, measured as the compass latency is
+// (a profile over τ, its per-block SSE and block bootstrap: realdata::ProfileLag), on a baseline-only
+// replay `ch` replayed at latency_s: y = baseline + a·I_a + d·I_ref·(lp_τ(I)/I_ref)^p, I_a the
+// prediction's aligned current (the wires' own field follows the current without a lag), lp_τ(I) the
+// logged current through a first-order lag run over its samples, p profiled over the exponent's
+// physical range (kLagExponentLo..Hi), τ over current_lag's physical range (0..2 s). Reported under
+// timing whatever effect is named (as the latency is), resolved when its interval is bounded and
+// clear of zero; not present without a usable current.
+LagReport ScanCurrentFieldLag(const ChannelData& ch, const LogInputs& in, double latency_s, const DiagnoseOptions& o);
 // The replay's plug-ins are taken as given by the fit: the latency and the current's shift (each
 // estimated) and, in a log without per-motor currents, the motors' current split (kShareExponent,
 // known only to lie in its range). Each reported effect (and nuisance term) is refitted with each

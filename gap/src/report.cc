@@ -345,7 +345,13 @@ std::string Summary(const GapReport& r) {
                               st.resolved ? "its point lies outside the physical range 0..1 s" : "its point or its interval reaches the scan's edge");
         }
       }
-      add("current field lag behind the current", c.timing.current_field_lag);
+      const LagReport& fl = c.timing.current_field_lag;
+      if (fl.present && !fl.resolved) {  // measured as the latency is: a flat profile is no number to act on
+        line += fmt::format("{}current field lag behind the current not resolved ([{:.0f}, {:.0f}] ms)",
+                            line.empty() ? "" : "; ", 1000 * fl.ci95_s.lo, 1000 * fl.ci95_s.hi);
+      } else {
+        add("current field lag behind the current", fl);
+      }
       s += "  timing: " + line + "\n";
     }
     if (c.nuisance.present) {

@@ -107,6 +107,78 @@ TEST(GapLaggedCurrent, GivenALaggedPowerLawCurrentField_WhenDiagnosed_ThenItIsCu
   EXPECT_NE(Summary(d.report).find("current field lag behind the current"), std::string::npos) << Summary(d.report);
 }
 
+// The ideal profile's square (steady legs: the current changes little, as in a real hover) degraded
+// to real logging (a stale 5 Hz current, compass latency), on which, as
+// scripts/corpus/inject.py plants a withheld effect, the logged compass gets a field the vehicle file
+// does not model: the wires' own a·I in one direction plus d·I0·(lp_τ(I)/I0)^1.6 in another, both of
+// the LOGGED current (I0 its median), then diagnosed against the configured vehicle.
+Diagnosed DiagnosePlantedLaggedField(uint64_t seed, double tau_s) {
+  gaptest::Flown f = gaptest::FlyInjected({}, seed, "planted_lag", "");
+  RngStream rng(seed, "planted_lag/degrade");
+  internal::RealLogTruth truth;
+  auto real = internal::DegradeToRealLog(f.log, f.trial.configured, &rng, &truth);
+  EXPECT_TRUE(real.ok()) << real.status().message();
+  logs::FlightLog& log = *real;
+  const std::vector<double>& t = log.Column("t_s");
+  const std::vector<double>& I = log.Column("current_A");
+  std::vector<double> sorted;
+  for (double x : I) {
+    if (std::isfinite(x) && x > 0) sorted.push_back(x);
+  }
+  std::sort(sorted.begin(), sorted.end());
+  const double I0 = sorted[sorted.size() / 2];
+  const Eigen::Vector3d a = 0.5 * Eigen::Vector3d(0.6, -0.48, 0.64).normalized();  // µT/A
+  const Eigen::Vector3d d = 0.5 * Eigen::Vector3d(-0.3, 0.8, 0.52).normalized();  // µT/A at I0
+  const size_t cx = static_cast<size_t>(log.ColumnIndex("mag2_x_uT"));
+  double lagged = std::isfinite(I.front()) ? std::max(0.0, I.front()) : 0.0;
+  for (size_t i = 0; i < log.rows(); ++i) {
+    const double x = std::isfinite(I[i]) ? std::max(0.0, I[i]) : 0.0;
+    const double dt = i > 0 ? t[i] - t[i - 1] : 0.0;
+    lagged += (x - lagged) * (1.0 - std::exp(-dt / tau_s));
+    for (size_t k = 0; k < 3; ++k) {
+      double& m = log.MutableColumn(cx + k)[i];
+      const Eigen::Index j = static_cast<Eigen::Index>(k);
+      if (std::isfinite(m)) m += a[j] * x + d[j] * I0 * std::pow(lagged / I0, 1.6);
+    }
+  }
+  DiagnoseOptions opt;
+  opt.channels = {"mag2"};
+  opt.compass_latency_s = truth.latency_s;
+  auto rep = Diagnose(log, f.trial.configured, opt);
+  EXPECT_TRUE(rep.ok()) << rep.status().message();
+  Diagnosed out;
+  out.report = std::move(*rep);
+  out.mag2 = gaptest::FindChannel(out.report, "mag2");
+  return out;
+}
+
+// Given a field lagging the logged current by 0.5 s and growing as its 1.6th power beside an
+// unmodelled unlagged wire field in another direction, when diagnosed, then a current-driven effect
+// is named and the channel's timing holds the lag behind the logged current in its interval,
+// resolved from zero, whichever current family is named (current_lag's one free direction cannot
+// describe both fields: on seed 3131 the effect named is current_hard_iron, and the lag is the timing
+// scan's, ScanCurrentFieldLag).
+TEST(GapLaggedCurrent, GivenALaggedPowerLawFieldBesideAnUnlaggedOne_WhenDiagnosed_ThenTheTimingHoldsTheLagBehindTheLoggedCurrent) {
+  constexpr double kTau = 0.5;
+  int covered = 0;
+  for (uint64_t seed = 3131; seed < 3133; ++seed) {
+    const Diagnosed d = DiagnosePlantedLaggedField(seed, kTau);
+    ASSERT_NE(d.mag2, nullptr) << Summary(d.report);
+    bool current_driven = false;
+    for (const EffectShare& e : d.mag2->effects) {
+      current_driven = current_driven || e.id == Effect::kCurrentHardIron || e.id == Effect::kCurrentLag ||
+                       e.id == Effect::kCurrentSoftIron || e.id == Effect::kPerMotorCurrentHardIron ||
+                       e.id == Effect::kThrottleHardIron;
+    }
+    EXPECT_TRUE(current_driven) << Summary(d.report);
+    const LagReport& tl = d.mag2->timing.current_field_lag;
+    ASSERT_TRUE(tl.present) << Summary(d.report);
+    EXPECT_EQ(tl.against, "current_A");
+    covered += tl.resolved && tl.ci95_s.lo <= kTau && kTau <= tl.ci95_s.hi;
+  }
+  EXPECT_EQ(covered, 2);
+}
+
 // The vehicle file's own wiring field arriving through a lag τ it does not model (the selftest's
 // one-effect current_lag; τ = 0: a clean log), on real-profile logs.
 Diagnosed DiagnoseLateWiring(uint64_t seed, double tau_s) {
@@ -151,7 +223,9 @@ TEST(GapLaggedCurrent, GivenACleanRealProfileLog_WhenDiagnosed_ThenAFieldLeading
     const Diagnosed d = DiagnoseLateWiring(seed, 0.0);
     ASSERT_NE(d.mag2, nullptr) << Summary(d.report);
     EXPECT_EQ(d.mag2->verdict, "none") << Summary(d.report);
-    EXPECT_FALSE(d.mag2->timing.current_field_lag.present) << Summary(d.report);
+    // The current field's lag is measured under timing as the latency is, and is not resolved here.
+    EXPECT_FALSE(d.mag2->timing.current_field_lag.present && d.mag2->timing.current_field_lag.resolved)
+        << Summary(d.report);
     const CandidateResult* lag = LagCandidate(*d.mag2);
     ASSERT_NE(lag, nullptr) << Summary(d.report);
     EXPECT_FALSE(lag->selected) << Summary(d.report);
