@@ -88,7 +88,8 @@ void SortEffects(std::vector<EffectShare>* effects);
 // their intervals and the current equivalents were added), and a selected current_lag's lag under
 // the channel's timing (FieldLag).
 void RefreshEffects(ChannelResult* res);
-// A selected current_lag's lag as the channel's timing reports it (Timing::current_field_lag).
+// A selected current_lag's lag as the channel's timing reports it (Timing::current_field_lag; the
+// timing scan's lag, ScanCurrentFieldLag, where current_lag is not selected).
 LagReport FieldLag(const CandidateResult& k, double share);
 // Selected candidates in the effects' order first, then library candidates by explained share,
 // then the timing and nuisance terms.

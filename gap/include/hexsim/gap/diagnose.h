@@ -215,9 +215,10 @@ struct LagReport {
 struct Timing {
   LagReport latency;            // compass latency against the attitude
   LagReport current_staleness;  // logged current against the throttle
-  // A current-driven field's lag behind the logged current: the selected current_lag effect's τ (its
-  // interval after the plug-ins), against "current_A"; explained_share is the effect's. A lagged
-  // current field is one current effect, its size in the effect and its lag here.
+  // A current-driven field's lag behind the logged current, against "current_A": the timing scan's
+  // (ScanCurrentFieldLag: profile over 0..2 s, block bootstrap; resolved when bounded and clear of
+  // zero; explained_share NaN), whatever effect is named, as the latency is; where current_lag is
+  // selected, that effect's τ (its interval after the plug-ins) and its share.
   LagReport current_field_lag;
 };
 
