@@ -4,6 +4,7 @@
 # Runs withheld_sim.py (about 20 min for 72 cases on 2 cores) and replaces README's
 # <!-- readme_figures:withheld_sim --> block with the pass count per form and path. REUSE=1 with an
 # OUT that holds a finished run's results.json writes the block from it without running again.
+# COMMIT names the commit the binary was built at where it was copied out of its tree.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 hexsim=$(realpath "$1")
@@ -15,7 +16,7 @@ py=/usr/bin/python3
 if [[ "${REUSE:-0}" != 1 || ! -f "$out/results.json" ]]; then
   "$py" "$here/withheld_sim.py" --seed "$seed" --cases "$cases" --jobs 2 --hexsim "$hexsim" --out "$out" > "$out/run.log"
 fi
-"$py" - "$out/results.json" "$(git -C "$(dirname "$hexsim")" rev-parse --short HEAD 2>/dev/null || echo unknown)" \
+"$py" - "$out/results.json" "${COMMIT:-$(git -C "$(dirname "$hexsim")" rev-parse --short HEAD 2>/dev/null || echo unknown)}" \
     "$cases" > "$out/section.md" <<'PY'
 import json, sys, datetime
 d = json.load(open(sys.argv[1]))
