@@ -43,6 +43,8 @@ struct Samples {
     if (keep.size() == w) return;
     std::vector<std::string> nc;
     std::vector<double> nv;
+    nc.reserve(keep.size());
+    nv.reserve(keep.size() * t.size());
     for (size_t c : keep) nc.push_back(columns[c]);
     for (size_t i = 0; i < t.size(); ++i) {
       for (size_t c : keep) nv.push_back(v[i * w + c]);

@@ -331,7 +331,7 @@ TEST(FieldCalibration, GivenAHardIronNearlyCancellingTheField_WhenUnitsGiven_The
   for (int i = 0; i < 400; ++i) {
     // Mostly near level with the field pointing down, so the offset cancels it; some rotation.
     const double a = 0.05 * i, tilt = (i % 10 == 0) ? 1.2 : 0.15;
-    raw.push_back(offset + 48.0 * Vector3d(std::sin(tilt) * std::cos(a), std::sin(tilt) * std::sin(a), std::cos(tilt)));
+    raw.emplace_back(offset + 48.0 * Vector3d(std::sin(tilt) * std::cos(a), std::sin(tilt) * std::sin(a), std::cos(tilt)));
   }
   auto g = DetectUnits(raw, "uT", 0.0);
   ASSERT_TRUE(g.ok()) << g.status().message();
