@@ -9,6 +9,7 @@
 #include "hexsim/common/paths.h"
 #include "hexsim/gap/json.h"
 #include "hexsim/identify/identify.h"
+#include "hexsim/logs/mag_input.h"
 
 namespace hexsim::experiments {
 namespace {
@@ -109,9 +110,15 @@ Status ChooseVehicle(const LogDiagnosisOptions& o, logs::FlightLog* log, LogDiag
 // none of it identified: it is diagnosed on every block, twice the data the held-out half gives (a
 // current field resolved on the whole flight and not on its half was left undecided).
 const std::vector<std::string> kHeldOutChannels = {"gyro", "accel", "dynamics"};
-std::vector<std::string> CompassChannels() {
-  std::vector<std::string> names = {"mag"};
-  for (int c = 2; c <= 9; ++c) names.push_back(fmt::format("mag{}", c));
+// The log's compass channels: the prefixes of its "<prefix>_x_uT" columns that name a compass.
+std::vector<std::string> CompassChannels(const logs::FlightLog& log) {
+  const std::string suffix = "_x_uT";
+  std::vector<std::string> names;
+  for (const std::string& col : log.columns()) {
+    if (col.size() <= suffix.size() || col.compare(col.size() - suffix.size(), suffix.size(), suffix) != 0) continue;
+    const std::string prefix = col.substr(0, col.size() - suffix.size());
+    if (logs::CompassIndex(prefix) >= 0) names.push_back(prefix);
+  }
   return names;
 }
 
@@ -154,13 +161,14 @@ Result<LogDiagnosis> DiagnoseLog(const logs::FlightLog& log, const LogDiagnosisO
   auto report = gap::Diagnose(diagnosed, d.vehicle, opt);
   if (!report.ok()) return report.status().WithContext(o.log_name);
   d.report = std::move(report).value();
-  if (d.identified) {
+  const std::vector<std::string> compasses = d.identified ? CompassChannels(log) : std::vector<std::string>{};
+  if (!compasses.empty()) {  // (an empty list would mean every channel)
     gap::DiagnoseOptions whole_opt = opt;
-    whole_opt.channels = CompassChannels();
+    whole_opt.channels = compasses;
     whole_opt.compass_model_log = nullptr;
-    auto compasses = gap::Diagnose(log, d.vehicle, whole_opt);
-    if (!compasses.ok()) return compasses.status().WithContext(o.log_name);
-    d.report = MergeHeldOut(std::move(compasses).value(), std::move(d.report));
+    auto whole = gap::Diagnose(log, d.vehicle, whole_opt);
+    if (!whole.ok()) return whole.status().WithContext(o.log_name);
+    d.report = MergeHeldOut(std::move(whole).value(), std::move(d.report));
   }
   d.report.log_name = o.log_name;
   auto updated = gap::UpdatedVehicleYaml(d.vehicle_yaml, d.vehicle, d.report);

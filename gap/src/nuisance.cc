@@ -265,20 +265,16 @@ void RejudgeOffsetAtZeroCurrent(const ChannelData& ch, const Evaluated& joint, c
                                 NuisanceReport* nr, std::vector<std::string>* findings) {
   auto& beyond = nr->beyond_normal;
   const auto it = std::find(beyond.begin(), beyond.end(), std::string("hard_iron_offset"));
-  if (o.nuisance_ranges != "normal" || it == beyond.end() || !joint.full.ok || joint.full.beta.size() < 3 ||
-      joint.cov.rows() < 3 || joint.blocks.size() < 2) {
+  // The joint fit's first six columns are the baseline's (offset, field correction): read as the
+  // baseline is, and judged by JudgeNormal's rule.
+  if (o.nuisance_ranges != "normal" || it == beyond.end() || !joint.full.ok || joint.full.beta.size() < 6 ||
+      joint.cov.rows() < 6 || joint.blocks.size() < 2) {
     return;
   }
-  const Vec3 b = joint.full.beta.head<3>();
-  const double b_norm = b.norm();
-  if (!(b_norm > 0)) return;
-  const Vec3 u = b / b_norm;
-  const Eigen::Matrix3d Vb = joint.cov.block<3, 3>(0, 0);
-  const Eigen::Matrix3d Jb = JackknifeCov(joint).block<3, 3>(0, 0);
-  const double t975 = StudentT975(static_cast<double>(joint.blocks.size() - 1));
-  const Interval judged = JudgedInterval(b_norm, std::sqrt(std::max(0.0, u.dot(Vb * u))),
-                                         std::sqrt(std::max(0.0, u.dot(Jb * u))), t975);
-  if (ReadOffset(b_norm, judged) != OffsetReading::kNormal) return;
+  const BaselineTerms t = ReadBaseline(ch, joint);
+  if (!(t.b_norm > 0)) return;
+  if (ReadOffset(t.b_norm, JudgedInterval(t.b_norm, t.b_sd, t.b_ci_sd, t.t975)) != OffsetReading::kNormal) return;
+  const Vec3& b = t.b;
   beyond.erase(it);
   if (nr->out_of_range == "hard_iron_offset") nr->out_of_range.clear();
   const std::string head = ch.name + ": residual offset (";

@@ -140,7 +140,9 @@ Result<UnitGuess> DetectUnits(const std::vector<Vector3d>& raw, const std::strin
   };
   static const Unit kUnits[] = {{"uT", 1.0}, {"mG", 0.1}, {"G", 100.0}, {"nT", 0.001}};
   UnitGuess g;
-  g.median_norm = Median(Norms(raw));
+  std::vector<double> norms = Norms(raw);
+  std::sort(norms.begin(), norms.end());
+  g.median_norm = Median(norms);
   // Every sample the same (beyond rounding): a compass absent, disabled or stuck, not a field.
   if (raw.size() >= 2 && std::all_of(raw.begin(), raw.end(), [&](const Vector3d& v) {
         return (v - raw.front()).norm() <= 1e-9 * std::max(1.0, raw.front().norm());
@@ -172,8 +174,6 @@ Result<UnitGuess> DetectUnits(const std::vector<Vector3d>& raw, const std::strin
       // nearly cancels the Earth field puts a real compass's median raw norm below it, but as the
       // vehicle turns its raw norm still reaches |offset| + |field| (a quantile of the norms, not the
       // median). Outside the window only where even the 95th percentile is below it (or above it).
-      std::vector<double> norms = Norms(raw);
-      std::sort(norms.begin(), norms.end());
       const double p95_uT = norms.empty() ? 0.0 : norms[(norms.size() - 1) * 95 / 100] * u.to_uT;
       if (units == u.name && m_uT < lo_uT && p95_uT >= lo_uT && m_uT > 1e-6) {
         g.assumption += Format("; the median norm is below the %g uT floor but the 95th percentile reads %.4g uT (a hard "
