@@ -33,30 +33,13 @@ Vector3d ModelledPerAmp(const vehicle::VehicleParams& v, size_t c) {
 }
 
 // |g| and its 95 % interval for g = d − m with the jackknife covariance of d (m fixed), by the
-// absolute term's own rule (flight_fit.cc): the norm's delta-method interval, starting at zero where
-// zero is inside every axis's interval or the three-axis test (Bonferroni, 5 % overall) does not
-// resolve g from zero. With nothing modelled (m = 0) it is the absolute term's interval.
+// absolute term's own rule (magnetics::TermNormOf). With nothing modelled (m = 0) it is the absolute
+// term's interval.
 void GapInterval(const Eigen::Matrix3d& cov, int blocks, CompassTerms* t) {
-  t->gap_norm_uT_per_A = t->gap_uT_per_A.norm();
-  double h = 0.0;
-  Vector3d axis_half = Vector3d::Zero();
-  bool resolved = false;
-  if (blocks > 1) {
-    const double t975 = StudentT975(blocks - 1.0);
-    const double t_axes = StudentTQuantile(1.0 - 0.05 / 6.0, blocks - 1.0);
-    for (int k = 0; k < 3; ++k) {
-      const double se = std::sqrt(std::max(cov(k, k), 0.0));
-      axis_half(k) = t975 * se;
-      resolved = resolved || (se > 0.0 && std::fabs(t->gap_uT_per_A(k)) / se >= t_axes);
-    }
-    if (t->gap_norm_uT_per_A > 0.0) {
-      const Vector3d g = t->gap_uT_per_A / t->gap_norm_uT_per_A;
-      h = t975 * std::sqrt(std::max(static_cast<double>(g.transpose() * cov * g), 0.0));
-    }
-  }
-  const std::array<double, 2> ci = magnetics::TermNormInterval(t->gap_uT_per_A, axis_half, h);
-  t->gap_norm_ci95_uT_per_A[0] = resolved ? ci[0] : 0.0;
-  t->gap_norm_ci95_uT_per_A[1] = ci[1];
+  const magnetics::TermNorm tn = magnetics::TermNormOf(t->gap_uT_per_A, cov, blocks);
+  t->gap_norm_uT_per_A = tn.norm;
+  t->gap_norm_ci95_uT_per_A[0] = tn.ci95[0];
+  t->gap_norm_ci95_uT_per_A[1] = tn.ci95[1];
 }
 
 // The parameters to paste: offsets where plausible, the compensation (autopilot_params.h).

@@ -269,24 +269,13 @@ void FillIntervals(const MatrixXd& cov, int p, FlightFit* fit) {
   }
   if (p != 9) return;
   fit->term_cov = cov.block<3, 3>(6, 6);
-  for (int k = 0; k < 3; ++k) fit->term_ci_half_uT(k) = half(6 + k);
-  double h = 0.0;
-  if (fit->term_norm_uT > 0.0) {
-    const Vector3d g = fit->term_uT / fit->term_norm_uT;
-    h = t975 * std::sqrt(std::max(static_cast<double>(g.transpose() * fit->term_cov * g), 0.0));
-  }
-  // Per-axis t statistics against a Bonferroni point for three axes at 5 % overall.
-  for (int k = 0; k < 3; ++k) {
-    const double se = std::sqrt(std::max(cov(6 + k, 6 + k), 0.0));
-    if (se > 0.0) fit->term_max_abs_t = std::max(fit->term_max_abs_t, std::fabs(fit->term_uT(k)) / se);
-  }
-  fit->term_t_threshold = StudentTQuantile(1.0 - 0.05 / 6.0, static_cast<double>(fit->blocks - 1));
-  fit->term_resolved = fit->term_max_abs_t >= fit->term_t_threshold;
-  const std::array<double, 2> ci = TermNormInterval(fit->term_uT, fit->term_ci_half_uT, h);
-  // Not resolved by the three-axis test: zero is inside the simultaneous 95 % region, so the norm's
-  // interval starts at zero (one axis's own 95 % interval may still exclude it).
-  fit->term_norm_ci95[0] = fit->term_resolved ? ci[0] : 0.0;
-  fit->term_norm_ci95[1] = ci[1];
+  const TermNorm tn = TermNormOf(fit->term_uT, fit->term_cov, fit->blocks);
+  fit->term_ci_half_uT = tn.axis_half;
+  fit->term_max_abs_t = tn.max_abs_t;
+  fit->term_t_threshold = tn.t_threshold;
+  fit->term_resolved = tn.resolved;
+  fit->term_norm_ci95[0] = tn.ci95[0];
+  fit->term_norm_ci95[1] = tn.ci95[1];
 }
 
 // Whether the attitudes differ at all: the free Earth field (field_free) is told from the offset only
@@ -306,10 +295,30 @@ bool AttitudeVaries(const std::vector<FlightFitSample>& samples) {
 
 }  // namespace
 
-std::array<double, 2> TermNormInterval(const Eigen::Vector3d& term, const Eigen::Vector3d& axis_half, double norm_half) {
-  const double norm = term.norm();
-  const bool zero_inside = (term.cwiseAbs().array() <= axis_half.array()).all();
-  return {zero_inside ? 0.0 : std::max(0.0, norm - norm_half), norm + norm_half};
+TermNorm TermNormOf(const Eigen::Vector3d& term, const Eigen::Matrix3d& cov, int blocks) {
+  TermNorm out;
+  out.norm = term.norm();
+  if (blocks < 2) return out;
+  const double dof = static_cast<double>(blocks - 1);
+  const double t975 = StudentT975(dof);
+  out.t_threshold = StudentTQuantile(1.0 - 0.05 / 6.0, dof);
+  double axis_low = 0.0;
+  bool zero_inside = true;
+  for (int k = 0; k < 3; ++k) {
+    const double se = std::sqrt(std::max(cov(k, k), 0.0));
+    out.axis_half(k) = t975 * se;
+    if (se > 0.0) out.max_abs_t = std::max(out.max_abs_t, std::fabs(term(k)) / se);
+    zero_inside = zero_inside && std::fabs(term(k)) <= out.axis_half(k);
+    axis_low = std::max(axis_low, std::fabs(term(k)) - out.axis_half(k));
+  }
+  out.resolved = out.max_abs_t >= out.t_threshold;
+  double h = 0.0;
+  if (out.norm > 0.0) {
+    const Vector3d g = term / out.norm;
+    h = t975 * std::sqrt(std::max(static_cast<double>(g.transpose() * cov * g), 0.0));
+  }
+  out.ci95 = {out.resolved && !zero_inside ? std::max({0.0, out.norm - h, axis_low}) : 0.0, out.norm + h};
+  return out;
 }
 
 const char* FlightTermFormName(FlightTermForm form) { return form == FlightTermForm::kCurrent ? "current" : "throttle"; }

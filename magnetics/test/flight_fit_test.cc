@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 
 #include "hexsim/common/rng.h"
+#include "hexsim/common/statistics.h"
 #include "hexsim/magnetics/flight_fit.h"
 
 namespace hexsim::magnetics {
@@ -207,14 +208,35 @@ TEST(FlightFit, GivenAFewWildSamples_WhenFitted_ThenTheyAreDroppedAndTheOffsetHo
 
 // A term whose every axis is 0.9 of its half-width from 0 has a length 1.56 half-widths: the delta
 // method's |d| - h excluded 0 (an external compass at 1-2 Hz without a field read 0.3 [0.04, 0.6]
-// mG/A); an axis clear of 0 keeps the delta-method bound.
+// mG/A); an axis clear of 0 and resolved keeps the delta-method bound.
 TEST(FlightFit, GivenATermWhoseEveryAxisHoldsZero_WhenItsNormIntervalIsTaken_ThenItStartsAtZero) {
-  const Eigen::Vector3d half(0.1, 0.1, 0.1);
-  const auto ci = TermNormInterval(Eigen::Vector3d(0.09, -0.09, 0.09), half, 0.1);
-  EXPECT_EQ(ci[0], 0.0);
-  EXPECT_NEAR(ci[1], std::sqrt(3.0) * 0.09 + 0.1, 1e-12);
-  const auto clear = TermNormInterval(Eigen::Vector3d(0.3, -0.09, 0.09), half, 0.1);
-  EXPECT_NEAR(clear[0], Eigen::Vector3d(0.3, -0.09, 0.09).norm() - 0.1, 1e-12);
+  const int blocks = 9;
+  const double se = 0.1 / StudentT975(blocks - 1.0);  // per-axis half-width 0.1
+  const Eigen::Matrix3d cov = se * se * Eigen::Matrix3d::Identity();
+  const TermNorm tn = TermNormOf(Eigen::Vector3d(0.09, -0.09, 0.09), cov, blocks);
+  EXPECT_FALSE(tn.resolved);
+  EXPECT_EQ(tn.ci95[0], 0.0);
+  EXPECT_NEAR(tn.ci95[1], std::sqrt(3.0) * 0.09 + 0.1, 1e-12);
+  const Eigen::Vector3d clear(0.6, -0.09, 0.09);  // |t| 13.8 on x
+  const TermNorm tc = TermNormOf(clear, cov, blocks);
+  EXPECT_TRUE(tc.resolved);
+  EXPECT_NEAR(tc.ci95[0], clear.norm() - 0.1, 1e-12);
+}
+
+// One axis resolved (x: 2.5 with se 0.5, |t| 5) beside a poorly resolved one (y: 1.0 with se 3): the
+// delta method's |d| - h is below 0 (h 2.8 along d), so the interval read [0, 5.5] for a field the
+// three-axis test resolves (a public log: "2.5 mG/A [0.0, 5.8] ... written as the compensation").
+// |d| >= |d_x|, so the low end is at least x's own: 2.5 - t975·0.5.
+TEST(FlightFit, GivenOneAxisResolvedBesideAPoorlyResolvedOne_WhenItsNormIntervalIsTaken_ThenItStartsAtThatAxissLowEnd) {
+  const int blocks = 9;
+  const Eigen::Matrix3d cov = Eigen::Vector3d(0.25, 9.0, 0.01).asDiagonal();
+  const Eigen::Vector3d d(2.5, 1.0, 0.0);
+  const TermNorm tn = TermNormOf(d, cov, blocks);
+  EXPECT_TRUE(tn.resolved);
+  EXPECT_NEAR(tn.ci95[0], 2.5 - StudentT975(blocks - 1.0) * 0.5, 1e-12);
+  EXPECT_GT(tn.ci95[0], 0.0);
+  EXPECT_LE(tn.ci95[0], d.norm());
+  EXPECT_GT(tn.ci95[1], d.norm());
 }
 
 // 10 Hz samples over 150 s (the slow yaw sweep and manoeuvres of Fly) with a current swinging at

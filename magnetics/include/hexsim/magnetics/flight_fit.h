@@ -109,7 +109,7 @@ struct FlightFit {
   Eigen::Vector3d term_ci_half_uT = Eigen::Vector3d::Zero();
   Eigen::Matrix3d term_cov = Eigen::Matrix3d::Zero();      // the jackknife covariance of d
   double term_norm_uT = 0.0;       // |d|
-  double term_norm_ci95[2] = {0.0, 0.0};  // TermNormInterval
+  double term_norm_ci95[2] = {0.0, 0.0};  // TermNormOf
   bool term_fitted = false;
   // Test of d = 0: the largest per-axis |d_k|/se_k against the Bonferroni point t(1 − 0.05/6, G − 1)
   // (5 % overall). A joint Wald/Hotelling test was tried first: a 3×3 covariance estimated from 10-20
@@ -142,11 +142,25 @@ struct FlightFit {
 constexpr double kMaxFlightFitness_uT = 3.2;
 double FlightFitness_uT(const FlightFit& fit, const std::vector<FlightFitSample>& samples, bool apply_term);
 
-// The 95 % interval of |d| from d, its per-axis half-widths and the half-width along d (delta method):
-// |d| ± norm_half, clipped at 0, and from 0 where every axis's interval holds 0 (a vector whose
-// components may all be 0 may have no length: near 0 the norm's delta method is biased away from it;
-// simulated external compasses without a field at 1-2 Hz read 0.2-0.55 mG/A with [0.02-0.09, ...]).
-std::array<double, 2> TermNormInterval(const Eigen::Vector3d& term, const Eigen::Vector3d& axis_half, double norm_half);
+// |d|, its 95 % interval and whether d is resolved from 0, from d, its covariance (block jackknife) and
+// the number of blocks: one rule for calibrate's absolute term and gap's d - m (compass_terms.cc).
+// - resolved: the largest per-axis |t| >= the Bonferroni point for three axes at 5 % overall (Student
+//   t, blocks - 1 degrees of freedom);
+// - interval: |d| -+ h, h the delta method's half-width along d (Student t 97.5 %), its low end at least
+//   the largest per-axis low end max_k(|d_k| - half_k) (|d| >= |d_k|: the delta method's |d| - h reads 0
+//   for a field one axis resolves where another axis is poorly resolved: a public log printed 2.5
+//   [0.0, 5.8] mG/A "resolved"), clipped at 0; from 0 where d is not resolved or every axis's interval
+//   holds 0 (a vector whose components may all be 0 may have no length: near 0 the norm's delta method
+//   is biased away from it; simulated external compasses without a field at 1-2 Hz read 0.2-0.55 mG/A
+//   with [0.02-0.09, ...]).
+struct TermNorm {
+  double norm = 0.0;
+  std::array<double, 2> ci95 = {0.0, 0.0};
+  Eigen::Vector3d axis_half = Eigen::Vector3d::Zero();  // per-axis 95 % half-widths (Student t 97.5 %)
+  double max_abs_t = 0.0, t_threshold = 0.0;
+  bool resolved = false;
+};
+TermNorm TermNormOf(const Eigen::Vector3d& term, const Eigen::Matrix3d& cov, int blocks);
 
 // BadInput: too few samples or blocks (the message names the minimum), non-finite input.
 // Numerical: a singular normal matrix (the attitude never changed).
