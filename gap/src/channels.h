@@ -71,6 +71,10 @@ struct ChannelData {
   // phases (ground effect near the ground, a motor lag during throttle changes) removes most of the
   // structured residual but little of the whole one (noise included).
   bool explain_above_noise = false;
+  // The measured signal itself at the channel's samples (dynamics channel: the accelerometer; empty:
+  // not kept). Its own variance above the floor window bounds what a right replay leaves there: a
+  // replay whose fast part is right removes some of it, one whose fast part is wrong adds its error.
+  std::vector<Vec3> measured;
   std::string note;  // appended to the channel's explanation (e.g. fitted nuisance parameters)
   // The channel replayed with its between-row inputs read at half the log's row rate, one per phase
   // (even rows kept, odd rows kept; dynamics channel; empty: none): the residual, and the candidates

@@ -389,6 +389,7 @@ void CollectAirborne(const DynamicsInputs& in, const vehicle::VehicleParams& v,
     for (size_t m = 0; m < n_rot; ++m) wsum += omega[i][m];
     ch->t.push_back((*in.t)[i]);
     ch->y.emplace_back(meas - pred);
+    ch->measured.push_back(meas);
     ch->row.push_back(static_cast<int>(i));
     air->F_T.push_back(Ft);
     air->omega.push_back(omega[i]);

@@ -169,6 +169,7 @@ nlohmann::json ToJson(const GapReport& r) {
     cj["samples"] = c.samples;
     cj["rms_before"] = c.rms_before;
     cj["noise_rms"] = c.noise_rms;
+    if (c.measured_floor_rms > 0) cj["measured_floor_rms"] = c.measured_floor_rms;
     cj["noise_floor_ratio"] = c.noise_floor_ratio;
     cj["gap_detected"] = c.gap_detected;
     cj["p_value"] = c.p_value;

@@ -155,6 +155,30 @@ void StateVehicleMismatch(ChannelResult* res) {
       ts->magnitude, ts->magnitude_ci95[0], ts->magnitude_ci95[1], range->lo, range->hi);
 }
 
+// The dynamics channel's floor against the accelerometer's own fast variance
+// (DiagnoseOptions::max_floor_over_measured). Beyond it the floor is the replay's error: a "none"
+// becomes "unexplained" (the residual's floor is not noise, so no gap cannot be told), and a selected
+// effect keeps its place with the floor said beside it (its share is measured above that floor).
+void StateFloorMismatch(const DiagnoseOptions& o, ChannelResult* res) {
+  if (!(res->measured_floor_rms > 0.0)) return;
+  const double ratio = (res->noise_rms * res->noise_rms) / (res->measured_floor_rms * res->measured_floor_rms);
+  if (!(ratio > o.max_floor_over_measured)) return;
+  const std::string what = fmt::format(
+      "model mismatch: the residual's floor above 4 Hz is {:.3g} {} RMS, {:.1f} times the variance the accelerometer "
+      "itself shows there ({:.3g} {} RMS; a right replay adds nothing there, limit {:.3g} times): the configured "
+      "vehicle's fast response (thrust from the logged outputs: motors, propellers, mass) or the accelerometer's "
+      "filtering differs from this aircraft's",
+      res->noise_rms, res->unit, ratio, res->measured_floor_rms, res->unit, o.max_floor_over_measured);
+  if (res->gap_detected) {
+    res->findings.push_back(what);
+    return;
+  }
+  res->gap_detected = true;
+  res->verdict = "unexplained";
+  res->partial = false;
+  res->explanation = what + "; no effect is judged against that floor";
+}
+
 // What the log's row rate leaves undetermined, added to each candidate's interval. The replay
 // reconstructs its inputs between rows (an autopilot commands its motors several times per logged
 // row: the commands in between are not in the log), and that reconstruction's error moves a fit
@@ -262,6 +286,7 @@ ChannelResult AnalyzeInertial(const ChannelData& ch, const logs::FlightLog& log,
   };
   const double noise_var = floor_variance(an.y());
   res.noise_rms = std::sqrt(noise_var);
+  if (!ch.measured.empty()) res.measured_floor_rms = std::sqrt(floor_variance(ch.measured));
   const double noise_sse = noise_var * an.total_n();
   Attribution at = Attribute(ch, an, o, rng, noise_sse);
   AddSystematicTerms(ch, o, &at);
@@ -297,6 +322,7 @@ ChannelResult AnalyzeInertial(const ChannelData& ch, const logs::FlightLog& log,
     r.physical_range = plausibility::RangeText(r.effect);
   }
   Decide(an, noise_var, o, &at, &res);
+  StateFloorMismatch(o, &res);
   StateVehicleMismatch(&res);
   res.where = Locate(ch, an.y(), log, phases);
   if (res.gap_detected) {

@@ -91,6 +91,13 @@ struct DiagnoseOptions {
   // (n residual components): a z-score of the mean square's sampling spread, 6 so that a clean
   // replay (its floor estimated from the same residual) never passes it by chance.
   double floor_margin_z = 6.0;
+  // Dynamics channel: its floor (the residual's variance above ~4 Hz) must not exceed the measured
+  // accelerometer's own variance there by more than this factor. A replay whose fast response is
+  // right removes part of what the sensor sees there and adds nothing; a floor twice the sensor's own
+  // means the replay's fast error is at least as large as everything the accelerometer measures at
+  // those frequencies: the floor is the configured vehicle's error, not noise (model mismatch), and
+  // "no gap" cannot be told against it (a 12S quad replayed as quad_x: floor 26 m/s^2).
+  double max_floor_over_measured = 2.0;
   // A second effect joins the first when the pair lowers the held-out SSE below the first's by at
   // least one standard error of the fold differences (one-standard-error rule) and is material.
   // Ambiguous: two as-simple effects within one standard error of each other, neither nesting the other.
@@ -239,6 +246,10 @@ struct ChannelResult {
   double rms_before = 0.0;
   double noise_rms = 0.0;            // the channel's noise floor (RMS per component; ExplainedShare)
   double noise_floor_ratio = 0.0;    // residual mean square / noise floor (1: nothing above the floor)
+  // Dynamics channel: the measured accelerometer's own RMS above the floor window (0: not measured).
+  // A replay whose fast response is right leaves at most about this as its floor; a floor above
+  // DiagnoseOptions::max_floor_over_measured times it is the replay's own error (model mismatch).
+  double measured_floor_rms = 0.0;
   bool gap_detected = false;
   double p_value = 1.0;
   double ljung_box_p = 1.0;
