@@ -202,6 +202,7 @@ void JudgeNormal(const ChannelData& ch, const BaselineTerms& t, NuisanceReport* 
   } else if (offset == OffsetReading::kBeyondNormal) {
     nr.out_of_range = "hard_iron_offset";
     nr.beyond_normal.emplace_back("hard_iron_offset");
+    nr.offset_finding = static_cast<int>(nr.findings.size());
     nr.findings.push_back(fmt::format("{}: residual offset ({:.0f}, {:.0f}, {:.0f}) mG, beyond the normal {:.0f} mG: "
                                       "recalibrate the compass",
                                       ch.name, kMilliGaussPerMicroTesla * t.b.x(), kMilliGaussPerMicroTesla * t.b.y(),
@@ -277,17 +278,18 @@ void RejudgeOffsetAtZeroCurrent(const ChannelData& ch, const Evaluated& joint, c
   const Vec3& b = t.b;
   beyond.erase(it);
   if (nr->out_of_range == "hard_iron_offset") nr->out_of_range.clear();
-  const std::string head = ch.name + ": residual offset (";
-  for (std::string& f : *findings) {
-    if (f.rfind(head, 0) != 0 || f.find("recalibrate") == std::string::npos) continue;
-    const plausibility::PhysicalRange* off = plausibility::FindRange("hard_iron_offset");
-    f = fmt::format("{} on the current-free baseline, ({:.0f}, {:.0f}, {:.0f}) mG at zero current with the current "
-                    "field fitted: within the normal {:.0f} mG; the excess was the flight's mean current field, which "
-                    "the current term compensates: no recalibration",
-                    f.substr(0, f.find(", beyond the normal")), kMilliGaussPerMicroTesla * b.x(),
-                    kMilliGaussPerMicroTesla * b.y(), kMilliGaussPerMicroTesla * b.z(),
-                    kMilliGaussPerMicroTesla * off->normal_hi);
-  }
+  if (nr->offset_finding < 0 || static_cast<size_t>(nr->offset_finding) >= findings->size()) return;
+  const auto base = std::find_if(nr->terms.begin(), nr->terms.end(),
+                                 [](const CandidateResult& k) { return k.effect == "hard_iron_offset"; });
+  if (base == nr->terms.end()) return;
+  const plausibility::PhysicalRange* off = plausibility::FindRange("hard_iron_offset");
+  (*findings)[static_cast<size_t>(nr->offset_finding)] = fmt::format(
+      "{}: residual offset ({:.0f}, {:.0f}, {:.0f}) mG on the current-free baseline, ({:.0f}, {:.0f}, {:.0f}) mG at zero "
+      "current with the current field fitted: within the normal {:.0f} mG; the excess was the flight's mean current "
+      "field, which the current term compensates: no recalibration",
+      ch.name, kMilliGaussPerMicroTesla * base->params.at("b_x_uT"), kMilliGaussPerMicroTesla * base->params.at("b_y_uT"),
+      kMilliGaussPerMicroTesla * base->params.at("b_z_uT"), kMilliGaussPerMicroTesla * b.x(),
+      kMilliGaussPerMicroTesla * b.y(), kMilliGaussPerMicroTesla * b.z(), kMilliGaussPerMicroTesla * off->normal_hi);
 }
 
 realdata::LagEstimate CurrentStaleness(const logs::FlightLog& log, const std::vector<realdata::RowKind>& kinds,

@@ -121,12 +121,16 @@ struct NuisanceReport {
   // The offset outside hard_iron_offset's physical range (nuisance.h ReadOffset): the baseline is a
   // model mismatch, so the verdict is unexplained, never "no gap" on top of it.
   bool offset_implausible = false;
+  // The index in `findings` of the offset's "beyond the normal range: recalibrate" line (-1: none),
+  // which RejudgeOffsetAtZeroCurrent rewrites.
+  int offset_finding = -1;
 };
 NuisanceReport DescribeNuisance(const ChannelData& ch, const Evaluated& baseline, const DiagnoseOptions& o);
 // Where the reported model fits a field the motor current drives, the baseline's offset holds the
 // flight's mean field d·Ī on top of the calibration's own: the offset at zero current is the joint
 // fit's. An offset beyond its normal range only through that mean field is no recalibration: the
-// term leaves beyond_normal and its finding says so instead (normal ranges only).
+// term leaves beyond_normal and its finding (findings[nr->offset_finding], a copy of nr's own findings
+// first) says so instead (normal ranges only).
 void RejudgeOffsetAtZeroCurrent(const ChannelData& ch, const Evaluated& joint, const DiagnoseOptions& o,
                                 NuisanceReport* nr, std::vector<std::string>* findings);
 // The interval a nuisance term is judged by: value ± t975 times the wider of its two spreads, the
