@@ -8,6 +8,7 @@
 #include "hexsim/common/paths.h"
 #include "hexsim/logs/current_check.h"
 #include "hexsim/logs/dataflash_import.h"
+#include "hexsim/logs/dataflash_text.h"
 #include "hexsim/logs/ulog.h"
 #include "hexsim/logs/ulog_import.h"
 
@@ -21,8 +22,12 @@ struct ImportArgs {
 };
 
 Status ImportCommand(const ImportArgs& a) {
-  auto bytes = ReadFile(a.log);
+  auto read = ReadFile(a.log);
+  if (!read.ok()) return read.status();
+  std::string text_note;
+  auto bytes = logs::DataFlashBinaryBytes(*read, a.log, &text_note);  // a text .log as its binary
   if (!bytes.ok()) return bytes.status();
+  if (!text_note.empty()) std::fprintf(stderr, "hexsim: %s\n", text_note.c_str());
   if (a.info) {
     // Bad input as for the import itself: an empty file, or one without a single DataFlash message.
     if (bytes->empty()) return Status::BadInput(a.log + ": empty file");

@@ -1,4 +1,5 @@
-// libFuzzer target: the DataFlash reader and importer on arbitrary bytes.
+// libFuzzer target: the DataFlash reader and importer on arbitrary bytes, and the text form's
+// re-encoder (dataflash_text.h) on the same bytes (its output read back by the binary reader).
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -6,6 +7,7 @@
 
 #include "hexsim/logs/dataflash.h"
 #include "hexsim/logs/dataflash_import.h"
+#include "hexsim/logs/dataflash_text.h"
 #include "hexsim/logs/flight_log.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -23,6 +25,17 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (reader.damage().skipped_bytes > size) std::abort();
 
   (void)hexsim::logs::DataFlashInfoJson(bytes, "fuzz.bin").dump();
+
+  // Any bytes as text: BadInput or binary messages the reader accepts whole (nothing skipped).
+  auto text = hexsim::logs::DataFlashTextToBinary(bytes, "fuzz.log");
+  if (text.ok()) {
+    hexsim::logs::DataFlashReader back(*text);
+    while (back.Next(&m)) {
+    }
+    if (back.damage().skipped_bytes != 0) std::abort();
+  } else if (text.status().code() != hexsim::StatusCode::kBadInput) {
+    std::abort();
+  }
 
   auto result = hexsim::logs::ImportDataFlash(bytes, "fuzz.bin");
   if (!result.ok()) {

@@ -12,6 +12,7 @@
 
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/logs/dataflash_import.h"
+#include "hexsim/logs/dataflash_text.h"
 #include "hexsim/logs/flight_log.h"
 #include "hexsim/logs/ulog.h"
 #include "hexsim/logs/ulog_import.h"
@@ -428,6 +429,11 @@ Result<MagInput> ParseMagInput(const std::string& bytes, const std::string& name
                                const nlohmann::json& meta) {
   if (CompassIndex(compass) < 0) return Status::BadInput(fmt::format("--compass: '{}': must be mag, mag2 or mag3", compass));
   if (bytes.empty()) return Status::BadInput(name + ": empty file");
+  if (IsDataFlashText(bytes)) {
+    auto bin = DataFlashTextToBinary(bytes, name);
+    if (!bin.ok()) return bin.status();
+    return ParseMagInput(*bin, name, compass, meta);
+  }
   if (bytes.size() >= 2 && static_cast<unsigned char>(bytes[0]) == 0xA3 && static_cast<unsigned char>(bytes[1]) == 0x95) {
     auto imp = ImportDataFlash(bytes, name);
     if (!imp.ok()) return imp.status();

@@ -6,6 +6,7 @@
 #include "hexsim/logs/current_check.h"
 #include "hexsim/logs/dataflash_import.h"
 #include "hexsim/logs/dataflash_plausibility.h"
+#include "hexsim/logs/dataflash_text.h"
 #include "hexsim/logs/ulog.h"
 #include "hexsim/logs/ulog_import.h"
 
@@ -29,8 +30,12 @@ void Say(std::vector<std::string>* notes, std::string line) {
 }  // namespace
 
 Result<FlightLog> ReadAnyFlightLog(const std::string& path, std::vector<std::string>* notes) {
-  auto bytes = ReadFile(path);
+  auto read = ReadFile(path);
+  if (!read.ok()) return read.status();
+  std::string text_note;
+  auto bytes = DataFlashBinaryBytes(*read, path, &text_note);  // a text .log as its binary
   if (!bytes.ok()) return bytes.status();
+  if (!text_note.empty()) Say(notes, text_note);
   FlightLog log;
   const bool is_csv = !IsDataFlash(*bytes) && !IsULog(*bytes);
   if (IsDataFlash(*bytes)) {
