@@ -202,8 +202,9 @@ struct ReplayResult {
   LogInputs inputs;
 };
 
-// `row_kind` (realdata's flight windows, one per log row): the gyro, accel and dynamics channels keep
-// flight rows only (take-off, ground contact and the excluded tail are not in their models).
+// `row_kind` (realdata's flight windows, one per log row; realdata::AirborneRowKind: a run on the
+// ground is not flight here): the gyro, accel and dynamics channels keep flight rows only (take-off,
+// ground contact and the excluded tail are not in their models).
 ReplayResult Replay(const logs::FlightLog& log, const vehicle::VehicleParams& vehicle, const DiagnoseOptions& options,
                     const std::vector<realdata::RowKind>& row_kind);
 // Generic sensor-axis candidates (misalignment, scale_error, latency) of a vector channel whose

@@ -366,7 +366,7 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
   const double duration = t.back() - t.front();
   const realdata::FlightWindows fw = Windows(log, options);
   rep.windows_source = fw.armed_source;
-  for (const auto& w : fw.windows) rep.windows.push_back({w.start_s, w.end_s, w.kind, w.why});
+  for (const auto& w : fw.windows) rep.windows.push_back({w.start_s, w.end_s, w.kind, w.why, w.on_ground});
   const std::vector<std::string> phases = realdata::PhaseLabels(log, fw);
   for (size_t i = 0; i < phases.size();) {
     size_t j = i;
@@ -374,7 +374,8 @@ Result<GapReport> Diagnose(const logs::FlightLog& log, const vehicle::VehiclePar
     rep.phases.push_back({t[i], t[j - 1], phases[i]});
     i = j;
   }
-  internal::ReplayResult rr = internal::Replay(log, vehicle, options, fw.row_kind);
+  // The inertial and dynamics replays take airborne rows only: a run on the ground is no flight there.
+  internal::ReplayResult rr = internal::Replay(log, vehicle, options, realdata::AirborneRowKind(log, fw));
   rep.attitude_source = rr.attitude_source;
   rep.field_model = rr.field_model;
   rep.earth_field_N_uT = rr.earth_field_N_uT;

@@ -201,7 +201,8 @@ nlohmann::json ToJson(const GapReport& r) {
   j["effects_not_built"] = r.effects_not_built;
   j["windows"] = json::array();
   for (const auto& w : r.windows) {
-    j["windows"].push_back({{"start_s", w.start_s}, {"end_s", w.end_s}, {"kind", w.kind}, {"why", w.why}});
+    j["windows"].push_back({{"start_s", w.start_s}, {"end_s", w.end_s}, {"kind", w.kind}, {"why", w.why},
+                            {"on_ground", w.on_ground}});
   }
   j["windows_source"] = r.windows_source;
   return j;
@@ -312,7 +313,9 @@ std::string Summary(const GapReport& r) {
   std::string s = CompassMappingText(r.compass_mapping);
   if (!r.windows.empty()) {
     s += "windows (" + r.windows_source + "):";
-    for (const auto& w : r.windows) s += fmt::format(" {} {:.1f}-{:.1f} s;", w.kind, w.start_s, w.end_s);
+    for (const auto& w : r.windows) {
+      s += fmt::format(" {}{} {:.1f}-{:.1f} s;", w.kind, w.on_ground ? " on the ground" : "", w.start_s, w.end_s);
+    }
     s += "\n";
   }
   for (const auto& c : r.channels) {

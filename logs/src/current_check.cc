@@ -100,20 +100,6 @@ double Percentile(std::vector<double> v, double q) {
 
 // The height span (5th..95th percentile) over `rows` and the column it came from; NaN when the log
 // has no height at ten of them.
-double HeightSpan(const FlightLog& log, const std::vector<size_t>& rows, std::string* column) {
-  constexpr size_t kMinHeightSamples = 10;
-  for (const char* c : {"baro_alt_m", "pos_D_m"}) {
-    if (!log.Has(c)) continue;
-    std::vector<double> h;
-    for (size_t r : rows) {
-      if (std::isfinite(log.Column(c)[r])) h.push_back(log.Column(c)[r]);
-    }
-    if (h.size() < kMinHeightSamples) continue;
-    *column = c;
-    return Percentile(h, 0.95) - Percentile(h, 0.05);
-  }
-  return std::numeric_limits<double>::quiet_NaN();
-}
 
 bool HasMeasured(const FlightLog& log, const std::string& column) {
   if (!log.Has(column)) return false;
@@ -132,13 +118,28 @@ std::vector<double> ValuesAt(const std::vector<double>& column, const std::vecto
 
 }  // namespace
 
+double LoggedHeightSpan_m(const FlightLog& log, const std::vector<size_t>& rows, std::string* column) {
+  constexpr size_t kMinHeightSamples = 10;
+  for (const char* c : {"baro_alt_m", "pos_D_m"}) {
+    if (!log.Has(c)) continue;
+    std::vector<double> h;
+    for (size_t r : rows) {
+      if (std::isfinite(log.Column(c)[r])) h.push_back(log.Column(c)[r]);
+    }
+    if (h.size() < kMinHeightSamples) continue;
+    *column = c;
+    return Percentile(h, 0.95) - Percentile(h, 0.05);
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
 CurrentSensorCheck CheckCurrentSensor(const FlightLog& log) {
   CurrentSensorCheck c;
   c.motors = MotorsOf(log);
   c.cells = CellsFromParams(log, &c.cells_source);
   std::vector<size_t> flight = FlightRows(log, c.motors);
   std::string height_column, ground_run;
-  if (const double span_m = HeightSpan(log, flight, &height_column); span_m < kMinFlightClimb_m) {
+  if (const double span_m = LoggedHeightSpan_m(log, flight, &height_column); span_m < kMinFlightClimb_m) {
     ground_run = fmt::format("current not checked: the motors ran at flight output for {} rows but {} spans {:.2g} m "
                              "over them (a flight climbs {:g} m or more): a run on the ground",
                              flight.size(), height_column, span_m, kMinFlightClimb_m);

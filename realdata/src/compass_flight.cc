@@ -229,7 +229,8 @@ std::vector<size_t> Pick(const logs::MagInput& in, const FlightWindows& w, int m
   std::string spans;
   for (const auto& win : w.windows) {
     if (win.kind != "flight") continue;
-    spans += (spans.empty() ? "" : ", ") + fmt::format("{:.1f}-{:.1f} s", win.start_s, win.end_s);
+    spans += (spans.empty() ? "" : ", ") +
+             fmt::format("{:.1f}-{:.1f} s{}", win.start_s, win.end_s, win.on_ground ? " (on the ground: motors running, no climb)" : "");
     for (size_t i = 0; i < in.t_s.size(); ++i) {
       if (in.t_s[i] >= win.start_s && in.t_s[i] <= win.end_s) flight[i] = 1;
     }

@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include "hexsim/logs/current_check.h"
+
 namespace hexsim::realdata {
 namespace {
 
@@ -37,6 +39,21 @@ double TiltDeg(double w, double x, double y, double z) {
   const double roll = std::atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y));
   const double pitch = std::asin(std::clamp(2 * (w * y - z * x), -1.0, 1.0));
   return std::max(std::fabs(roll), std::fabs(pitch)) * kRadToDeg;
+}
+
+// A flight window [i, j) whose logged height spans less than a flight climbs (logs::kMinFlightClimb_m,
+// the import's current check's rule) is a run on the ground.
+void MarkOnGround(const logs::FlightLog& log, size_t i, size_t j, Window* w) {
+  std::vector<size_t> rows(j - i);
+  for (size_t k = i; k < j; ++k) rows[k - i] = k;
+  std::string column;
+  const double span_m = logs::LoggedHeightSpan_m(log, rows, &column);
+  if (!(span_m < logs::kMinFlightClimb_m)) return;
+  w->on_ground = true;
+  w->why = fmt::format("armed, throttle above idle, but {} spans {:.2g} m (a flight climbs {:g} m or more): a run on the "
+                       "ground (tied down or props off): the compasses' current terms use it, the inertial and "
+                       "dynamics replays do not",
+                       column, span_m, logs::kMinFlightClimb_m);
 }
 
 }  // namespace
@@ -195,14 +212,28 @@ FlightWindows FindFlightWindows(const logs::FlightLog& log, const WindowOptions&
   for (size_t i = 0; i < n;) {
     size_t j = i;
     while (j < n && lab[j] == lab[i]) ++j;
-    Window w{t[i], t[j - 1], lab[i], ""};
+    Window w{t[i], t[j - 1], lab[i], "", false};
     if (lab[i] == "flight") w.why = "armed, throttle above idle, attitude sane";
+    if (lab[i] == "flight") MarkOnGround(log, i, j, &w);
     else if (lab[i] == "ground") w.why = "disarmed or at idle throttle, before any flip or crash";
     else w.why = fw.cut_why;
     fw.windows.push_back(w);
     i = j;
   }
   return fw;
+}
+
+std::vector<RowKind> AirborneRowKind(const logs::FlightLog& log, const FlightWindows& fw) {
+  std::vector<RowKind> kind = fw.row_kind;
+  if (!log.Has("t_s") || log.rows() != kind.size()) return kind;
+  const auto& t = log.Column("t_s");
+  for (const Window& w : fw.windows) {
+    if (!w.on_ground) continue;
+    for (size_t i = 0; i < kind.size(); ++i) {
+      if (kind[i] == RowKind::kFlight && t[i] >= w.start_s && t[i] <= w.end_s) kind[i] = RowKind::kGround;
+    }
+  }
+  return kind;
 }
 
 FlightWindows WindowsFromRange(const logs::FlightLog& log, double from_s, double to_s) {

@@ -1,5 +1,6 @@
 #include "hexsim/realdata/windows.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -51,6 +52,30 @@ TEST(FlightWindows, GivenAFlightEndingInAFlip_WhenWindowed_ThenFlightIsArmedAbov
   EXPECT_NEAR(fw.cut_at_s, 74.5, 0.15);  // where the tilt was last sane, lead_s earlier
   EXPECT_NEAR(fw.idle_throttle, 0.08, 1e-9);
   EXPECT_NE(fw.armed_source.find("armed column"), std::string::npos);
+}
+
+// The same motors at flight output, but tied down (or props off): the height stays within a few
+// centimetres. The window is a flight window for the compasses (the current's field is the same on the
+// ground) and not airborne for the inertial and dynamics replays.
+TEST(FlightWindows, GivenMotorsAtFlightOutputWithoutAClimb_WhenWindowed_ThenTheWindowIsOnTheGroundAndNotAirborne) {
+  logs::FlightLog log = SyntheticFlight(true);
+  const size_t d = log.AddColumn("pos_D_m");
+  auto& pos = log.MutableColumn(d);
+  for (size_t i = 0; i < pos.size(); ++i) pos[i] = 0.03 * std::sin(0.9 * static_cast<double>(i));
+  const FlightWindows fw = FindFlightWindows(log);
+  ASSERT_EQ(fw.windows.size(), 3u);
+  EXPECT_EQ(fw.windows[1].kind, "flight");
+  EXPECT_TRUE(fw.windows[1].on_ground) << fw.windows[1].why;
+  EXPECT_NE(fw.windows[1].why.find("run on the"), std::string::npos);
+  const std::vector<RowKind> air = AirborneRowKind(log, fw);
+  EXPECT_GT(fw.Count(RowKind::kFlight), 550u);
+  EXPECT_EQ(std::count(air.begin(), air.end(), RowKind::kFlight), 0);
+  // The flight that climbs 5 m is airborne.
+  const FlightWindows flown = FindFlightWindows(SyntheticFlight(true));
+  EXPECT_FALSE(flown.windows[1].on_ground);
+  const std::vector<RowKind> flown_air = AirborneRowKind(SyntheticFlight(true), flown);
+  EXPECT_EQ(static_cast<size_t>(std::count(flown_air.begin(), flown_air.end(), RowKind::kFlight)),
+            flown.Count(RowKind::kFlight));
 }
 
 TEST(FlightWindows, GivenNoArmedColumn_WhenWindowed_ThenThrottleStandsInAndTheSourceSaysSo) {

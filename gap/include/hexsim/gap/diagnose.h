@@ -279,6 +279,7 @@ struct ChannelResult {
 struct WindowSpan {
   double start_s = 0.0, end_s = 0.0;
   std::string kind, why;  // kind: flight | ground | excluded
+  bool on_ground = false;  // a flight window whose height never climbs (realdata::Window::on_ground)
 };
 
 struct PhaseSpan {

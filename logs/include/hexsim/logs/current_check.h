@@ -18,6 +18,7 @@
 #include <cstddef>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -45,6 +46,9 @@ inline constexpr int kMinMultirotorMotors = 3;
 // public ArduCopter 4.7.0-dev log ran its motors at 0.49 for 24 s at 2.6 A, the barometer within
 // 0.1 m): its current is no flight current and is not judged.
 inline constexpr double kMinFlightClimb_m = 0.5;
+// The logged height's span over `rows` (5th to 95th percentile of baro_alt_m, else pos_D_m; the column
+// read in `column`), NaN with fewer than 10 finite heights.
+double LoggedHeightSpan_m(const FlightLog& log, const std::vector<size_t>& rows, std::string* column);
 
 struct CurrentSensorCheck {
   bool usable = true;

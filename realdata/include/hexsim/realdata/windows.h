@@ -37,6 +37,11 @@ struct Window {
   double start_s = 0.0, end_s = 0.0;
   std::string kind;  // flight | ground | excluded
   std::string why;
+  // A flight window (motors at flight output) whose logged height never climbs (logs::
+  // kMinFlightClimb_m): a run on the ground, tied down or props off. Its rows stay flight for the
+  // compasses (the current's field at the compass is the same on the ground: compassmot's
+  // principle) and are not airborne for the inertial and dynamics replays (AirborneRowKind).
+  bool on_ground = false;
 };
 
 struct FlightWindows {
@@ -54,6 +59,9 @@ struct FlightWindows {
 
 // Windows from the log's armed state, throttle and attitude.
 FlightWindows FindFlightWindows(const logs::FlightLog& log, const WindowOptions& options = {});
+// The row kinds with the rows of on-ground flight windows as ground: what the inertial and dynamics
+// replays may take as airborne.
+std::vector<RowKind> AirborneRowKind(const logs::FlightLog& log, const FlightWindows& windows);
 // The user's window: rows in [from_s, to_s] are flight, the rest excluded (`--from/--to`).
 FlightWindows WindowsFromRange(const logs::FlightLog& log, double from_s, double to_s);
 
