@@ -390,12 +390,68 @@ int MotorCount(const ULog& u) {
 
 // The motors' outputs (0..1): actuator_motors' controls, or actuator_outputs' PWM over the
 // PWM_MAIN_MIN..MAX range (the PWM itself in the stream only). Null topic: neither is logged.
+// No PWM pulse for an ESC or servo is longer than 2.5 ms (PX4's PWM_MAIN_MAX tops out at 2150 us).
+constexpr double kMaxPwm_us = 2500.0;
+// UAVCAN's esc.RawCommand full scale: PX4 1.9-1.13's uavcan driver logs the motors as 0..8191.
+constexpr double kUavcanRawCommandMax = 8191.0;
+
+double MaxOutput(const ULogTopic& t, int motors) {
+  double m = -std::numeric_limits<double>::infinity();
+  for (int k = 0; k < motors; ++k) {
+    const std::string f = fmt::format("output[{}]", k);
+    if (!t.Has(f)) continue;
+    for (size_t i = 0; i < t.records.size(); ++i) {
+      const double v = t.Get(i, f);
+      if (std::isfinite(v)) m = std::max(m, v);
+    }
+  }
+  return m;
+}
+
+// The actuator_outputs instance that carries the motors: the one whose first `motors` outputs move
+// most over the log (the sum of their standard deviations; records without them count nothing). PX4
+// publishes one instance per output driver (PWM main, IO, UAVCAN, DShot), so the motors are not
+// always on instance 0: a PX4 1.13 log with UAVCAN ESCs has an empty instance 0 and its motors on
+// instance 1. A tie keeps the lower instance.
+const ULogTopic* MotorOutputsInstance(const ULog& u, int motors) {
+  const ULogTopic* best = nullptr;
+  double best_spread = -1.0;
+  for (const ULogTopic& t : u.topics) {
+    if (t.name != "actuator_outputs" || t.records.empty()) continue;
+    double spread = 0.0;
+    for (int k = 0; k < motors; ++k) {
+      const std::string f = fmt::format("output[{}]", k);
+      if (!t.Has(f)) continue;
+      double sum = 0.0, sum2 = 0.0;
+      size_t n = 0;
+      for (size_t i = 0; i < t.records.size(); ++i) {
+        const double v = t.Get(i, f);
+        if (!std::isfinite(v)) continue;
+        sum += v;
+        sum2 += v * v;
+        ++n;
+      }
+      if (n > 1) spread += std::sqrt(std::max(0.0, sum2 / static_cast<double>(n) - (sum / static_cast<double>(n)) * (sum / static_cast<double>(n))));
+    }
+    if (spread > best_spread || (spread == best_spread && best != nullptr && t.multi_id < best->multi_id)) {
+      best = &t;
+      best_spread = spread;
+    }
+  }
+  return best;
+}
+
 Channel MotorOutputs(const ULog& u, int motors) {
   const ULogTopic* am = u.Find("actuator_motors");
-  const ULogTopic* ao = u.Find("actuator_outputs");
+  const ULogTopic* ao = MotorOutputsInstance(u, motors);
   if (am == nullptr && ao == nullptr) return {};
   const auto pmin = u.params.find("PWM_MAIN_MIN"), pmax = u.params.find("PWM_MAIN_MAX");
-  const double lo = pmin != u.params.end() ? pmin->second : 1000.0, hi = pmax != u.params.end() ? pmax->second : 2000.0;
+  double lo = pmin != u.params.end() ? pmin->second : 1000.0, hi = pmax != u.params.end() ? pmax->second : 2000.0;
+  if (am == nullptr && MaxOutput(*ao, motors) > kMaxPwm_us) {
+    // Beyond any PWM pulse: UAVCAN's raw ESC command (PX4's uavcan driver publishes 0..8191).
+    lo = 0.0;
+    hi = kUavcanRawCommandMax;
+  }
   const ULogTopic* t = am != nullptr ? am : ao;
   Channel c{t, "rcou", {}, nullptr};
   const bool pwm = am == nullptr;

@@ -340,5 +340,43 @@ TEST(ULogPx4State, GivenAULog_WhenInfoIsAsked_ThenTopicsRatesAndCompassParameter
   EXPECT_EQ(info.find("MPC_XY_VEL_MAX"), std::string::npos) << info;
 }
 
+// PX4 publishes one actuator_outputs instance per output driver. A PX4 1.9 log with UAVCAN ESCs has
+// instance 0 all zeros (main PWM unused), its motors on instance 1 as UAVCAN raw commands (0..8191)
+// and servos parked on instance 2: the motors are the instance whose outputs move, read on their
+// command's own full scale.
+TEST(ULogPx4State, GivenMotorsOnTheUavcanOutputsInstance_WhenImported_ThenTheyAreReadFromItOnItsFullScale) {
+  ULogWriter w;
+  Attitude(&w);
+  w.Format("actuator_outputs:uint64_t timestamp;uint32_t noutputs;float[8] output;");
+  const uint16_t pwm = w.Subscribe("actuator_outputs", 0), can = w.Subscribe("actuator_outputs", 1),
+                 aux = w.Subscribe("actuator_outputs", 2);
+  for (int k = 0; k < 90; ++k) {
+    const uint64_t t = 1050000 + 100000ull * static_cast<uint64_t>(k);
+    std::string zero = Pack(t) + Pack<uint32_t>(8), cmd = Pack(t) + Pack<uint32_t>(6), park = Pack(t) + Pack<uint32_t>(6);
+    for (int m = 0; m < 8; ++m) {
+      zero += Pack(0.0f);
+      cmd += Pack(static_cast<float>(m < 4 ? 4000.0 + 800.0 * std::sin(0.2 * k + m) : 0.0));
+      park += Pack(1500.0f);
+    }
+    w.Data(pwm, zero);
+    w.Data(can, cmd);
+    w.Data(aux, park);
+  }
+  auto r = ImportULog(w.bytes(), "uavcan.ulg");
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  const FlightLog& log = r->log;
+  ASSERT_TRUE(log.Has("motor_1_u"));
+  const auto& t = log.Column("t_s");
+  const auto& u1 = log.Column("motor_1_u");
+  size_t checked = 0;
+  for (size_t i = 0; i < t.size(); ++i) {
+    if (!std::isfinite(u1[i])) continue;
+    EXPECT_GT(u1[i], (4000.0 - 810.0) / 8191.0) << t[i];
+    EXPECT_LT(u1[i], (4000.0 + 810.0) / 8191.0) << t[i];
+    ++checked;
+  }
+  EXPECT_GT(checked, 50u);
+}
+
 }  // namespace
 }  // namespace hexsim::logs
