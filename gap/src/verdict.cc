@@ -142,8 +142,8 @@ std::string ShapeFinding(const ChannelData& ch, const Analyzer& an, const Evalua
 //     current field is unmodelled the tilt term shares the current's structure (on real logs a free
 //     vertical gain read 0.4–0.8 for a planted 0.12 on x): the member is reported only where it
 //     predicts the held-out blocks better than d alone by one standard error, and its size is judged
-//     against scale_error's physical range; current_soft_iron's own test is over a field linear in the
-//     current (FamilyPValues), so each of the two is judged by what the other cannot describe.
+//     against scale_error's physical range; current_soft_iron's own test is over a constant matrix and
+//     the current's field (FamilyPValues), so each of the two is judged by what the other cannot describe.
 constexpr const char* kGainXMinusY = "gain_x_minus_y";
 constexpr const char* kGainZ = "gain_z";
 
@@ -237,6 +237,19 @@ void ScaleSpread(CandidateResult* r) {
   r->magnitude_ci95[1] = GainSpread(AbsHi(di), AbsHi(gi));
 }
 
+// The field matrix alone (any scale, cross-coupling or misalignment): the library-free set's first group.
+Candidate FieldMatrix(const ChannelData& ch) {
+  Candidate m;
+  if (ch.flexible.p() < kFlexFieldParams || ch.flexible.X.size() != ch.t.size()) return m;
+  m = MakeCandidate("field_matrix", {}, {}, "");
+  for (int j = 0; j < kFlexFieldParams; ++j) {
+    m.names.push_back(ch.flexible.names[j]);
+    m.scale.push_back(1.0);
+  }
+  for (const auto& x : ch.flexible.X) m.X.emplace_back(x.leftCols(kFlexFieldParams));
+  return m;
+}
+
 // The library-free set's cluster-robust Wald tests (field matrix; current and throttle), Bonferroni
 // over the two groups, and the in-sample mean square it removes.
 void LibraryFreeTest(const ChannelData& ch, const Analyzer& an, double* p, double* gain_ms) {
@@ -253,22 +266,11 @@ void LibraryFreeTest(const ChannelData& ch, const Analyzer& an, double* p, doubl
   *gain_ms = std::max(0.0, an.baseline().full.sse - ef.full.sse) / an.total_n();
 }
 
-// Family-corrected p-values: Bonferroni over the families and over each family's effective number of
-// member tests (EffectiveTests). A current-driven soft iron must depend on the current's variation:
-// over the library-free set (any constant field matrix, and a field linear in the current and in the
-// throttle) its partial Wald test must still be significant, corrected over the members as the
-// family's own test is (the best of many shifted currents is chosen by the same data). Its regressor
-// I·h is Ī·h, a constant matrix (a nearly constant cruise current makes a static axis scale or soft
-// iron look the same), plus (I − Ī)·h, whose column along the down field, (I − Ī)·B_D in near-level
-// flight, is a current hard iron: only the current's variation against the turning field, (I − Ī)
-// times h's own change, is a soft iron's alone (scripts/withheld_sim: a 0.13 x scale, a z scale beside
-// the wiring's field, and paper_hex's own static soft iron read current_soft_iron without --sim). The
-// current field is fitted with the soft iron's own current (SameCurrentField) beside the logged one.
-// The current_hard_iron member read with the same current as `soft` (its shift, current_aligned): the
-// library-free set's current is the logged one, and where the log's current is stale a shifted one
-// describes the current's field better, so a soft iron on the shifted current would pass its test
-// through its down-field column alone (a 0.13 x scale beside a 1 mG/A field on a 10 Hz log with a
-// 0.2 s stale current read current_soft_iron, p 3e-4). Null where there is none.
+// The current_hard_iron member read with the same current as `soft` (its shift, current_aligned): where
+// the log's current is stale a shifted one describes the current's field better than the logged one,
+// so a soft iron on the shifted current would pass its test through its down-field column alone (a
+// 0.13 x scale beside a 1 mG/A field on a 10 Hz log with a 0.2 s stale current read current_soft_iron,
+// p 3e-4). Null where there is none.
 const Candidate* SameCurrentField(const Attribution& at, const Candidate& soft) {
   const auto fam = at.family.find(Info(Effect::kCurrentHardIron).name);
   if (fam == at.family.end()) return nullptr;
@@ -279,14 +281,28 @@ const Candidate* SameCurrentField(const Attribution& at, const Candidate& soft) 
   return nullptr;
 }
 
-void FamilyPValues(const Analyzer& an, const Candidate& library_free, Attribution* at) {
+// Family-corrected p-values: Bonferroni over the families and over each family's effective number of
+// member tests (EffectiveTests). A current-driven soft iron must depend on the current's variation:
+// over a constant field matrix AND the current field read with its own current (SameCurrentField)
+// its partial Wald test must still be significant, corrected over the members as the family's own
+// test is (the best of many shifted currents is chosen by the same data). Its regressor I·h is Ī·h, a
+// constant matrix (a nearly constant cruise current makes a static axis scale or soft iron look the
+// same), plus (I − Ī)·h, whose column along the down field, (I − Ī)·B_D in near-level flight, is a
+// current hard iron: only the current's variation against the turning field is a soft iron's alone
+// (scripts/withheld_sim: a 0.13 x scale, a z scale beside the wiring's field, and paper_hex's own
+// static soft iron read current_soft_iron). Returns current_soft_iron's family-corrected p-value
+// before that partial test (NaN without the family): where it is significant and the partial test is
+// not, the flight cannot tell the two readings apart (SoftIronNotSeparated).
+double FamilyPValues(const Analyzer& an, const Candidate& field_matrix, Attribution* at) {
   const size_t F = at->fam_names.size();
+  double soft_alone = std::nan("");
   for (size_t f = 0; f < F; ++f) {
     const Evaluated& e = at->all[at->fam_best[f]];
     double pf = std::min(1.0, e.wald_p * at->fam_tests[f] * static_cast<double>(F));
-    if (e.cand->id == Effect::kCurrentSoftIron && library_free.p() > 0 && library_free.X.size() == e.cand->X.size()) {
+    if (e.cand->id == Effect::kCurrentSoftIron) soft_alone = pf;
+    if (e.cand->id == Effect::kCurrentSoftIron && field_matrix.p() > 0 && field_matrix.X.size() == e.cand->X.size()) {
       const Candidate* same = SameCurrentField(*at, *e.cand);
-      const Candidate over = same != nullptr ? Join(library_free, *same) : library_free;
+      const Candidate over = same != nullptr ? Join(field_matrix, *same) : field_matrix;
       const Evaluated ej = an.Evaluate(Join(over, *e.cand));
       if (ej.full.ok && ej.cov.size() > 0) {
         const double partial = WaldP(ej.full.beta, ej.cov, Range(ej.off + over.p(), ej.p()), an.G());
@@ -294,6 +310,26 @@ void FamilyPValues(const Analyzer& an, const Candidate& library_free, Attributio
       }
     }
     at->results[f].p_value = pf;
+  }
+  return soft_alone;
+}
+
+// Where current_soft_iron is significant alone, plausible, and removes min_effect_share of the
+// held-out structure, but its dependence on the current is not resolved beyond a constant matrix
+// and the current's own field (FamilyPValues) and it is not in effects: the reading the flight cannot
+// settle, said (a static calibration error beside a current field, or a soft iron that follows the
+// current; a flight whose current varies while it turns separates them).
+void SoftIronNotSeparated(const Attribution& at, double soft_alone_p, const DiagnoseOptions& o, ChannelResult* res) {
+  if (!(soft_alone_p < o.alpha)) return;
+  for (const CandidateResult& r : at.results) {
+    if (r.id != Effect::kCurrentSoftIron || r.p_value < o.alpha || !r.plausible || r.explained_share < o.min_effect_share) continue;
+    if (std::any_of(res->effects.begin(), res->effects.end(), [](const EffectShare& e) { return e.id == Effect::kCurrentSoftIron; })) return;
+    res->findings.push_back(fmt::format(
+        "current_soft_iron would explain {} of the held-out structure (p {:.2g} alone), but its dependence on the current "
+        "is not resolved beyond a constant field matrix and the current's own field (p {:.2g}): the flight's current does "
+        "not vary enough while it turns to tell a soft iron that follows the current from a static calibration error "
+        "beside a current field",
+        Percent(r.explained_share), soft_alone_p, r.p_value));
   }
 }
 
@@ -608,7 +644,7 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
   res.p_value = st.p_value;
   res.gap_detected = st.present;
   const double cv0 = an.baseline().cv_sse;
-  FamilyPValues(an, ch.flexible, &at);
+  const double soft_alone_p = FamilyPValues(an, FieldMatrix(ch), &at);
   std::vector<bool> eligible = Eligible(at, o);
   NotMaterial current_not_material;
   const std::vector<std::string> why =
@@ -657,6 +693,7 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
   }
   SortEffects(&res.effects);
   NotMaterialFinding(at, current_not_material, o, &res);
+  SoftIronNotSeparated(at, soft_alone_p, o, &res);
   // What the baseline absorbed beyond its normal range (the gap is relative to the vehicle file): an
   // effect beside the fitted ones, after them (its share is not over the baseline that absorbed it).
   // Without a fitted effect the term is named by NameVerdict's rule (1), as before.

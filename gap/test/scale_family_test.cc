@@ -7,7 +7,10 @@
 
 #include <gtest/gtest.h>
 
+#include "../src/selftest_real.h"
 #include "support/gap_fixtures.h"
+
+#include "hexsim/common/rng.h"
 
 #include "hexsim/gap/diagnose.h"
 #include "hexsim/gap/effects.h"
@@ -95,6 +98,30 @@ TEST(GapScaleFamily, GivenAnAxisScaleBesideACurrentField_WhenDiagnosed_ThenBothA
 // -0.15 for a true -0.05, a spread of 0.20, outside the physical range, and scale_error went missing).
 TEST(GapScaleFamily, GivenAnAxisScaleAndAnUnmodelledCurrentField_WhenDiagnosed_ThenTheVerticalGainDoesNotTakeTheCurrent) {
   ExpectScaleBesideCurrentField(2113);
+}
+
+// Given a current-driven soft iron on a log at a real autopilot's rates (10 Hz rows, the current
+// stale), whose current does not vary enough while the vehicle turns for the soft iron's dependence on
+// it to be resolved beyond a constant matrix and the current's own field, when diagnosed, then
+// current_soft_iron is not an effect and the report says why: the flight cannot tell it from a static
+// calibration error beside a current field.
+TEST(GapScaleFamily, GivenASoftIronTheFlightCannotSeparate_WhenDiagnosed_ThenTheReportSaysSo) {
+  gaptest::Flown f = gaptest::FlyInjected({{"current_soft_iron", 0.003}}, 2133, "scale_family", "selftest_flight");
+  RngStream rng(2133, "scale_family/degrade");
+  internal::RealLogTruth truth;
+  auto log = internal::DegradeToRealLog(f.log, f.trial.configured, &rng, &truth);
+  ASSERT_TRUE(log.ok()) << log.status().message();
+  DiagnoseOptions o;
+  o.channels = {"mag2"};
+  o.compass_latency_s = truth.latency_s;
+  auto rep = Diagnose(*log, f.trial.configured, o);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr);
+  EXPECT_FALSE(InEffects(*mag2, "current_soft_iron")) << Summary(*rep);
+  bool said = false;
+  for (const std::string& s : mag2->findings) said = said || s.find("does not vary enough while it turns") != std::string::npos;
+  EXPECT_TRUE(said) << Summary(*rep);
 }
 
 }  // namespace
