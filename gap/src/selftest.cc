@@ -147,8 +147,9 @@ Result<Trial> MakeTrial(const SelftestOptions& o, uint64_t seed, const std::vect
       cp.error.scale *= 1.0 + inj.magnitude;
     } else if (inj.effect == "axis_scale_error") {
       // One sensor axis' gain: K = diag(1 + s on that axis)·K. The reported spread of the gains is s.
-      // A horizontal axis: a nearly level flight turns only the horizontal field through the axes,
-      // so a vertical axis' gain reads as a constant offset there (no flight separates them).
+      // A horizontal axis: a nearly level flight turns the horizontal field through the axes; a
+      // vertical axis' gain reads mostly as an offset there, resolved only through the tilt (the
+      // real profile's vertical_axis_scale form holds it).
       const int ax = rng->Uniform() < 0.5 ? 0 : 1;
       cp.error.soft_iron.row(ax) *= 1.0 + inj.magnitude;
     } else if (inj.effect == "unmodelled_latency") {

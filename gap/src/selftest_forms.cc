@@ -69,10 +69,10 @@ const std::vector<LogForm>& BeyondLibraryForms() {
   //   lagged_temperature: an offset d·(T_c − T₀), the compass warming through a 30–60 s lag behind
   //     the logged IMU temperature: temperature_drift;
   //   vertical_axis_scale: the sensor's z axis reads 5–15 % large (scripts/withheld_sim: "one axis
-  //     a few per cent large" on z). A static gain, never current-driven; the library's per-axis
-  //     family holds the x−y gain difference only, and in near-level flight a z gain is the down
-  //     field times the gain, nearly constant: a calibration offset to within 1 − cos(tilt). Right:
-  //     scale_error, or hard_iron_offset (the same remedy, recalibration); a current name is wrong.
+  //     a few per cent large" on z). A static gain, never current-driven; in near-level flight a z
+  //     gain is mostly the down field times the gain, a calibration offset, and the per-axis family's
+  //     vertical member reads it only through the tilt (verdict.cc AxisScale). Right: scale_error,
+  //     or hard_iron_offset (the same remedy, recalibration); a current name is wrong.
   static const std::vector<LogForm> kForms = {
       {"current_power_lag", kCurrentDriven},    {"battery_sag_field", kCurrentDriven},
       {"throttle_power_field", {Effect::kThrottleHardIron}}, {"current_dropout", kCurrentOrThrottle},

@@ -127,40 +127,114 @@ std::string ShapeFinding(const ChannelData& ch, const Analyzer& an, const Evalua
 
 // A static per-axis scale, r_i = s_i·h_i (h the predicted field in the sensor frame), built from the
 // diagonal of the library-free set's field matrix (its columns 4i). A calibration error, not
-// current-driven: current_soft_iron must beat it by its dependence on the current. Of the three
-// gains only the horizontal axes' difference is a flight's to resolve: their common gain is the
-// baseline's free field (a uniform horizontal gain and a horizontal-field error read the same), and
-// the vertical gain reads as the vertical field plus a tilt term that the current and the throttle
-// share (a copter tilts to fly fast and takes current to do it): on real logs a free vertical gain
-// took the current's and throttle's structure and read 0.4–0.8 for a planted 0.12 on x. So the
-// family is one parameter, d = s_x − s_y, regressor (h_x, −h_y, 0)/2 (a single horizontal axis
-// reading s large fits d = ±s); ScaleSpread reports it per axis. A vertical gain is the ground
-// calibration's to find (a tumble turns the vertical axis through the field).
-Candidate AxisScale(const ChannelData& ch) {
-  Candidate c = MakeCandidate("scale_error", {"gain_x_minus_y"}, {1.0}, "1");
-  if (ch.flexible.p() < kFlexFieldParams || ch.flexible.X.size() != ch.t.size()) return c;
+// current-driven: current_soft_iron must beat it by its dependence on the current. The axes' common
+// gain is the baseline's (a uniform gain and a field-norm error read the same), so the family holds
+// the gains' differences, in two members (ReportedMember's one-standard-error rule picks between
+// them):
+//   {gain_x_minus_y}: d = s_x − s_y, regressor (h_x, −h_y, 0)/2; a single horizontal axis reading s
+//     large fits d = ±s. The horizontal field turns through x and y at every yaw, so a flight that
+//     turns resolves it.
+//   {gain_x_minus_y, gain_z}: d and the vertical gain g against the horizontal axes' mean, regressor
+//     (0, 0, h_z). In near-level flight h_z is the down field B_D, which the offset absorbs (g·B_D),
+//     plus the tilt's share of the horizontal field, g·(h_z − B_D) ≈ g·tilt·B_H: a flight resolves g
+//     only through its tilt (a 10° tilt in a 20 µT horizontal field gives 0.35 µT per 0.1 of gain,
+//     the compass noise). A copter tilts to fly fast and takes current to do it, so on a log whose
+//     current field is unmodelled the tilt term shares the current's structure (on real logs a free
+//     vertical gain read 0.4–0.8 for a planted 0.12 on x): the member is reported only where it
+//     predicts the held-out blocks better than d alone by one standard error, and its size is judged
+//     against scale_error's physical range; current_soft_iron's own test is over a constant matrix and
+//     the current's field (FamilyPValues), so each of the two is judged by what the other cannot describe.
+constexpr const char* kGainXMinusY = "gain_x_minus_y";
+constexpr const char* kGainZ = "gain_z";
+
+std::vector<Candidate> AxisScale(const ChannelData& ch) {
+  Candidate c = MakeCandidate("scale_error", {kGainXMinusY}, {1.0}, "1");
+  Candidate cz = MakeCandidate("scale_error", {kGainXMinusY, kGainZ}, {1.0, 1.0}, "1");
+  if (ch.flexible.p() < kFlexFieldParams || ch.flexible.X.size() != ch.t.size()) return {c};
   for (const auto& x : ch.flexible.X) {
-    Mat3X d = Mat3X::Zero(3, 1);
+    Mat3X d = Mat3X::Zero(3, 2);
     d(0, 0) = 0.5 * x(0, 0);
     d(1, 0) = -0.5 * x(1, 4);
-    c.X.push_back(d);
+    d(2, 1) = x(2, 8);
+    c.X.emplace_back(d.leftCols(1));
+    cz.X.push_back(d);
   }
+  return {c, cz};
+}
+
+// The library-free set's current and throttle columns: a field linear in each (empty without them).
+Candidate LinearDrive(const ChannelData& ch) {
+  Candidate c = MakeCandidate("linear_drive", {}, {}, "");
+  const int q = ch.flexible.p() - kFlexFieldParams;
+  if (q <= 0 || ch.flexible.X.size() != ch.t.size()) return c;
+  for (int j = 0; j < q; ++j) {
+    c.names.push_back(ch.flexible.names[static_cast<size_t>(kFlexFieldParams + j)]);
+    c.scale.push_back(1.0);
+  }
+  for (const auto& x : ch.flexible.X) c.X.emplace_back(x.rightCols(q));
   return c;
 }
 
+// The vertical gain is the flight's to resolve where, beside a field linear in the current and the
+// throttle (what its tilt term shares on a log whose current field is unmodelled), the member with it
+// predicts the held-out blocks better than d alone by more than one standard error over the folds
+// (the one-standard-error rule ReportedMember applies within a family), and where the family's own
+// fit (the member alone, as Attribute fits it) reads the same gain as beside that field: its value
+// inside the 95 % interval the fit beside the field gives it (normal quantile, cluster-robust). A gain
+// that moves when the current's field is fitted beside it holds the current's tilt-borne part: a
+// simulated x gain of 0.10 (vertical gain −0.05 against the horizontal mean) beside an unmodelled
+// 0.3 µT/A field read −0.15 alone, a spread of 0.20. Otherwise only d is offered.
+bool VerticalGainResolved(const Analyzer& an, const Candidate& drive, const Candidate& xy, const Candidate& xyz) {
+  const Candidate a = drive.p() > 0 ? Join(drive, xy) : xy;
+  const Candidate b = drive.p() > 0 ? Join(drive, xyz) : xyz;
+  const Evaluated ea = an.Evaluate(a), eb = an.Evaluate(b), alone = an.Evaluate(xyz);
+  if (!ea.full.ok || !eb.full.ok || !alone.full.ok || eb.cov.size() == 0) return false;
+  const FoldDiff d = Diff(eb.fold_sse, ea.fold_sse);
+  const int ig = eb.off + drive.p() + 1;  // the vertical gain beside the field
+  const double g = eb.full.beta[ig], sd = std::sqrt(std::max(0.0, eb.cov(ig, ig)));
+  constexpr double kZ975 = 1.96;
+  return d.sum < -d.se && std::fabs(alone.full.beta[alone.off + 1] - g) <= kZ975 * sd;
+}
+
+// The spread of the gains (max − min over the axes) for s_x = d/2, s_y = −d/2, s_z = g: a single
+// axis reading s large has spread |s| whichever axis it is (x: d = s, g = −s/2; z: d = 0, g = s).
+// Physical range: scale_error's (plausibility table), a chip's axes within 20 % of each other.
+double GainSpread(double d, double g) { return std::max(std::fabs(d), std::fabs(g) + 0.5 * std::fabs(d)); }
+
+// The smallest |x| over an interval (0 where it holds zero) and the largest.
+double AbsLo(const Interval& iv) { return iv.lo > 0 || iv.hi < 0 ? std::min(std::fabs(iv.lo), std::fabs(iv.hi)) : 0.0; }
+double AbsHi(const Interval& iv) { return std::max(std::fabs(iv.lo), std::fabs(iv.hi)); }
+
 // The per-axis scale family's report: each axis' gain against the horizontal axes' mean
-// (scale_i_minus_1: ±d/2 on x and y, 0 on z) and the magnitude |d|, the spread of the gains.
+// (scale_i_minus_1: ±d/2 on x and y, g on z, 0 where the member has no vertical gain) and the
+// magnitude, the spread of the gains. Its interval: d's folded where the member is d alone; with g
+// beside it, the spread over the box of d's and g's intervals each widened to 97.5 % (the box holds
+// both at 95 % at least, Bonferroni; the spread grows with |d| and with |g|, so its ends are at the
+// box's nearest and farthest |d|, |g|).
 void ScaleSpread(CandidateResult* r) {
-  if (r->id != Effect::kScaleError || r->nuisance_term || r->params.count("gain_x_minus_y") == 0) return;
-  const double d = r->params.at("gain_x_minus_y");
+  if (r->id != Effect::kScaleError || r->nuisance_term || r->params.count(kGainXMinusY) == 0) return;
+  const double d = r->params.at(kGainXMinusY);
+  const bool vertical = r->params.count(kGainZ) > 0 && r->ci95.count(kGainZ) > 0;
+  const double g = vertical ? r->params.at(kGainZ) : 0.0;
   r->params["scale_x_minus_1"] = 0.5 * d;
   r->params["scale_y_minus_1"] = -0.5 * d;
-  r->params["scale_z_minus_1"] = 0.0;
-  // The spread |d|: its interval folds d's (from 0 where d's holds zero).
-  const double lo = r->magnitude_ci95[0], hi = r->magnitude_ci95[1];
-  r->magnitude = std::fabs(d);
-  r->magnitude_ci95[0] = lo > 0 || hi < 0 ? std::min(std::fabs(lo), std::fabs(hi)) : 0.0;
-  r->magnitude_ci95[1] = std::max(std::fabs(lo), std::fabs(hi));
+  r->params["scale_z_minus_1"] = g;
+  r->magnitude = GainSpread(d, g);
+  if (!vertical) {
+    const Interval iv{r->magnitude_ci95[0], r->magnitude_ci95[1]};
+    r->magnitude_ci95[0] = AbsLo(iv);
+    r->magnitude_ci95[1] = AbsHi(iv);
+    return;
+  }
+  // z quantiles: 97.5 % two-sided over 95 % two-sided.
+  constexpr double kBonferroniWiden = 2.2414 / 1.9600;
+  const auto widened = [&](const char* name, double v) {
+    const Interval& c = r->ci95.at(name);
+    return Interval{v - kBonferroniWiden * (v - c.lo), v + kBonferroniWiden * (c.hi - v)};
+  };
+  const Interval di = widened(kGainXMinusY, d), gi = widened(kGainZ, g);
+  r->magnitude_ci95[0] = GainSpread(AbsLo(di), AbsLo(gi));
+  r->magnitude_ci95[1] = GainSpread(AbsHi(di), AbsHi(gi));
 }
 
 // The field matrix alone (any scale, cross-coupling or misalignment): the library-free set's first group.
@@ -192,24 +266,70 @@ void LibraryFreeTest(const ChannelData& ch, const Analyzer& an, double* p, doubl
   *gain_ms = std::max(0.0, an.baseline().full.sse - ef.full.sse) / an.total_n();
 }
 
+// The current_hard_iron member read with the same current as `soft` (its shift, current_aligned): where
+// the log's current is stale a shifted one describes the current's field better than the logged one,
+// so a soft iron on the shifted current would pass its test through its down-field column alone (a
+// 0.13 x scale beside a 1 mG/A field on a 10 Hz log with a 0.2 s stale current read current_soft_iron,
+// p 3e-4). Null where there is none.
+const Candidate* SameCurrentField(const Attribution& at, const Candidate& soft) {
+  const auto fam = at.family.find(Info(Effect::kCurrentHardIron).name);
+  if (fam == at.family.end()) return nullptr;
+  for (size_t m : fam->second) {
+    const Candidate& c = *at.all[m].cand;
+    if (c.grid_name == soft.grid_name && c.grid_value == soft.grid_value && c.X.size() == soft.X.size()) return &c;
+  }
+  return nullptr;
+}
+
 // Family-corrected p-values: Bonferroni over the families and over each family's effective number of
-// member tests (EffectiveTests). A current-driven soft iron must depend on the current: over a constant
-// field matrix its partial Wald test must still be significant (a nearly constant current makes a
-// constant matrix look the same), corrected over the members as the family's own test is (the best of
-// many shifted currents is chosen by the same data).
-void FamilyPValues(const Analyzer& an, const Candidate& field_matrix, Attribution* at) {
+// member tests (EffectiveTests). A current-driven soft iron must depend on the current's variation:
+// over a constant field matrix AND the current field read with its own current (SameCurrentField)
+// its partial Wald test must still be significant, corrected over the members as the family's own
+// test is (the best of many shifted currents is chosen by the same data). Its regressor I·h is Ī·h, a
+// constant matrix (a nearly constant cruise current makes a static axis scale or soft iron look the
+// same), plus (I − Ī)·h, whose column along the down field, (I − Ī)·B_D in near-level flight, is a
+// current hard iron: only the current's variation against the turning field is a soft iron's alone
+// (scripts/withheld_sim: a 0.13 x scale, a z scale beside the wiring's field, and paper_hex's own
+// static soft iron read current_soft_iron). Returns current_soft_iron's family-corrected p-value
+// before that partial test (NaN without the family): where it is significant and the partial test is
+// not, the flight cannot tell the two readings apart (SoftIronNotSeparated).
+double FamilyPValues(const Analyzer& an, const Candidate& field_matrix, Attribution* at) {
   const size_t F = at->fam_names.size();
+  double soft_alone = std::nan("");
   for (size_t f = 0; f < F; ++f) {
     const Evaluated& e = at->all[at->fam_best[f]];
     double pf = std::min(1.0, e.wald_p * at->fam_tests[f] * static_cast<double>(F));
-    if (e.cand->id == Effect::kCurrentSoftIron && field_matrix.p() > 0) {
-      const Evaluated ej = an.Evaluate(Join(field_matrix, *e.cand));
+    if (e.cand->id == Effect::kCurrentSoftIron) soft_alone = pf;
+    if (e.cand->id == Effect::kCurrentSoftIron && field_matrix.p() > 0 && field_matrix.X.size() == e.cand->X.size()) {
+      const Candidate* same = SameCurrentField(*at, *e.cand);
+      const Candidate over = same != nullptr ? Join(field_matrix, *same) : field_matrix;
+      const Evaluated ej = an.Evaluate(Join(over, *e.cand));
       if (ej.full.ok && ej.cov.size() > 0) {
-        const double partial = WaldP(ej.full.beta, ej.cov, Range(ej.off + field_matrix.p(), ej.p()), an.G());
+        const double partial = WaldP(ej.full.beta, ej.cov, Range(ej.off + over.p(), ej.p()), an.G());
         pf = std::max(pf, std::min(1.0, partial * at->fam_tests[f] * static_cast<double>(F)));
       }
     }
     at->results[f].p_value = pf;
+  }
+  return soft_alone;
+}
+
+// Where current_soft_iron is significant alone, plausible, and removes min_effect_share of the
+// held-out structure, but its dependence on the current is not resolved beyond a constant matrix
+// and the current's own field (FamilyPValues) and it is not in effects: the reading the flight cannot
+// settle, said (a static calibration error beside a current field, or a soft iron that follows the
+// current; a flight whose current varies while it turns separates them).
+void SoftIronNotSeparated(const Attribution& at, double soft_alone_p, const DiagnoseOptions& o, ChannelResult* res) {
+  if (!(soft_alone_p < o.alpha)) return;
+  for (const CandidateResult& r : at.results) {
+    if (r.id != Effect::kCurrentSoftIron || r.p_value < o.alpha || !r.plausible || r.explained_share < o.min_effect_share) continue;
+    if (std::any_of(res->effects.begin(), res->effects.end(), [](const EffectShare& e) { return e.id == Effect::kCurrentSoftIron; })) return;
+    res->findings.push_back(fmt::format(
+        "current_soft_iron would explain {} of the held-out structure (p {:.2g} alone), but its dependence on the current "
+        "is not resolved beyond a constant field matrix and the current's own field (p {:.2g}): the flight's current does "
+        "not vary enough while it turns to tell a soft iron that follows the current from a static calibration error "
+        "beside a current field",
+        Percent(r.explained_share), soft_alone_p, r.p_value));
   }
 }
 
@@ -489,15 +609,17 @@ void NotMaterialFinding(const Attribution& at, const NotMaterial& nm, const Diag
 
 ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, const std::vector<std::string>& phases,
                              const DiagnoseOptions& o, const CompassTiming& timing, RngStream* rng) {
-  ch_io->candidates.push_back(AxisScale(*ch_io));
   const ChannelData& ch = *ch_io;
+  Analyzer an(ch, o);
+  std::vector<Candidate> scale = AxisScale(ch);
+  if (scale.size() == 2 && !VerticalGainResolved(an, LinearDrive(ch), scale[0], scale[1])) scale.pop_back();
+  for (Candidate& c : scale) ch_io->candidates.push_back(std::move(c));
   ChannelResult res;
   res.channel = ch.name;
   res.unit = ch.unit;
   res.samples = static_cast<int>(ch.t.size());
   res.not_available = ch.not_available;
   res.timing = timing.report;
-  Analyzer an(ch, o);
   res.t_s = ch.t;
   res.residual_before = an.y();
   res.rms_before = std::sqrt(MeanSquare(an.y()));
@@ -522,7 +644,7 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
   res.p_value = st.p_value;
   res.gap_detected = st.present;
   const double cv0 = an.baseline().cv_sse;
-  FamilyPValues(an, FieldMatrix(ch), &at);
+  const double soft_alone_p = FamilyPValues(an, FieldMatrix(ch), &at);
   std::vector<bool> eligible = Eligible(at, o);
   NotMaterial current_not_material;
   const std::vector<std::string> why =
@@ -571,6 +693,7 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
   }
   SortEffects(&res.effects);
   NotMaterialFinding(at, current_not_material, o, &res);
+  SoftIronNotSeparated(at, soft_alone_p, o, &res);
   // What the baseline absorbed beyond its normal range (the gap is relative to the vehicle file): an
   // effect beside the fitted ones, after them (its share is not over the baseline that absorbed it).
   // Without a fitted effect the term is named by NameVerdict's rule (1), as before.

@@ -1,0 +1,128 @@
+// A static per-axis scale is a calibration error (scale_error with its size), not a current effect,
+// alone and beside a current field (issue 29 item 4: decided with the current's variation).
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "../src/selftest_real.h"
+#include "support/gap_fixtures.h"
+
+#include "hexsim/common/rng.h"
+
+#include "hexsim/gap/diagnose.h"
+#include "hexsim/gap/effects.h"
+#include "hexsim/logs/flight_log.h"
+
+namespace hexsim::gap {
+namespace {
+
+bool InEffects(const ChannelResult& c, const std::string& effect) {
+  for (const EffectShare& e : c.effects) {
+    if (e.effect == effect) return true;
+  }
+  return false;
+}
+
+bool AnyCurrentEffect(const ChannelResult& c) {
+  for (const EffectShare& e : c.effects) {
+    if (DrivenByCurrent(e.id)) return true;
+  }
+  return false;
+}
+
+// The chip's z gain: everything mag2 reads on z, (1 + s) times.
+void ScaleMag2Z(double s, logs::FlightLog* log) {
+  const size_t cz = static_cast<size_t>(log->ColumnIndex("mag2_z_uT"));
+  for (double& m : log->MutableColumn(cz)) m = std::isfinite(m) ? (1.0 + s) * m : m;
+}
+
+// Given the compass's vertical axis reading 12 % large, when diagnosed, then it is scale_error with
+// the vertical gain in its interval (the flight's tilt turns the horizontal field through z), and no
+// current effect: the tilt a copter takes to fly fast is not the current that flies it.
+TEST(GapScaleFamily, GivenTheVerticalAxisReadingLarge_WhenDiagnosed_ThenItIsAScaleErrorWithItsSize) {
+  gaptest::Flown f = gaptest::FlyInjected({}, 2111, "scale_family", "selftest_flight");
+  constexpr double kGain = 0.12;
+  ScaleMag2Z(kGain, &f.log);
+  DiagnoseOptions o;
+  o.channels = {"mag2"};
+  auto rep = Diagnose(f.log, f.trial.configured, o);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr);
+  EXPECT_EQ(mag2->verdict, "scale_error") << Summary(*rep);
+  EXPECT_FALSE(AnyCurrentEffect(*mag2)) << Summary(*rep);
+  const CandidateResult* s = gaptest::FindCandidate(*mag2, "scale_error");
+  ASSERT_NE(s, nullptr) << Summary(*rep);
+  ASSERT_TRUE(s->params.count("scale_z_minus_1")) << Summary(*rep);
+  EXPECT_NEAR(s->params.at("scale_z_minus_1"), kGain, 0.3 * kGain) << Summary(*rep);
+  EXPECT_LE(s->magnitude_ci95[0], kGain) << Summary(*rep);
+  EXPECT_GE(s->magnitude_ci95[1], kGain) << Summary(*rep);
+}
+
+// One horizontal axis reading 10 % large beside a 0.3 µT/A current field, flown with `seed`: both in
+// effects, the gain's spread in its interval (the replay's 5 % beside it, as effects_test.cc), and no
+// current_soft_iron.
+void ExpectScaleBesideCurrentField(uint64_t seed) {
+  gaptest::Flown f = gaptest::FlyInjected({{"axis_scale_error", 0.10}, {"current_hard_iron", 0.3}}, seed, "scale_family",
+                                          "selftest_flight");
+  DiagnoseOptions o;
+  o.channels = {"mag2"};
+  auto rep = Diagnose(f.log, f.trial.configured, o);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr);
+  EXPECT_TRUE(InEffects(*mag2, "scale_error")) << Summary(*rep);
+  EXPECT_TRUE(InEffects(*mag2, "current_hard_iron")) << Summary(*rep);
+  EXPECT_FALSE(InEffects(*mag2, "current_soft_iron")) << Summary(*rep);
+  for (const EffectShare& e : mag2->effects) {
+    if (e.effect != "scale_error") continue;
+    EXPECT_LE(e.ci95.lo - 0.05 * e.magnitude, 0.10) << Summary(*rep);
+    EXPECT_GE(e.ci95.hi + 0.05 * e.magnitude, 0.10) << Summary(*rep);
+  }
+}
+
+// Given one horizontal axis reading large beside a current field, when diagnosed, then both are in
+// effects and the static gain is not read as current_soft_iron: its regressor I·h is Ī·h, a constant
+// matrix, plus a down-field column I·B_D that is the current field (this flight read
+// current_soft_iron 98 % alone while its partial test was over a constant matrix only).
+TEST(GapScaleFamily, GivenAnAxisScaleBesideACurrentField_WhenDiagnosed_ThenBothAreNamedAndNoCurrentSoftIron) {
+  ExpectScaleBesideCurrentField(2112);
+}
+
+// Given the same beside a current field the scale family does not hold, when diagnosed, then the
+// vertical gain the family alone fits is not taken where fitting the current's field beside it moves
+// it (the tilt a copter takes to fly fast carries the current's field into the vertical gain: here
+// -0.15 for a true -0.05, a spread of 0.20, outside the physical range, and scale_error went missing).
+TEST(GapScaleFamily, GivenAnAxisScaleAndAnUnmodelledCurrentField_WhenDiagnosed_ThenTheVerticalGainDoesNotTakeTheCurrent) {
+  ExpectScaleBesideCurrentField(2113);
+}
+
+// Given a current-driven soft iron on a log at a real autopilot's rates (10 Hz rows, the current
+// stale), whose current does not vary enough while the vehicle turns for the soft iron's dependence on
+// it to be resolved beyond a constant matrix and the current's own field, when diagnosed, then
+// current_soft_iron is not an effect and the report says why: the flight cannot tell it from a static
+// calibration error beside a current field.
+TEST(GapScaleFamily, GivenASoftIronTheFlightCannotSeparate_WhenDiagnosed_ThenTheReportSaysSo) {
+  gaptest::Flown f = gaptest::FlyInjected({{"current_soft_iron", 0.003}}, 2133, "scale_family", "selftest_flight");
+  RngStream rng(2133, "scale_family/degrade");
+  internal::RealLogTruth truth;
+  auto log = internal::DegradeToRealLog(f.log, f.trial.configured, &rng, &truth);
+  ASSERT_TRUE(log.ok()) << log.status().message();
+  DiagnoseOptions o;
+  o.channels = {"mag2"};
+  o.compass_latency_s = truth.latency_s;
+  auto rep = Diagnose(*log, f.trial.configured, o);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr);
+  EXPECT_FALSE(InEffects(*mag2, "current_soft_iron")) << Summary(*rep);
+  bool said = false;
+  for (const std::string& s : mag2->findings) said = said || s.find("does not vary enough while it turns") != std::string::npos;
+  EXPECT_TRUE(said) << Summary(*rep);
+}
+
+}  // namespace
+}  // namespace hexsim::gap
