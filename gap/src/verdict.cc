@@ -498,10 +498,10 @@ std::string MaterialWhy(bool by_noise, bool modelled_lag, const CandidateResult&
                        Percent(r.explained_share), Percent(o.min_effect_share), Percent(o.materiality));
   }
   if (TurnsHeading(h, o)) {
-    return fmt::format("by the heading it turns: {:.1f} deg RMS over the flight{} (95 % low end {:.1f} deg, at or above {:g} "
+    return fmt::format("by the heading it turns: {:.1f} deg RMS {} (95 % low end {:.1f} deg, at or above {:g} "
                        "deg), although held out it removes {} of the structure above the noise floor, less than {} of "
                        "the floor's power (what else the residual holds, or the sensor's noise, hides it)",
-                       h.deg, DrivenByCurrent(r.id) ? " from motors off" : "", h.lo_deg, o.material_heading_deg, Percent(r.explained_share), Percent(o.materiality));
+                       h.deg, TurnBasis(h, DrivenByCurrent(r.id)), h.lo_deg, o.material_heading_deg, Percent(r.explained_share), Percent(o.materiality));
   }
   return "";
 }
@@ -600,9 +600,10 @@ void NotMaterialFinding(const Attribution& at, const NotMaterial& nm, const Diag
                                                   r.magnitude_ci95[1], r.magnitude_unit);
   res->findings.push_back(fmt::format(
       "{} {} is resolved (p {:.2g}) but not material: held out it removes {} of the noise "
-      "floor's power (needs {}) and its field turns the heading {:.1f} deg RMS from motors off (95 % low end {:.1f} "
+      "floor's power (needs {}) and its field turns the heading {:.1f} deg RMS {} (95 % low end {:.1f} "
       "deg, needs {:g}); the absolute current term sizes it for COMPASS_MOT",
-      r.effect, size, r.p_value, Percent(nm.noise_fraction), Percent(o.materiality), nm.turn.deg, nm.turn.lo_deg, o.material_heading_deg));
+      r.effect, size, r.p_value, Percent(nm.noise_fraction), Percent(o.materiality), nm.turn.deg, TurnBasis(nm.turn, true),
+      nm.turn.lo_deg, o.material_heading_deg));
 }
 
 }  // namespace

@@ -57,14 +57,20 @@ std::vector<bool> Eligible(const Attribution& at, const DiagnoseOptions& o);
 size_t ChooseFirst(const Attribution& at, const std::vector<bool>& eligible);
 // Material: removes at least o.materiality of the noise floor's power on held-out blocks.
 bool IsMaterial(const Analyzer& an, const Evaluated& e, double cv_before, double noise_var, const DiagnoseOptions& o);
-// What a compass effect's fitted field does to the heading: the RMS over the flight of the angle
-// by which its field turns the horizontal Earth field (the prior plus the baseline's correction), in
-// degrees, and the low end of its 95 % interval (delta method on the block jackknife). A current or
-// throttle field is measured from the motors-off state the compass was calibrated in (its whole
-// field); any other effect by its variation about its flight mean. Zero where the channel is no compass.
+// What a compass effect's fitted field does to the heading: the RMS of the angle by which its field
+// turns the horizontal Earth field (the prior plus the baseline's correction), in degrees, and the
+// low end of its 95 % interval (delta method on the block jackknife; 0 where the coefficients' Wald
+// test holds zero). A current or throttle field is measured from the motors-off state the compass
+// was calibrated in (its whole field); any other effect by its variation about its flight mean. A
+// field fixed in the body per ampere or per unit throttle (EffectInfo::compensable) over a full turn
+// of heading at the flight's current and tilt (CONTRACTS' heading error); any other over the flight's
+// own headings. Zero where the channel is no compass. Physical range: 0..180 deg.
 struct HeadingTurn {
   double deg = 0.0, lo_deg = 0.0;
+  bool full_turn = false;  // over a full turn of heading (else over the headings flown)
 };
+// How the turn was taken, for the text: "over a full turn of heading from motors off" etc.
+std::string TurnBasis(const HeadingTurn& h, bool from_motors_off);
 HeadingTurn HeadingTurnOf(const ChannelData& ch, const Analyzer& an, const Evaluated& e);
 // Material by its heading turn (DiagnoseOptions::material_heading_deg): the interval's low end at
 // or above it.

@@ -97,7 +97,14 @@ TEST(GapRealProfile, GivenAScaleErrorOnALogWithoutPerMotorCurrents_WhenDiagnosed
     const double norm = mag2->nuisance.field_scale - 1;
     norm_further += std::fabs(norm - truth) > std::fabs(sc->magnitude - truth);
     EXPECT_NEAR(mag2->nuisance.field_scale_horizontal, 1 + sc->magnitude, 1e-12);
-    named += mag2->verdict == "field_scale";
+    // Named: the verdict, or an effect beside a current field. The sensor's gain scales the wiring
+    // field too, which the vehicle file models unscaled: a current-driven gap s·d·I (10 % of quad_x's
+    // 4 mG/A at mag2: 0.4 mG/A) that turns the heading about 1.4 deg RMS over a full turn of
+    // heading (verdict.h HeadingTurnOf), material by the heading rule in some trials; the scale is
+    // then reported beside it.
+    bool beside = false;
+    for (const EffectShare& e : mag2->effects) beside = beside || e.effect == "field_scale";
+    named += mag2->verdict == "field_scale" || beside;
   }
   // 95 % intervals: one miss in six is allowed (measured: 10 of 10 held, the norm further in 10).
   EXPECT_GE(covered, kTrials - 1);
