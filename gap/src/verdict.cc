@@ -168,7 +168,7 @@ Candidate LinearDrive(const ChannelData& ch) {
   const int q = ch.flexible.p() - kFlexFieldParams;
   if (q <= 0 || ch.flexible.X.size() != ch.t.size()) return c;
   for (int j = 0; j < q; ++j) {
-    c.names.push_back(ch.flexible.names[static_cast<size_t>(kFlexFieldParams + j)]);
+    c.names.push_back(ch.flexible.names[static_cast<size_t>(kFlexFieldParams) + static_cast<size_t>(j)]);
     c.scale.push_back(1.0);
   }
   for (const auto& x : ch.flexible.X) c.X.emplace_back(x.rightCols(q));

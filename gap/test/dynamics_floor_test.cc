@@ -43,7 +43,7 @@ internal::ChannelData Dynamics(double sigma_sensor, double sigma_replay, uint64_
     ch.t.push_back(0.01 * k);
     ch.row.push_back(k);
     ch.measured.push_back(measured);
-    ch.y.push_back(measured - predicted);
+    ch.y.emplace_back(measured - predicted);
   }
   return ch;
 }

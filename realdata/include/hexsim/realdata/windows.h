@@ -61,7 +61,7 @@ struct FlightWindows {
 FlightWindows FindFlightWindows(const logs::FlightLog& log, const WindowOptions& options = {});
 // The row kinds with the rows of on-ground flight windows as ground: what the inertial and dynamics
 // replays may take as airborne.
-std::vector<RowKind> AirborneRowKind(const logs::FlightLog& log, const FlightWindows& windows);
+std::vector<RowKind> AirborneRowKind(const logs::FlightLog& log, const FlightWindows& fw);
 // The user's window: rows in [from_s, to_s] are flight, the rest excluded (`--from/--to`).
 FlightWindows WindowsFromRange(const logs::FlightLog& log, double from_s, double to_s);
 
