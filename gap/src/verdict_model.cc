@@ -142,10 +142,13 @@ SelectedModel GrowModel(const Analyzer& an, const Attribution& at, size_t first,
   const auto may_join = [&](size_t f) { return eligible[f] || (f < joinable.size() && joinable[f]); };
   // A flight log separates a few effects at most; each step fits every remaining family jointly.
   constexpr size_t kMaxEffects = 3;
+  struct Addition {
+    size_t f;
+    std::unique_ptr<Candidate> joint;
+    Evaluated eval;
+  };
   while (m.fams.size() < kMaxEffects) {
-    size_t add = F;
-    std::unique_ptr<Candidate> best_joint;
-    Evaluated best_eval;
+    std::vector<Addition> qualified;
     for (size_t f = 0; f < F; ++f) {
       if (!may_join(f) || std::find(m.fams.begin(), m.fams.end(), f) != m.fams.end()) continue;
       const Candidate& cf = *at.all[at.fam_best[f]].cand;
@@ -157,10 +160,7 @@ SelectedModel GrowModel(const Analyzer& an, const Attribution& at, size_t first,
           WaldP(ej.full.beta, ej.cov, Range(ej.off + m.joint->p(), ej.p()), an.G()) * static_cast<double>(F);
       // Beats the model by more than one standard error over the folds, significant over it, and
       // material (held out).
-      if (!(d.sum < -d.se && p_partial < o.alpha && IsMaterial(an, ej, m.eval.cv_sse, noise_var, o) &&
-            (add == F || ej.cv_sse < best_eval.cv_sse))) {
-        continue;
-      }
+      if (!(d.sum < -d.se && p_partial < o.alpha && IsMaterial(an, ej, m.eval.cv_sse, noise_var, o))) continue;
       // Its size where it is judged: in the model it joins (alone it may hold, or be hidden by,
       // the part it shares with the model's effects), inside its physical range.
       if (judge) {
@@ -169,14 +169,31 @@ SelectedModel GrowModel(const Analyzer& an, const Attribution& at, size_t first,
         judge(&r);
         if (!r.plausible) continue;
       }
-      add = f;
-      best_joint = std::move(j);
-      best_eval = std::move(ej);
+      qualified.push_back({f, std::move(j), std::move(ej)});
     }
-    if (add == F) break;
-    m.fams.push_back(add);
-    m.joint = std::move(best_joint);
-    m.eval = std::move(best_eval);
+    if (qualified.empty()) break;
+    // ChooseFirst's rule among the families that qualify: the best held out, then the fewest fitted
+    // quantities within one standard error of it over the folds (a 9-parameter current soft iron
+    // spans a 3-parameter current hard iron's field in a nearly level flight, through the vertical
+    // field's column, and otherwise joined a misalignment in its place).
+    size_t best = 0;
+    for (size_t i = 1; i < qualified.size(); ++i) {
+      if (qualified[i].eval.cv_sse < qualified[best].eval.cv_sse) best = i;
+    }
+    size_t chosen = best;
+    for (size_t i = 0; i < qualified.size(); ++i) {
+      if (i == best) continue;
+      const FoldDiff d = Diff(qualified[i].eval.fold_sse, qualified[best].eval.fold_sse);
+      const int dof = Dof(*at.all[at.fam_best[qualified[i].f]].cand);
+      const int dof_c = Dof(*at.all[at.fam_best[qualified[chosen].f]].cand);
+      if (d.sum <= d.se && (dof < dof_c || (dof == dof_c && qualified[i].eval.cv_sse < qualified[chosen].eval.cv_sse))) {
+        chosen = i;
+      }
+    }
+    Addition& add = qualified[chosen];
+    m.fams.push_back(add.f);
+    m.joint = std::move(add.joint);
+    m.eval = std::move(add.eval);
     m.eval.cand = m.joint.get();
     m.entry_cv_sse.push_back(m.eval.cv_sse);
   }

@@ -116,39 +116,20 @@ TEST(GapJointFit, GivenTwoSelectedEffectsSharingARegressorPart_WhenDescribed_The
   EXPECT_NEAR(all[mis].magnitude, phi_deg, 0.2 * phi_deg);
 }
 
-// Given a misalignment beside a current soft iron (whose mean-current part S·Ī·h turns the field as
-// a static rotation does), when diagnosed, then both are effects and each one's interval holds its
-// truth: sized alone, the misalignment took the soft iron's mean part (withheld_sim: 3.4° [3.1, 3.8]
-// for a planted 1.37°, 8.8° for 3.0°).
-TEST(GapJointFit, GivenAMisalignmentBesideACurrentSoftIron_WhenDiagnosed_ThenEachSizeIsFromTheJointFit) {
-  gaptest::Flown f = gaptest::FlyInjected({{"current_soft_iron", 0.006}, {"misalignment", 2.0}}, 2211, "joint_fit",
-                                           "selftest_flight");
-  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
-  ASSERT_TRUE(rep.ok()) << rep.status().message();
-  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
-  ASSERT_NE(mag2, nullptr);
-  for (const std::string effect : {"current_soft_iron", "misalignment"}) {
-    const EffectShare* e = JointEffect(*mag2, effect);
-    ASSERT_NE(e, nullptr) << effect << "\n" << Summary(*rep);
-    const double truth = TruthOf(f, effect);
-    // The withheld check's tolerance: the interval widened by a tenth of its width each side.
-    const double w = 0.1 * (e->ci95.hi - e->ci95.lo);
-    EXPECT_LE(e->ci95.lo - w, truth) << effect << "\n" << Summary(*rep);
-    EXPECT_GE(e->ci95.hi + w, truth) << effect << "\n" << Summary(*rep);
-  }
-}
-
 // Given a large misalignment and a small current field beside it, when diagnosed, then the current
-// field is an effect too: held out, alone, it explains nothing of a residual the misalignment
-// dominates (withheld_sim: 7.95° and 2.0 mG/A gave the misalignment only), while over the
-// misalignment it is significant and material.
+// field is an effect too, sized in its interval: held out, alone, it explains nothing of a residual
+// the misalignment dominates (withheld_sim: 7.95° and 2.0 mG/A gave the misalignment only), while
+// over the misalignment it is significant and material; and of the families that qualify beside the
+// misalignment the simplest within one standard error joins (a current soft iron spans the current
+// field through the vertical field's column and had joined in its place).
 TEST(GapJointFit, GivenASmallCurrentFieldBesideALargeMisalignment_WhenDiagnosed_ThenBothAreEffects) {
-  gaptest::Flown f = gaptest::FlyInjected({{"misalignment", 8.0}, {"current_hard_iron", 0.2}}, 2212, "joint_fit");
+  gaptest::Flown f = gaptest::FlyInjected({{"misalignment", 8.0}, {"current_hard_iron", 0.2}}, 2212, "joint_fit", "lawnmower");
   auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
   ASSERT_TRUE(rep.ok()) << rep.status().message();
   const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
   ASSERT_NE(mag2, nullptr);
   ASSERT_NE(JointEffect(*mag2, "misalignment"), nullptr) << Summary(*rep);
+  EXPECT_EQ(JointEffect(*mag2, "current_soft_iron"), nullptr) << Summary(*rep);
   const EffectShare* cur = JointEffect(*mag2, "current_hard_iron");
   ASSERT_NE(cur, nullptr) << Summary(*rep);
   const double truth = TruthOf(f, "current_hard_iron");
@@ -157,6 +138,27 @@ TEST(GapJointFit, GivenASmallCurrentFieldBesideALargeMisalignment_WhenDiagnosed_
   EXPECT_GE(cur->ci95.hi + w, truth) << Summary(*rep);
   EXPECT_GT(cur->explained_share, 0.0) << Summary(*rep);
   EXPECT_EQ(mag2->verdict, mag2->effects.front().effect);
+}
+
+// Given a current soft iron beside a current hard iron, when diagnosed, then the soft iron is an
+// effect beside the hard iron, sized in its interval: alone it takes the hard iron's field through
+// the vertical field's column, a size outside its physical range (refused alone), and its
+// antisymmetric and symmetric parts had read as a misalignment and a scale_error.
+TEST(GapJointFit, GivenACurrentSoftIronBesideACurrentHardIron_WhenDiagnosed_ThenBothAreEffects) {
+  gaptest::Flown f =
+      gaptest::FlyInjected({{"current_soft_iron", 0.006}, {"current_hard_iron", 0.6}}, 2212, "joint_fit", "selftest_flight");
+  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr);
+  ASSERT_NE(JointEffect(*mag2, "current_hard_iron"), nullptr) << Summary(*rep);
+  EXPECT_EQ(JointEffect(*mag2, "misalignment"), nullptr) << Summary(*rep);
+  const EffectShare* soft = JointEffect(*mag2, "current_soft_iron");
+  ASSERT_NE(soft, nullptr) << Summary(*rep);
+  const double truth = TruthOf(f, "current_soft_iron");
+  const double w = 0.1 * (soft->ci95.hi - soft->ci95.lo);
+  EXPECT_LE(soft->ci95.lo - w, truth) << Summary(*rep);
+  EXPECT_GE(soft->ci95.hi + w, truth) << Summary(*rep);
 }
 
 }  // namespace
