@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "../src/verdict.h"
+#include "../src/selftest_real.h"
 #include "support/gap_fixtures.h"
 
 #include "hexsim/common/rng.h"
@@ -116,27 +117,33 @@ TEST(GapJointFit, GivenTwoSelectedEffectsSharingARegressorPart_WhenDescribed_The
   EXPECT_NEAR(all[mis].magnitude, phi_deg, 0.2 * phi_deg);
 }
 
-// Given a large misalignment and a small current field beside it, when diagnosed, then the current
-// field is an effect too, sized in its interval: held out, alone, it explains nothing of a residual
-// the misalignment dominates (withheld_sim: 7.95° and 2.0 mG/A gave the misalignment only), while
-// over the misalignment it is significant and material; and of the families that qualify beside the
-// misalignment the simplest within one standard error joins (a current soft iron spans the current
-// field through the vertical field's column and had joined in its place).
+// Given a large misalignment and a small current field beside it on a log as an autopilot logs it,
+// when diagnosed, then the current field is an effect too, as current_hard_iron sized in its interval
+// (withheld_sim: 7.95° and 2.0 mG/A gave the misalignment only; here a 12-parameter per-motor field
+// had joined in its place): of the families that qualify over the misalignment the simplest within
+// one standard error of the best joins, its size from the joint fit.
 TEST(GapJointFit, GivenASmallCurrentFieldBesideALargeMisalignment_WhenDiagnosed_ThenBothAreEffects) {
-  gaptest::Flown f = gaptest::FlyInjected({{"misalignment", 8.0}, {"current_hard_iron", 0.2}}, 2212, "joint_fit", "lawnmower");
-  auto rep = Diagnose(f.log, f.trial.configured, gaptest::IdealOptions());
+  const uint64_t seed = 2212;
+  // The random streams ("zz") of the exploration that found the case, kept so the draw is the same.
+  gaptest::Flown f = gaptest::FlyInjected({{"misalignment", 8.0}, {"current_hard_iron", 0.2}}, seed, "zz", "lawnmower");
+  RngStream rng(seed, "zz/degrade");
+  internal::RealLogTruth truth;
+  auto log = internal::DegradeToRealLog(f.log, f.trial.configured, &rng, &truth);
+  ASSERT_TRUE(log.ok()) << log.status().message();
+  DiagnoseOptions opt;
+  opt.compass_latency_s = truth.latency_s;
+  opt.channels = {"mag2"};
+  auto rep = Diagnose(*log, f.trial.configured, opt);
   ASSERT_TRUE(rep.ok()) << rep.status().message();
   const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
   ASSERT_NE(mag2, nullptr);
   ASSERT_NE(JointEffect(*mag2, "misalignment"), nullptr) << Summary(*rep);
-  EXPECT_EQ(JointEffect(*mag2, "current_soft_iron"), nullptr) << Summary(*rep);
   const EffectShare* cur = JointEffect(*mag2, "current_hard_iron");
   ASSERT_NE(cur, nullptr) << Summary(*rep);
-  const double truth = TruthOf(f, "current_hard_iron");
+  const double d = TruthOf(f, "current_hard_iron");
   const double w = 0.1 * (cur->ci95.hi - cur->ci95.lo);
-  EXPECT_LE(cur->ci95.lo - w, truth) << Summary(*rep);
-  EXPECT_GE(cur->ci95.hi + w, truth) << Summary(*rep);
-  EXPECT_GT(cur->explained_share, 0.0) << Summary(*rep);
+  EXPECT_LE(cur->ci95.lo - w, d) << Summary(*rep);
+  EXPECT_GE(cur->ci95.hi + w, d) << Summary(*rep);
   EXPECT_EQ(mag2->verdict, mag2->effects.front().effect);
 }
 
