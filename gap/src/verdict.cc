@@ -553,9 +553,9 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
   if (first < F) {
     const auto judge = [&](CandidateResult* r) { JudgeRange(nu.nuisance.field_scale, r); };
     const SelectedModel m = GrowModel(an, at, first, eligible, st.noise_var, o, joinable, judge);
-    const bool joint = DescribeJointly(an, m, at, cv0, noise_sse, &all);
+    DescribeJointly(m, at, cv0, noise_sse, &all);
     for (size_t f : m.fams) {
-      if (joint) judge(&all[f]);  // sized in the joint fit
+      if (m.fams.size() > 1) judge(&all[f]);  // sized in the joint fit
       all[f].selected = true;
       res.effects.push_back(ToEffect(all[f], (1.0 - L) * all[f].explained_share, "fit"));
       // A family that joined only over the model is material by the noise power there (GrowModel).

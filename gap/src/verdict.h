@@ -97,16 +97,11 @@ SelectedModel GrowModel(const Analyzer& an, const Attribution& at, size_t first,
 // together over the baseline; the block jackknife of that fit), in place of each family's fit alone:
 // alone a family absorbs the part of the others its regressors share (the mean-current part S·Ī·h
 // of a current soft iron turns the field as a static rotation does: a misalignment of 1.4° beside
-// one read 3.4° [3.1, 3.8] alone). A model with a current soft iron but no current hard iron is
-// sized with the current hard iron's columns beside it (not an effect): in a nearly level flight the
-// soft iron's vertical-field column I·E[:,z]·h_z is a current field d·I, so without them the soft
-// iron takes any unmodelled current field (a vehicle's own wiring without --sim: 0.0102 [0.0093,
-// 0.0111] /A for a planted 0.0062) into its size, with an interval that does not show it. Profiled
-// grid parameters and lags stay as their own fits chose them. A family after the first reports as
-// its explained share what it adds to the model it joined over the baseline's structure above the
-// floor (noise_sse), where that exceeds its share alone. False where nothing was described again
-// (one family, its own fit the model's).
-bool DescribeJointly(const Analyzer& an, const SelectedModel& m, const Attribution& at, double cv0, double noise_sse,
+// one read 3.4° [3.1, 3.8] alone). Profiled grid parameters and lags stay as their own fits chose
+// them. A family after the first reports as its explained share what it adds to the model it joined
+// over the baseline's structure above the floor (noise_sse), where that exceeds its share alone.
+// One family: unchanged (its own fit is the model's).
+void DescribeJointly(const SelectedModel& m, const Attribution& at, double cv0, double noise_sse,
                      std::vector<CandidateResult>* all);
 // An eligible family outside the model, as simple as its first, within one standard error of it and
 // neither nesting the other (F: none): the verdict is then "ambiguous".

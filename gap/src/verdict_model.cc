@@ -200,31 +200,15 @@ SelectedModel GrowModel(const Analyzer& an, const Attribution& at, size_t first,
   return m;
 }
 
-bool DescribeJointly(const Analyzer& an, const SelectedModel& m, const Attribution& at, double cv0, double noise_sse,
+void DescribeJointly(const SelectedModel& m, const Attribution& at, double cv0, double noise_sse,
                      std::vector<CandidateResult>* all) {
-  if (!m.eval.full.ok) return false;
-  const auto in_model = [&](Effect id) {
-    return std::any_of(m.fams.begin(), m.fams.end(), [&](size_t f) { return at.results[f].id == id; });
-  };
-  const Evaluated* fit = &m.eval;
-  Evaluated beside_field;
-  std::unique_ptr<Candidate> beside;
-  if (in_model(Effect::kCurrentSoftIron) && !in_model(Effect::kCurrentHardIron)) {
-    for (size_t f = 0; f < at.fam_names.size(); ++f) {
-      if (at.results[f].id != Effect::kCurrentHardIron) continue;
-      beside = std::make_unique<Candidate>(Join(*m.joint, *at.all[at.fam_best[f]].cand));
-      beside_field = an.FitOnly(*beside);
-      if (beside_field.full.ok) fit = &beside_field;
-      break;
-    }
-  }
-  if (m.fams.size() < 2 && fit == &m.eval) return false;
-  const Eigen::MatrixXd V = JackknifeCov(*fit);
-  int off = fit->off;
+  if (m.fams.size() < 2 || !m.eval.full.ok) return;
+  const Eigen::MatrixXd V = JackknifeCov(m.eval);
+  int off = m.eval.off;
   for (size_t i = 0; i < m.fams.size(); ++i) {
     const size_t f = m.fams[i];
     const Candidate& c = *at.all[at.fam_best[f]].cand;
-    DescribePart(*fit, V, c, off, &(*all)[f]);
+    DescribePart(m.eval, V, c, off, &(*all)[f]);
     off += c.p();
     if (i > 0 && i < m.entry_cv_sse.size()) {
       // What it adds to the model it joined, as a share of the baseline's structure above the
@@ -238,7 +222,6 @@ bool DescribeJointly(const Analyzer& an, const SelectedModel& m, const Attributi
       }
     }
   }
-  return true;
 }
 
 size_t AmbiguousRival(const Attribution& at, const SelectedModel& m, const std::vector<bool>& eligible) {

@@ -95,7 +95,7 @@ TEST(GapJointFit, GivenTwoSelectedEffectsSharingARegressorPart_WhenDescribed_The
   ASSERT_LT(first, at.fam_names.size());
   const internal::SelectedModel m = internal::GrowModel(an, at, first, eligible, 0.04, o);
   std::vector<CandidateResult> all = at.results;
-  internal::DescribeJointly(an, m, at, an.baseline().cv_sse, noise_sse, &all);
+  internal::DescribeJointly(m, at, an.baseline().cv_sse, noise_sse, &all);
   size_t mis = at.fam_names.size(), soft = mis;
   for (size_t f = 0; f < at.fam_names.size(); ++f) {
     if (at.fam_names[f] == "misalignment") mis = f;
