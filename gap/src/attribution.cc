@@ -469,13 +469,15 @@ Interval GridInterval(double value, std::vector<double> picks, std::vector<doubl
 constexpr double kNormZeroLevel = 0.05;
 
 void Describe(const Evaluated& e, const GridPicks& picks, CandidateResult* r) {
-  const Candidate& c = *e.cand;
-  const double t975 = StudentT975(static_cast<double>(e.blocks.size() - 1));
+  DescribeAt(*e.cand, e.full.beta, JackknifeCov(e), e.off, static_cast<int>(e.blocks.size()), picks, r);
+}
+
+void DescribeAt(const Candidate& c, const Eigen::VectorXd& beta, const Eigen::MatrixXd& V, int o, int G,
+                const GridPicks& picks, CandidateResult* r) {
+  const double t975 = StudentT975(static_cast<double>(G - 1));
   const int p = c.p();
-  const int o = e.off;
-  const Eigen::MatrixXd V = JackknifeCov(e);
   for (int j = 0; j < p; ++j) {
-    const double v = e.full.beta[o + j] * c.scale[j];
+    const double v = beta[o + j] * c.scale[j];
     const double sd = std::sqrt(std::max(0.0, V(o + j, o + j))) * std::fabs(c.scale[j]);
     r->params[c.names[j]] = v;
     r->ci95[c.names[j]] = {v - t975 * sd, v + t975 * sd};
@@ -500,7 +502,7 @@ void Describe(const Evaluated& e, const GridPicks& picks, CandidateResult* r) {
   r->magnitude_unit = c.magnitude_unit;
   const int pm = c.magnitude_params > 0 ? c.magnitude_params : p;
   Eigen::VectorXd v(pm);
-  for (int j = 0; j < pm; ++j) v[j] = e.full.beta[o + j] * c.scale[j];
+  for (int j = 0; j < pm; ++j) v[j] = beta[o + j] * c.scale[j];
   Eigen::MatrixXd S = Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(c.scale.data(), pm)).asDiagonal();
   const Eigen::MatrixXd cov = S * V.block(o, o, pm, pm) * S;
   if (pm == 1) {
@@ -520,7 +522,7 @@ void Describe(const Evaluated& e, const GridPicks& picks, CandidateResult* r) {
   // the same covariance does not reject zero at 5 %). The delta method's |v| − t·sd holds only the
   // radial spread, and a vector of pure noise has a norm well above that (on simulated 2 Hz logs of
   // an external compass without a current field, 15 of 16 current_hard_iron intervals excluded 0).
-  if (WaldP(v, cov, Range(0, pm), static_cast<int>(e.blocks.size())) >= kNormZeroLevel) r->magnitude_ci95[0] = 0.0;
+  if (WaldP(v, cov, Range(0, pm), G) >= kNormZeroLevel) r->magnitude_ci95[0] = 0.0;
 }
 
 double EffectiveTests(const std::vector<const Candidate*>& members) {

@@ -147,6 +147,10 @@ struct GridPicks {
 };
 // Fills the reported parameters, intervals and magnitude of a candidate fit.
 void Describe(const Evaluated& e, const GridPicks& picks, CandidateResult* r);
+// The same from any fit holding c's parameters at offset o of beta, with the covariance V of beta
+// (the block jackknife's) over G blocks: a family's part of a joint fit of several families.
+void DescribeAt(const Candidate& c, const Eigen::VectorXd& beta, const Eigen::MatrixXd& V, int o, int G,
+                const GridPicks& picks, CandidateResult* r);
 
 double Shrink(double after_sse, double before_sse);
 // (MS_baseline − MS_after) / (MS_baseline − MS_noise) on held-out blocks: the share of the residual

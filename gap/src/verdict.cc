@@ -650,6 +650,11 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
   NotMaterial current_not_material;
   const std::vector<std::string> why =
       MaterialOnTheirOwn(ch, an, at, cv0, st.noise_var, o, &eligible, &current_not_material);
+  // Beside a first effect, a family refused alone for its materiality or its range alone may join
+  // (GrowModel); one material alone but refused (the static gains beside a soft iron that beats
+  // them) may not.
+  std::vector<bool> joinable = Joinable(at, o);
+  for (size_t f = 0; f < F; ++f) joinable[f] = joinable[f] && (eligible[f] || why[f].empty());
   const size_t first = ChooseFirst(at, eligible);
   if (first < F && at.results[first].p_value < o.alpha / 3.0) {
     res.p_value = std::min(res.p_value, std::min(1.0, 3.0 * at.results[first].p_value));
@@ -669,11 +674,15 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
     res.effects.push_back(ToEffect(lat, L, "timing"));
   }
   if (first < F) {
-    const SelectedModel m = GrowModel(an, at, first, eligible, st.noise_var, o);
+    const auto judge = [&](CandidateResult* r) { JudgeRange(nu.nuisance.field_scale, r); };
+    const SelectedModel m = GrowModel(an, at, first, eligible, st.noise_var, o, joinable, judge);
+    DescribeJointly(m, at, cv0, noise_sse, &all);
     for (size_t f : m.fams) {
+      if (m.fams.size() > 1) judge(&all[f]);  // sized in the joint fit
       all[f].selected = true;
       res.effects.push_back(ToEffect(all[f], (1.0 - L) * all[f].explained_share, "fit"));
-      if (why[f] != kByNoise) res.findings.push_back(all[f].effect + " is material " + why[f]);
+      // A family that joined only over the model is material by the noise power there (GrowModel).
+      if (!why[f].empty() && why[f] != kByNoise) res.findings.push_back(all[f].effect + " is material " + why[f]);
     }
     if (std::any_of(m.fams.begin(), m.fams.end(), [&](size_t f) { return DrivenByCurrent(all[f].id); })) {
       RejudgeOffsetAtZeroCurrent(ch, m.eval, o, &nu, &res.findings);

@@ -2,6 +2,7 @@
 // effect, the ambiguity rule, the effects list and the candidates' order.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include <Eigen/Cholesky>
 #include <fmt/format.h>
@@ -54,10 +55,12 @@ bool ModelledFieldShareInRange(const CandidateResult& r) {
   return a->second > kModelledFieldShareLo && ci->second.lo <= kModelledFieldShareHi;
 }
 
-std::vector<bool> Eligible(const Attribution& at, const DiagnoseOptions& o) {
+namespace {
+
+std::vector<bool> Admitted(const Attribution& at, const DiagnoseOptions& o, bool plausible_alone) {
   std::vector<bool> ok(at.results.size(), false);
   for (size_t f = 0; f < at.results.size(); ++f) {
-    ok[f] = at.results[f].plausible && at.results[f].p_value <= o.alpha;
+    ok[f] = (at.results[f].plausible || !plausible_alone) && at.results[f].p_value <= o.alpha;
     // A profiled lag whose interval reaches zero is no lag: the field follows the current without
     // one, which the current's own families describe (current_lag's unlagged members are its
     // reference, AddLaggedCurrentField).
@@ -66,6 +69,12 @@ std::vector<bool> Eligible(const Attribution& at, const DiagnoseOptions& o) {
   }
   return ok;
 }
+
+}  // namespace
+
+std::vector<bool> Eligible(const Attribution& at, const DiagnoseOptions& o) { return Admitted(at, o, true); }
+
+std::vector<bool> Joinable(const Attribution& at, const DiagnoseOptions& o) { return Admitted(at, o, false); }
 
 size_t ChooseFirst(const Attribution& at, const std::vector<bool>& eligible) {
   const size_t F = at.fam_names.size();
@@ -94,23 +103,56 @@ bool IsMaterial(const Analyzer& an, const Evaluated& e, double cv_before, double
   return (cv_before - e.cv_sse) / an.total_n() >= o.materiality * noise_var;
 }
 
+namespace {
+
+// Family c's part of a fit that holds its parameters at offset off of beta (covariance V): its
+// linear parameters, magnitude and intervals from that fit, its profiled grid parameters (a current
+// shift, an exponent) and a profiled lag (current_lag's magnitude) kept from its own fit, where they
+// were chosen.
+void DescribePart(const Evaluated& fit, const Eigen::MatrixXd& V, const Candidate& c, int off, CandidateResult* r) {
+  const CandidateResult own = *r;
+  DescribeAt(c, fit.full.beta, V, off, static_cast<int>(fit.blocks.size()), GridPicks{}, r);
+  for (const std::string& g : {c.grid_name, c.grid2_name}) {
+    if (g.empty()) continue;
+    const auto v = own.params.find(g);
+    const auto ci = own.ci95.find(g);
+    if (v != own.params.end()) r->params[g] = v->second;
+    if (ci != own.ci95.end()) r->ci95[g] = ci->second;
+  }
+  if (c.grid_name == "tau_s") {
+    r->magnitude = own.magnitude;
+    r->magnitude_ci95[0] = own.magnitude_ci95[0];
+    r->magnitude_ci95[1] = own.magnitude_ci95[1];
+    r->magnitude_unit = own.magnitude_unit;
+  }
+}
+
+}  // namespace
+
 SelectedModel GrowModel(const Analyzer& an, const Attribution& at, size_t first, const std::vector<bool>& eligible,
-                        double noise_var, const DiagnoseOptions& o) {
+                        double noise_var, const DiagnoseOptions& o, const std::vector<bool>& joinable,
+                        const std::function<void(CandidateResult*)>& judge) {
   SelectedModel m;
   const size_t F = at.fam_names.size();
   m.fams.push_back(first);
   m.joint = std::make_unique<Candidate>(*at.all[at.fam_best[first]].cand);
   m.eval = at.all[at.fam_best[first]];
   m.eval.cand = m.joint.get();
+  m.entry_cv_sse.push_back(m.eval.cv_sse);
+  const auto may_join = [&](size_t f) { return eligible[f] || (f < joinable.size() && joinable[f]); };
   // A flight log separates a few effects at most; each step fits every remaining family jointly.
   constexpr size_t kMaxEffects = 3;
+  struct Addition {
+    size_t f;
+    std::unique_ptr<Candidate> joint;
+    Evaluated eval;
+  };
   while (m.fams.size() < kMaxEffects) {
-    size_t add = F;
-    std::unique_ptr<Candidate> best_joint;
-    Evaluated best_eval;
+    std::vector<Addition> qualified;
     for (size_t f = 0; f < F; ++f) {
-      if (!eligible[f] || std::find(m.fams.begin(), m.fams.end(), f) != m.fams.end()) continue;
-      auto j = std::make_unique<Candidate>(Join(*m.joint, *at.all[at.fam_best[f]].cand));
+      if (!may_join(f) || std::find(m.fams.begin(), m.fams.end(), f) != m.fams.end()) continue;
+      const Candidate& cf = *at.all[at.fam_best[f]].cand;
+      auto j = std::make_unique<Candidate>(Join(*m.joint, cf));
       Evaluated ej = an.Evaluate(*j);
       if (!ej.full.ok || ej.cov.size() == 0) continue;
       const FoldDiff d = Diff(ej.fold_sse, m.eval.fold_sse);
@@ -118,20 +160,68 @@ SelectedModel GrowModel(const Analyzer& an, const Attribution& at, size_t first,
           WaldP(ej.full.beta, ej.cov, Range(ej.off + m.joint->p(), ej.p()), an.G()) * static_cast<double>(F);
       // Beats the model by more than one standard error over the folds, significant over it, and
       // material (held out).
-      if (d.sum < -d.se && p_partial < o.alpha && IsMaterial(an, ej, m.eval.cv_sse, noise_var, o) &&
-          (add == F || ej.cv_sse < best_eval.cv_sse)) {
-        add = f;
-        best_joint = std::move(j);
-        best_eval = std::move(ej);
+      if (!(d.sum < -d.se && p_partial < o.alpha && IsMaterial(an, ej, m.eval.cv_sse, noise_var, o))) continue;
+      // Its size where it is judged: in the model it joins (alone it may hold, or be hidden by,
+      // the part it shares with the model's effects), inside its physical range.
+      if (judge) {
+        CandidateResult r = at.results[f];
+        DescribePart(ej, JackknifeCov(ej), cf, ej.off + m.joint->p(), &r);
+        judge(&r);
+        if (!r.plausible) continue;
+      }
+      qualified.push_back({f, std::move(j), std::move(ej)});
+    }
+    if (qualified.empty()) break;
+    // ChooseFirst's rule among the families that qualify: the best held out, then the fewest fitted
+    // quantities within one standard error of it over the folds (a 9-parameter current soft iron
+    // spans a 3-parameter current hard iron's field in a nearly level flight, through the vertical
+    // field's column, and otherwise joined a misalignment in its place).
+    size_t best = 0;
+    for (size_t i = 1; i < qualified.size(); ++i) {
+      if (qualified[i].eval.cv_sse < qualified[best].eval.cv_sse) best = i;
+    }
+    size_t chosen = best;
+    for (size_t i = 0; i < qualified.size(); ++i) {
+      if (i == best) continue;
+      const FoldDiff d = Diff(qualified[i].eval.fold_sse, qualified[best].eval.fold_sse);
+      const int dof = Dof(*at.all[at.fam_best[qualified[i].f]].cand);
+      const int dof_c = Dof(*at.all[at.fam_best[qualified[chosen].f]].cand);
+      if (d.sum <= d.se && (dof < dof_c || (dof == dof_c && qualified[i].eval.cv_sse < qualified[chosen].eval.cv_sse))) {
+        chosen = i;
       }
     }
-    if (add == F) break;
-    m.fams.push_back(add);
-    m.joint = std::move(best_joint);
-    m.eval = std::move(best_eval);
+    Addition& add = qualified[chosen];
+    m.fams.push_back(add.f);
+    m.joint = std::move(add.joint);
+    m.eval = std::move(add.eval);
     m.eval.cand = m.joint.get();
+    m.entry_cv_sse.push_back(m.eval.cv_sse);
   }
   return m;
+}
+
+void DescribeJointly(const SelectedModel& m, const Attribution& at, double cv0, double noise_sse,
+                     std::vector<CandidateResult>* all) {
+  if (m.fams.size() < 2 || !m.eval.full.ok) return;
+  const Eigen::MatrixXd V = JackknifeCov(m.eval);
+  int off = m.eval.off;
+  for (size_t i = 0; i < m.fams.size(); ++i) {
+    const size_t f = m.fams[i];
+    const Candidate& c = *at.all[at.fam_best[f]].cand;
+    DescribePart(m.eval, V, c, off, &(*all)[f]);
+    off += c.p();
+    if (i > 0 && i < m.entry_cv_sse.size()) {
+      // What it adds to the model it joined, as a share of the baseline's structure above the
+      // floor (ExplainedShare's denominator), where that is more than its share alone: an effect
+      // hidden by the first alone (a small current field beside a large misalignment) is material
+      // only over it.
+      const double excess = cv0 - std::max(0.0, noise_sse);
+      if (excess > 0) {
+        const double step = std::clamp((m.entry_cv_sse[i - 1] - m.entry_cv_sse[i]) / excess, -1.0, 1.0);
+        (*all)[f].explained_share = std::max((*all)[f].explained_share, step);
+      }
+    }
+  }
 }
 
 size_t AmbiguousRival(const Attribution& at, const SelectedModel& m, const std::vector<bool>& eligible) {
