@@ -61,7 +61,7 @@ internal::ChannelData TwoEffectChannel(const Vec3& phi_rad, const Eigen::Matrix3
     const double I = 12.0 + 4.0 * std::sin(2 * M_PI * t / 31.0) + 2.0 * std::sin(2 * M_PI * t / 7.0);
     const Vec3 noise(rng.Normal(), rng.Normal(), rng.Normal());
     ch.t.push_back(t);
-    ch.y.push_back(phi_rad.cross(h) + I * (S * h) + 0.2 * noise);
+    ch.y.emplace_back(phi_rad.cross(h) + I * (S * h) + 0.2 * noise);
     ch.current_A.push_back(I);
     ch.baseline.X.emplace_back(internal::Mat3X(Eigen::Matrix3d::Identity()));
     internal::Mat3X skew(3, 3);
