@@ -78,9 +78,9 @@ template <class T>
 bool PutInteger(double raw, std::string* out) {
   if (!std::isfinite(raw)) return false;
   const double r = std::nearbyint(raw);
-  if (r < static_cast<double>(std::numeric_limits<T>::lowest()) || r > static_cast<double>(std::numeric_limits<T>::max())) {
-    return false;
-  }
+  // [lowest, 2^digits): both ends exact in a double (max() itself rounds up to 2^digits for 64 bits).
+  const double end = std::ldexp(1.0, std::numeric_limits<T>::digits);
+  if (r < static_cast<double>(std::numeric_limits<T>::lowest()) || r >= end) return false;
   Put(static_cast<T>(r), out);
   return true;
 }
@@ -140,6 +140,8 @@ bool PutValue(char c, std::string_view s, std::string* out) {
   }
   double v = 0.0;
   if (!ParseNumber(s, &v)) return false;
+  // A float or half field the binary could not have held (a finite value beyond float's range).
+  if ((c == 'f' || c == 'g') && std::isfinite(v) && std::fabs(v) > std::numeric_limits<float>::max()) return false;
   const double raw = v / DataFlashFormatCharScale(c);
   switch (c) {
     case 'b': return PutInteger<int8_t>(raw, out);

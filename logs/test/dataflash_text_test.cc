@@ -120,6 +120,20 @@ TEST(DataFlashText, GivenAGroundStationsTextLog_WhenReencoded_ThenEachLineIsTheB
   EXPECT_EQ(reader.damage().skipped_bytes, 0u);
 }
 
+// Values the binary field could not hold are unreadable lines, not wrapped or converted: 2^64 in a
+// uint64 (max() as a double rounds up to it), 2^63 in an int64, 1e39 in a float.
+TEST(DataFlashText, GivenValuesBeyondTheirFieldsRange_WhenReencoded_ThenTheLinesAreUnreadable) {
+  const std::string text =
+      "FMT, 150, 11, TQ, Q, V\nFMT, 151, 11, TS, q, V\nFMT, 152, 7, TF, f, V\n"
+      "TQ, 18446744073709551616\nTS, 9223372036854775808\nTF, 1e39\n"
+      "TQ, 18446744073709549568\nTS, -9223372036854775808\nTF, 3e38\n";
+  DataFlashTextStats st;
+  auto bin = DataFlashTextToBinary(text, "range.log", &st);
+  ASSERT_TRUE(bin.ok()) << bin.status().message();
+  EXPECT_EQ(st.unreadable, 3u);
+  EXPECT_EQ(st.messages, 6u);  // 3 FMT + 3 in range
+}
+
 TEST(DataFlashText, GivenTextWithoutAnFmtLine_WhenReencoded_ThenItIsBadInputNamingTheFile) {
   EXPECT_FALSE(IsDataFlashText("time,mag_x\n0,1\n"));
   auto bin = DataFlashTextToBinary("FMT, x, 89, FMT\n", "broken.log");
