@@ -19,23 +19,6 @@
 namespace hexsim::gap {
 namespace heading_turn_test {
 
-// selftest_flight's climbs, descents and fast and slow legs, flown holding one heading (a real log
-// flown out and back along one line, as ardupilot-discuss log_0039 mostly is).
-std::string HeldHeading() {
-  std::string path = testing::TempDir() + "heading_turn_held_heading.yaml";
-  std::ofstream(path) << "name: held_heading_turn\nspeed_mps: 8\nacceptance_radius_m: 1.5\nyaw_mode: hold\n"
-                         "wind: {mean_N_mps: [0, 5, 0], gust_std_mps: 0.8}\nitems:\n"
-                         "  - {type: takeoff, alt_m: 10}\n"
-                         "  - {type: waypoint, p_N_m: [60, 0, -40], speed_mps: 8}\n"
-                         "  - {type: waypoint, p_N_m: [60, 80, -40], speed_mps: 13}\n"
-                         "  - {type: waypoint, p_N_m: [0, 80, -12], speed_mps: 8}\n"
-                         "  - {type: waypoint, p_N_m: [-60, 80, -12], speed_mps: 13}\n"
-                         "  - {type: waypoint, p_N_m: [-60, 0, -35], speed_mps: 8}\n"
-                         "  - {type: waypoint, p_N_m: [0, 0, -10], speed_mps: 4}\n"
-                         "  - {type: land}\n";
-  return path;
-}
-
 // Adds to mag2 white noise (noise_uT per axis) and a current field d·I, zero with the motors off,
 // whose horizontal part lies along the Earth field's horizontal part at the flight's mean attitude
 // (in the sensor frame: R_SB·mean(R_NBᵀ)·B_h,N, B_N from the clean external compass mag), plus as
@@ -87,7 +70,7 @@ double AddFieldAlongTheEarthField(logs::FlightLog* log, const vehicle::VehiclePa
 // near |d_h|·I/(√2·|B_h|) and its low end above the rule.
 TEST(GapHeadingTurn, GivenAHeldHeadingAndAFieldAlongTheEarthField_WhenDiagnosed_ThenItTurnsTheHeadingOverAFullTurn) {
   constexpr double kDh_uT_per_A = 0.15, kNoise_uT = 3.0;
-  gaptest::Flown f = gaptest::FlyInjected({}, 3101, "heading_turn", HeldHeading());
+  gaptest::Flown f = gaptest::FlyInjected({}, 3101, "heading_turn", gaptest::HeldHeadingMission("held_heading_turn"));
   RngStream rng(3101, "heading_turn/noise");
   const double turn_rad = AddFieldAlongTheEarthField(&f.log, f.trial.configured, kDh_uT_per_A, kNoise_uT, &rng);
   ASSERT_GT(turn_rad, 0.0);

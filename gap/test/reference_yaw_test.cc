@@ -123,24 +123,6 @@ TEST(GapReferenceYaw, GivenAnInternalFieldAndATurnedReference_WhenDiagnosed_Then
   EXPECT_NE(FindEffect(*mag, Effect::kReferenceYaw), nullptr) << Summary(*rep);
 }
 
-// selftest_flight's climbs, descents and fast and slow legs (the current swings), flown holding
-// one heading: the reference's turn of the Earth field then keeps one direction in the body, as a
-// body-fixed field does.
-std::string HeldHeadingMission() {
-  std::string path = testing::TempDir() + "reference_yaw_held_heading.yaml";
-  std::ofstream(path) << "name: held_heading\nspeed_mps: 8\nacceptance_radius_m: 1.5\nyaw_mode: hold\n"
-                         "wind: {mean_N_mps: [0, 5, 0], gust_std_mps: 0.8}\nitems:\n"
-                         "  - {type: takeoff, alt_m: 10}\n"
-                         "  - {type: waypoint, p_N_m: [60, 0, -40], speed_mps: 8}\n"
-                         "  - {type: waypoint, p_N_m: [60, 80, -40], speed_mps: 13}\n"
-                         "  - {type: waypoint, p_N_m: [0, 80, -12], speed_mps: 8}\n"
-                         "  - {type: waypoint, p_N_m: [-60, 80, -12], speed_mps: 13}\n"
-                         "  - {type: waypoint, p_N_m: [-60, 0, -35], speed_mps: 8}\n"
-                         "  - {type: waypoint, p_N_m: [0, 0, -10], speed_mps: 4}\n"
-                         "  - {type: land}\n";
-  return path;
-}
-
 // Adds d·I to compass `c`'s columns (sensor frame), d = size·u with u the unit direction, in
 // compass c's sensor frame, of the Earth field's turn about down at the flight's mean attitude:
 // R_SB·mean(R_NBᵀ)·(ẑ × B_N) (B_N's direction from the clean external compass `ref`).
@@ -179,7 +161,10 @@ void AddFieldAlongTheTurn(logs::FlightLog* log, const vehicle::VehicleParams& v,
 // one-parameter family competes), when diagnosed, then it stays a current field.
 TEST(GapReferenceYaw, GivenAHeldHeadingAndAnInternalFieldAlongTheTurn_WhenDiagnosed_ThenItStaysACurrentField) {
   constexpr double kD_uT_per_A = 0.2, kNoise_uT = 1.5;
-  gaptest::Flown f = gaptest::FlyInjected({}, 2904, "reference_yaw", HeldHeadingMission());
+  gaptest::Flown f = gaptest::FlyInjected({}, 2904, "reference_yaw",
+                                           // held heading: the reference's turn of the Earth field keeps one
+                                           // direction in the body, as a body-fixed field does
+                                           gaptest::HeldHeadingMission("held_heading"));
   RngStream rng(2904, "reference_yaw/noise");
   AddFieldAlongTheTurn(&f.log, f.trial.configured, 0, 1, kD_uT_per_A, kNoise_uT, &rng);
   auto rep = Diagnose(f.log, f.trial.configured, FusedMag2());

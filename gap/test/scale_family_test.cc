@@ -119,9 +119,7 @@ TEST(GapScaleFamily, GivenASoftIronTheFlightCannotSeparate_WhenDiagnosed_ThenThe
   const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
   ASSERT_NE(mag2, nullptr);
   EXPECT_FALSE(InEffects(*mag2, "current_soft_iron")) << Summary(*rep);
-  bool said = false;
-  for (const std::string& s : mag2->findings) said = said || s.find("does not vary enough while it turns") != std::string::npos;
-  EXPECT_TRUE(said) << Summary(*rep);
+  EXPECT_TRUE(gaptest::HasFinding(*mag2, "does not vary enough while it turns")) << Summary(*rep);
 }
 
 }  // namespace

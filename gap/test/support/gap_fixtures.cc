@@ -1,5 +1,6 @@
 #include "support/gap_fixtures.h"
 
+#include <fstream>
 #include <utility>
 
 #include <gtest/gtest.h>
@@ -31,6 +32,28 @@ const ChannelResult* FindChannel(const GapReport& report, const std::string& cha
     if (c.channel == channel) return &c;
   }
   return nullptr;
+}
+
+bool HasFinding(const ChannelResult& channel, const std::string& text) {
+  for (const std::string& s : channel.findings) {
+    if (s.find(text) != std::string::npos) return true;
+  }
+  return false;
+}
+
+std::string HeldHeadingMission(const std::string& name) {
+  std::string path = ::testing::TempDir() + name + ".yaml";
+  std::ofstream(path) << "name: " << name << "\nspeed_mps: 8\nacceptance_radius_m: 1.5\nyaw_mode: hold\n"
+                      << "wind: {mean_N_mps: [0, 5, 0], gust_std_mps: 0.8}\nitems:\n"
+                         "  - {type: takeoff, alt_m: 10}\n"
+                         "  - {type: waypoint, p_N_m: [60, 0, -40], speed_mps: 8}\n"
+                         "  - {type: waypoint, p_N_m: [60, 80, -40], speed_mps: 13}\n"
+                         "  - {type: waypoint, p_N_m: [0, 80, -12], speed_mps: 8}\n"
+                         "  - {type: waypoint, p_N_m: [-60, 80, -12], speed_mps: 13}\n"
+                         "  - {type: waypoint, p_N_m: [-60, 0, -35], speed_mps: 8}\n"
+                         "  - {type: waypoint, p_N_m: [0, 0, -10], speed_mps: 4}\n"
+                         "  - {type: land}\n";
+  return path;
 }
 
 const CandidateResult* FindCandidate(const ChannelResult& channel, const std::string& effect) {

@@ -29,5 +29,11 @@ DiagnoseOptions IdealOptions();
 
 const ChannelResult* FindChannel(const GapReport& report, const std::string& channel);
 const CandidateResult* FindCandidate(const ChannelResult& channel, const std::string& effect);
+// Whether one of the channel's findings contains `text`.
+bool HasFinding(const ChannelResult& channel, const std::string& text);
+
+// selftest_flight's climbs, descents and fast and slow legs, flown holding one heading (a real log
+// flown out and back along one line), written to the test's temp dir as `name`.yaml; its path.
+std::string HeldHeadingMission(const std::string& name);
 
 }  // namespace hexsim::gap::gaptest
