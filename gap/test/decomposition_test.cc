@@ -17,12 +17,7 @@
 namespace hexsim::gap {
 namespace {
 
-bool InEffects(const ChannelResult& c, const std::string& effect) {
-  for (const EffectShare& e : c.effects) {
-    if (e.effect == effect) return true;
-  }
-  return false;
-}
+using gaptest::InEffects;
 
 // The channels on several threads give the same report as in turn: each channel reads only the
 // shared replay and draws from its own random stream.

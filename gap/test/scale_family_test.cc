@@ -19,12 +19,7 @@
 namespace hexsim::gap {
 namespace {
 
-bool InEffects(const ChannelResult& c, const std::string& effect) {
-  for (const EffectShare& e : c.effects) {
-    if (e.effect == effect) return true;
-  }
-  return false;
-}
+using gaptest::InEffects;
 
 bool AnyCurrentEffect(const ChannelResult& c) {
   for (const EffectShare& e : c.effects) {

@@ -34,6 +34,13 @@ const ChannelResult* FindChannel(const GapReport& report, const std::string& cha
   return nullptr;
 }
 
+bool InEffects(const ChannelResult& channel, const std::string& effect) {
+  for (const EffectShare& e : channel.effects) {
+    if (e.effect == effect) return true;
+  }
+  return false;
+}
+
 bool HasFinding(const ChannelResult& channel, const std::string& text) {
   for (const std::string& s : channel.findings) {
     if (s.find(text) != std::string::npos) return true;

@@ -29,6 +29,8 @@ DiagnoseOptions IdealOptions();
 
 const ChannelResult* FindChannel(const GapReport& report, const std::string& channel);
 const CandidateResult* FindCandidate(const ChannelResult& channel, const std::string& effect);
+// Whether `effect` is among the channel's effects.
+bool InEffects(const ChannelResult& channel, const std::string& effect);
 // Whether one of the channel's findings contains `text`.
 bool HasFinding(const ChannelResult& channel, const std::string& text);
 
