@@ -129,6 +129,11 @@ void DescribePart(const Evaluated& fit, const Eigen::MatrixXd& V, const Candidat
 
 }  // namespace
 
+bool BesideAnotherCause(const Attribution& at, const std::vector<size_t>& model, size_t f) {
+  if (!Info(at.results[f].id).compensable) return true;
+  return std::none_of(model.begin(), model.end(), [&](size_t g) { return Info(at.results[g].id).compensable; });
+}
+
 SelectedModel GrowModel(const Analyzer& an, const Attribution& at, size_t first, const std::vector<bool>& eligible,
                         double noise_var, const DiagnoseOptions& o, const std::vector<bool>& joinable,
                         const std::function<void(CandidateResult*)>& judge) {
@@ -139,7 +144,10 @@ SelectedModel GrowModel(const Analyzer& an, const Attribution& at, size_t first,
   m.eval = at.all[at.fam_best[first]];
   m.eval.cand = m.joint.get();
   m.entry_cv_sse.push_back(m.eval.cv_sse);
-  const auto may_join = [&](size_t f) { return eligible[f] || (f < joinable.size() && joinable[f]); };
+  // A family refused alone joins only beside effects of other causes (BesideAnotherCause).
+  const auto may_join = [&](size_t f) {
+    return eligible[f] || (f < joinable.size() && joinable[f] && BesideAnotherCause(at, m.fams, f));
+  };
   // A flight log separates a few effects at most; each step fits every remaining family jointly.
   constexpr size_t kMaxEffects = 3;
   struct Addition {
