@@ -1,8 +1,9 @@
 // Verdicts (private to gap/), a decomposition (CONTRACTS.md "The verdict is a decomposition"):
 // every channel's shares are ExplainedShare (attribution.h) over its baseline and noise floor; the
 // material effects, grown from the one-standard-error choice, are listed by share; the headline is
-// the largest, partial below DiagnoseOptions::headline_share; ambiguous when an as-simple rival
-// within one standard error neither nests nor is nested; what is left is described, never a veto;
+// the largest, partial below DiagnoseOptions::headline_share; an as-simple rival within one
+// standard error that neither nests nor is nested is fitted beside the first and the variation they
+// do not share decides (ResolveTie), ambiguous where it does not; what is left is described, never a veto;
 // unexplained only when structure stands above the floor and no effect is material. Compasses
 // first compare what the baseline absorbed with the vehicle file (the latency: LatencyTerm).
 #pragma once
