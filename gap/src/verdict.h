@@ -133,9 +133,15 @@ struct Tie {
   double p_first = 1.0, p_rival = 1.0;
   bool rival_plausible = true;  // the rival's size in the joint fit inside its physical range (judge)
   bool model_full = false;      // both significant, but the model holds kMaxTieModelEffects already
+  bool one_field = false;       // both significant, two forms of one field (OneFieldTwoForms): the first kept
   SelectedModel both;           // kBoth: m's families, then the rival, fitted together
   std::string refused;          // kBoth: GrowModel's tests the joint step failed
 };
+// Two forms of one field, the motors': a current field (hard iron, per motor, lagged) and a
+// throttle field. Both significant beside each other say the field is in proportion to neither (a
+// power law, a saturation, a lag), not that two fields are there: the first is kept, its form not
+// established. A current soft iron (a field that turns with the heading) is an effect of its own.
+bool OneFieldTwoForms(Effect a, Effect b);
 Tie ResolveTie(const Analyzer& an, const Attribution& at, const SelectedModel& m, size_t rival, double noise_var,
                const DiagnoseOptions& o, const std::function<void(CandidateResult*)>& judge = nullptr);
 // The tie's outcome in words: which part stayed significant beside the other, with both p-values.

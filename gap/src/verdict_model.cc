@@ -265,6 +265,11 @@ std::string JoinRefusal(const Analyzer& an, const SelectedModel& m, const Evalua
 
 }  // namespace
 
+bool OneFieldTwoForms(Effect a, Effect b) {
+  if (a == Effect::kCurrentSoftIron || b == Effect::kCurrentSoftIron) return false;
+  return DrivenByCurrent(a) && DrivenByCurrent(b) && Info(a).kind != Info(b).kind;
+}
+
 Tie ResolveTie(const Analyzer& an, const Attribution& at, const SelectedModel& m, size_t rival, double noise_var,
                const DiagnoseOptions& o, const std::function<void(CandidateResult*)>& judge) {
   Tie t;
@@ -286,6 +291,11 @@ Tie ResolveTie(const Analyzer& an, const Attribution& at, const SelectedModel& m
   if (first_stays && !rival_stays) t.outcome = TieOutcome::kFirst;
   if (rival_stays && !first_stays) t.outcome = TieOutcome::kRival;
   if (!(first_stays && rival_stays)) return t;
+  if (OneFieldTwoForms(at.results[t.first].id, at.results[rival].id)) {
+    t.one_field = true;
+    t.outcome = TieOutcome::kFirst;
+    return t;
+  }
   if (m.fams.size() >= kMaxTieModelEffects) {
     // The first's part stands beside the rival: the model as grown, the rival not added.
     t.model_full = true;
@@ -320,6 +330,12 @@ std::string TieFinding(const Tie& t, const Attribution& at) {
       a, b, a, b, t.p_first, b, a, t.p_rival);
   switch (t.outcome) {
     case TieOutcome::kFirst:
+      if (t.one_field) {
+        return head + fmt::format(": both stay significant, and both describe the motors' field: it follows neither the "
+                                  "current nor the throttle in proportion (a power law, a saturation or a lag); {} is "
+                                  "reported, its form not established",
+                                  a);
+      }
       if (t.model_full) {
         return head + fmt::format(": both stay significant; the model already holds {} effects, the most a flight log "
                                   "separates: {} is not added",
