@@ -1,8 +1,9 @@
 // Verdicts (private to gap/), a decomposition (CONTRACTS.md "The verdict is a decomposition"):
 // every channel's shares are ExplainedShare (attribution.h) over its baseline and noise floor; the
 // material effects, grown from the one-standard-error choice, are listed by share; the headline is
-// the largest, partial below DiagnoseOptions::headline_share; ambiguous when an as-simple rival
-// within one standard error neither nests nor is nested; what is left is described, never a veto;
+// the largest, partial below DiagnoseOptions::headline_share; an as-simple rival within one
+// standard error that neither nests nor is nested is fitted beside the first and the variation they
+// do not share decides (ResolveTie), ambiguous where it does not; what is left is described, never a veto;
 // unexplained only when structure stands above the floor and no effect is material. Compasses
 // first compare what the baseline absorbed with the vehicle file (the latency: LatencyTerm).
 #pragma once
@@ -121,6 +122,39 @@ void DescribeJointly(const SelectedModel& m, const Attribution& at, double cv0, 
 // An eligible family outside the model, as simple as its first, within one standard error of it and
 // neither nesting the other (F: none): the verdict is then "ambiguous".
 size_t AmbiguousRival(const Attribution& at, const SelectedModel& m, const std::vector<bool>& eligible);
+// A tie (AmbiguousRival) decided by the variation the two families do not share: the model with the
+// rival beside it, fitted once, and each one's part beyond the other (and beyond the model's further
+// families) by the partial Wald test on that fit's block jackknife covariance, Bonferroni over the
+// two tests (each p times 2, against o.alpha). The part that stays significant beside the other while
+// the other's does not is the effect (a static misalignment against a current field: the heading's
+// and tilt's variation the current does not follow, and the current's the attitude does not); both
+// significant, with the rival's size in the joint fit inside its physical range: both are effects
+// (`both`, the model with the rival joined; `refused` says why GrowModel did not join it); otherwise
+// ambiguous. Symmetric in the two families: no effect is preferred by its kind.
+enum class TieOutcome { kFirst, kRival, kBoth, kNeither };
+// The most effects a model holds (GrowModel's kMaxEffects: a flight log separates a few effects at
+// most); a tie whose parts both stay significant beside a model already this large keeps the model.
+inline constexpr size_t kMaxTieModelEffects = 3;
+struct Tie {
+  TieOutcome outcome = TieOutcome::kNeither;
+  size_t first = 0, rival = 0;  // families (Attribution order); first is m.fams.front()
+  // Each part's p-value beside the other, Bonferroni-corrected over the two tests: 0..1.
+  double p_first = 1.0, p_rival = 1.0;
+  bool rival_plausible = true;  // the rival's size in the joint fit inside its physical range (judge)
+  bool model_full = false;      // both significant, but the model holds kMaxTieModelEffects already
+  bool one_field = false;       // both significant, two forms of one field (OneFieldTwoForms): the first kept
+  SelectedModel both;           // kBoth: m's families, then the rival, fitted together
+  std::string refused;          // kBoth: GrowModel's tests the joint step failed
+};
+// Two forms of one field, the motors': a current field (hard iron, per motor, lagged) and a
+// throttle field. Both significant beside each other say the field is in proportion to neither (a
+// power law, a saturation, a lag), not that two fields are there: the first is kept, its form not
+// established. A current soft iron (a field that turns with the heading) is an effect of its own.
+bool OneFieldTwoForms(Effect a, Effect b);
+Tie ResolveTie(const Analyzer& an, const Attribution& at, const SelectedModel& m, size_t rival, double noise_var,
+               const DiagnoseOptions& o, const std::function<void(CandidateResult*)>& judge = nullptr);
+// The tie's outcome in words: which part stayed significant beside the other, with both p-values.
+std::string TieFinding(const Tie& t, const Attribution& at);
 // The effects-list entry of a selected candidate (its autopilot unit where one exists).
 EffectShare ToEffect(const CandidateResult& k, double share, const std::string& source);
 void SortEffects(std::vector<EffectShare>* effects);

@@ -247,6 +247,120 @@ size_t AmbiguousRival(const Attribution& at, const SelectedModel& m, const std::
   return F;
 }
 
+namespace {
+
+// GrowModel's tests for the joint step model + rival, in words: those it failed.
+std::string JoinRefusal(const Analyzer& an, const SelectedModel& m, const Evaluated& ej, int rival_off, size_t families,
+                        double noise_var, const DiagnoseOptions& o) {
+  std::vector<std::string> why;
+  const FoldDiff d = Diff(ej.fold_sse, m.eval.fold_sse);
+  if (!(d.sum < -d.se)) {
+    why.push_back(fmt::format("held out it beats the model by {:.3g} of the baseline's SSE, within one standard error ({:.3g})",
+                              -d.sum / std::max(an.baseline().cv_sse, 1e-300), d.se / std::max(an.baseline().cv_sse, 1e-300)));
+  }
+  const double p_sandwich =
+      std::min(1.0, WaldP(ej.full.beta, ej.cov, Range(rival_off, ej.p()), an.G()) * static_cast<double>(families));
+  if (!(p_sandwich < o.alpha)) {
+    why.push_back(fmt::format("its part over the model is not significant at the cluster sandwich over {} families (p {:.2g})",
+                              families, p_sandwich));
+  }
+  if (!IsMaterial(an, ej, m.eval.cv_sse, noise_var, o)) why.push_back("its held-out gain over the model is not material");
+  if (why.empty()) why.push_back("another family joined in its place");
+  std::string out;
+  for (const std::string& w : why) out += (out.empty() ? "" : "; ") + w;
+  return out;
+}
+
+}  // namespace
+
+bool OneFieldTwoForms(Effect a, Effect b) {
+  if (a == Effect::kCurrentSoftIron || b == Effect::kCurrentSoftIron) return false;
+  return DrivenByCurrent(a) && DrivenByCurrent(b) && Info(a).kind != Info(b).kind;
+}
+
+Tie ResolveTie(const Analyzer& an, const Attribution& at, const SelectedModel& m, size_t rival, double noise_var,
+               const DiagnoseOptions& o, const std::function<void(CandidateResult*)>& judge) {
+  Tie t;
+  t.first = m.fams.front();
+  t.rival = rival;
+  const Candidate& c1 = *at.all[at.fam_best[t.first]].cand;
+  const Candidate& cr = *at.all[at.fam_best[rival]].cand;
+  auto joint = std::make_unique<Candidate>(Join(*m.joint, cr));
+  Evaluated ej = an.Evaluate(*joint);
+  if (!ej.full.ok || ej.cov.size() == 0) return t;
+  // The jackknife holds the leverage of the few blocks where the two differ (JackknifeCov): the
+  // sandwich is too small exactly there, and a part resolved only by it decides nothing.
+  const Eigen::MatrixXd V = JackknifeCov(ej);
+  const int rival_off = ej.off + m.joint->p();
+  constexpr double kTests = 2.0;  // Bonferroni over the two partial tests
+  t.p_first = std::min(1.0, kTests * WaldP(ej.full.beta, V, Range(ej.off, ej.off + c1.p()), an.G()));
+  t.p_rival = std::min(1.0, kTests * WaldP(ej.full.beta, V, Range(rival_off, ej.p()), an.G()));
+  const bool first_stays = t.p_first < o.alpha, rival_stays = t.p_rival < o.alpha;
+  if (first_stays && !rival_stays) t.outcome = TieOutcome::kFirst;
+  if (rival_stays && !first_stays) t.outcome = TieOutcome::kRival;
+  if (!(first_stays && rival_stays)) return t;
+  if (OneFieldTwoForms(at.results[t.first].id, at.results[rival].id)) {
+    t.one_field = true;
+    t.outcome = TieOutcome::kFirst;
+    return t;
+  }
+  if (m.fams.size() >= kMaxTieModelEffects) {
+    // The first's part stands beside the rival: the model as grown, the rival not added.
+    t.model_full = true;
+    t.outcome = TieOutcome::kFirst;
+    return t;
+  }
+  if (judge) {
+    CandidateResult r = at.results[rival];
+    DescribePart(ej, V, cr, rival_off, &r);
+    judge(&r);
+    t.rival_plausible = r.plausible;
+    if (!r.plausible) return t;
+  }
+  t.outcome = TieOutcome::kBoth;
+  t.refused = JoinRefusal(an, m, ej, rival_off, at.fam_names.size(), noise_var, o);
+  t.both.fams = m.fams;
+  t.both.fams.push_back(rival);
+  t.both.entry_cv_sse = m.entry_cv_sse;
+  t.both.entry_cv_sse.push_back(ej.cv_sse);
+  t.both.joint = std::move(joint);
+  t.both.eval = std::move(ej);
+  t.both.eval.cand = t.both.joint.get();
+  return t;
+}
+
+std::string TieFinding(const Tie& t, const Attribution& at) {
+  const std::string& a = at.fam_names[t.first];
+  const std::string& b = at.fam_names[t.rival];
+  const std::string head = fmt::format(
+      "{} and {} explain the held-out residual equally well alone; fitted together, {}'s part beside {} has p {:.2g} "
+      "and {}'s beside {} p {:.2g} (partial Wald, block jackknife, Bonferroni over the two)",
+      a, b, a, b, t.p_first, b, a, t.p_rival);
+  switch (t.outcome) {
+    case TieOutcome::kFirst:
+      if (t.one_field) {
+        return head + fmt::format(": both stay significant, and both describe the motors' field: it follows neither the "
+                                  "current nor the throttle in proportion (a power law, a saturation or a lag); {} is "
+                                  "reported, its form not established",
+                                  a);
+      }
+      if (t.model_full) {
+        return head + fmt::format(": both stay significant; the model already holds {} effects, the most a flight log "
+                                  "separates: {} is not added",
+                                  kMaxTieModelEffects, b);
+      }
+      return head + fmt::format(": the variation they do not share decides for {}", a);
+    case TieOutcome::kRival:
+      return head + fmt::format(": the variation they do not share decides for {}", b);
+    case TieOutcome::kBoth:
+      return head + fmt::format(": both are effects (the model did not add {} step by step: {})", b, t.refused);
+    case TieOutcome::kNeither:
+      break;
+  }
+  return head + (t.rival_plausible ? ": neither stays significant beside the other"
+                                   : fmt::format(": {}'s size beside {} is outside its physical range", b, a));
+}
+
 EffectShare ToEffect(const CandidateResult& k, double share, const std::string& source) {
   EffectShare e;
   e.effect = k.effect;
