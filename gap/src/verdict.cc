@@ -314,6 +314,68 @@ double FamilyPValues(const Analyzer& an, const Candidate& field_matrix, Attribut
   return soft_alone;
 }
 
+// current_soft_iron's size beside the current's own field (SameCurrentField, the member at its current
+// shift), not alone. Its regressor I·E·h splits into I·E·h̄, h̄ the field's mean in the sensor frame
+// (the down field in near-level flight), and I·E·(h − h̄): the first is a current hard iron of field
+// E·h̄ per ampere, and only the second, the current against the field's turning, is the soft iron's
+// own. Fitted alone it takes any current field there is into E·h̄ (through its down-field column; a
+// 3-4 mG/A wiring field is 0.006-0.008 /A of E in a 50 µT field): without --sim the vehicle file's
+// wiring field is not subtracted, and planted soft irons of 0.0058-0.0081 /A read 0.0087-0.011 /A
+// alone (scripts/withheld_sim), beyond their physical range at the top. Beside the field the matrix
+// E is the part the field cannot describe: its magnitude, interval and plausibility come from that
+// joint fit (block jackknife, as every joint part), its profiled current shift and held-out share
+// from its own. Nothing changes the selection: the family's fit, its shares and folds stay its own.
+// The soft iron `soft`, held at parameter offset `off` of `model`'s regressors, described from the
+// fit of `model` beside `field` (its columns after the model's); its profiled current shift kept.
+bool DescribeBeside(const Analyzer& an, const Candidate& model, int off, const Candidate& soft, const Candidate& field,
+                    CandidateResult* r) {
+  const Evaluated ej = an.Evaluate(Join(model, field));
+  if (!ej.full.ok || ej.blocks.empty()) return false;
+  const CandidateResult own = *r;
+  DescribeAt(soft, ej.full.beta, JackknifeCov(ej), ej.off + off, static_cast<int>(ej.blocks.size()), GridPicks{}, r);
+  if (!soft.grid_name.empty() && own.params.count(soft.grid_name) > 0) {
+    r->params[soft.grid_name] = own.params.at(soft.grid_name);
+    if (own.ci95.count(soft.grid_name) > 0) r->ci95[soft.grid_name] = own.ci95.at(soft.grid_name);
+  }
+  return true;
+}
+
+void SoftIronBesideField(const Analyzer& an, Attribution* at) {
+  for (size_t f = 0; f < at->fam_names.size(); ++f) {
+    const Candidate& soft = *at->all[at->fam_best[f]].cand;
+    if (soft.id != Effect::kCurrentSoftIron) continue;
+    const Candidate* same = SameCurrentField(*at, soft);
+    if (same != nullptr) DescribeBeside(an, soft, 0, soft, *same, &at->results[f]);
+    return;
+  }
+}
+
+// The same in the selected model: where current_soft_iron joined other effects but no current_hard_iron,
+// its part of the joint fit is described beside the current's own field too (a 0.0062 /A soft iron
+// beside a 3.3 mG/A wiring field read 0.0102 [0.0093, 0.0111] /A beside a misalignment).
+void SoftIronBesideFieldInModel(const Analyzer& an, const Attribution& at, const SelectedModel& m,
+                                std::vector<CandidateResult>* all) {
+  if (m.fams.size() < 2 || !m.joint) return;
+  for (size_t f : m.fams) {
+    if (at.all[at.fam_best[f]].cand->id == Effect::kCurrentHardIron) return;
+  }
+  int off = 0;
+  const Candidate* soft = nullptr;
+  size_t soft_f = 0;
+  for (size_t f : m.fams) {
+    const Candidate& c = *at.all[at.fam_best[f]].cand;
+    if (c.id == Effect::kCurrentSoftIron) {
+      soft = &c;
+      soft_f = f;
+      break;
+    }
+    off += c.p();
+  }
+  if (soft == nullptr) return;
+  const Candidate* same = SameCurrentField(at, *soft);
+  if (same != nullptr) DescribeBeside(an, *m.joint, off, *soft, *same, &(*all)[soft_f]);
+}
+
 // Where current_soft_iron is significant alone, plausible, and removes min_effect_share of the
 // held-out structure, but its dependence on the current is not resolved beyond a constant matrix
 // and the current's own field (FamilyPValues) and it is not in effects: the reading the flight cannot
@@ -631,6 +693,7 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
   // The noise floor: the first-difference variance of the baseline residual (ExplainedShare).
   const double noise_sse = NoiseVariance(ch.t, an.y()) * an.total_n();
   Attribution at = Attribute(ch, an, o, rng, noise_sse);
+  SoftIronBesideField(an, &at);
   const size_t F = at.fam_names.size();
   for (CandidateResult& r : at.results) JudgeRange(nu.nuisance.field_scale, &r);
   double flex_p = 1.0, flex_gain_ms = 0.0;
@@ -677,6 +740,7 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
     const auto judge = [&](CandidateResult* r) { JudgeRange(nu.nuisance.field_scale, r); };
     const SelectedModel m = GrowModel(an, at, first, eligible, st.noise_var, o, joinable, judge);
     DescribeJointly(m, at, cv0, noise_sse, &all);
+    SoftIronBesideFieldInModel(an, at, m, &all);
     for (size_t f : m.fams) {
       if (m.fams.size() > 1) judge(&all[f]);  // sized in the joint fit
       all[f].selected = true;
