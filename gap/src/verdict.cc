@@ -314,6 +314,20 @@ double FamilyPValues(const Analyzer& an, const Candidate& field_matrix, Attribut
   return soft_alone;
 }
 
+// The soft iron `soft`, held at parameter offset `off` of `model`'s regressors, described from the
+// fit of `model` beside `field` (its columns after the model's); its profiled current shift kept.
+void DescribeBeside(const Analyzer& an, const Candidate& model, int off, const Candidate& soft, const Candidate& field,
+                    CandidateResult* r) {
+  const Evaluated ej = an.Evaluate(Join(model, field));
+  if (!ej.full.ok || ej.blocks.empty()) return;
+  const CandidateResult own = *r;
+  DescribeAt(soft, ej.full.beta, JackknifeCov(ej), ej.off + off, static_cast<int>(ej.blocks.size()), GridPicks{}, r);
+  if (!soft.grid_name.empty() && own.params.count(soft.grid_name) > 0) {
+    r->params[soft.grid_name] = own.params.at(soft.grid_name);
+    if (own.ci95.count(soft.grid_name) > 0) r->ci95[soft.grid_name] = own.ci95.at(soft.grid_name);
+  }
+}
+
 // current_soft_iron's size beside the current's own field (SameCurrentField, the member at its current
 // shift), not alone. Its regressor I·E·h splits into I·E·h̄, h̄ the field's mean in the sensor frame
 // (the down field in near-level flight), and I·E·(h − h̄): the first is a current hard iron of field
@@ -324,22 +338,8 @@ double FamilyPValues(const Analyzer& an, const Candidate& field_matrix, Attribut
 // alone (scripts/withheld_sim), beyond their physical range at the top. Beside the field the matrix
 // E is the part the field cannot describe: its magnitude, interval and plausibility come from that
 // joint fit (block jackknife, as every joint part), its profiled current shift and held-out share
-// from its own. Nothing changes the selection: the family's fit, its shares and folds stay its own.
-// The soft iron `soft`, held at parameter offset `off` of `model`'s regressors, described from the
-// fit of `model` beside `field` (its columns after the model's); its profiled current shift kept.
-bool DescribeBeside(const Analyzer& an, const Candidate& model, int off, const Candidate& soft, const Candidate& field,
-                    CandidateResult* r) {
-  const Evaluated ej = an.Evaluate(Join(model, field));
-  if (!ej.full.ok || ej.blocks.empty()) return false;
-  const CandidateResult own = *r;
-  DescribeAt(soft, ej.full.beta, JackknifeCov(ej), ej.off + off, static_cast<int>(ej.blocks.size()), GridPicks{}, r);
-  if (!soft.grid_name.empty() && own.params.count(soft.grid_name) > 0) {
-    r->params[soft.grid_name] = own.params.at(soft.grid_name);
-    if (own.ci95.count(soft.grid_name) > 0) r->ci95[soft.grid_name] = own.ci95.at(soft.grid_name);
-  }
-  return true;
-}
-
+// from its own. The family's fit, p-value, shares and folds stay its own: the selection sees the new
+// size only through its physical range (Eligible).
 void SoftIronBesideField(const Analyzer& an, Attribution* at) {
   for (size_t f = 0; f < at->fam_names.size(); ++f) {
     const Candidate& soft = *at->all[at->fam_best[f]].cand;
