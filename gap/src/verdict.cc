@@ -340,14 +340,21 @@ void DescribeBeside(const Analyzer& an, const Candidate& model, int off, const C
 // joint fit (block jackknife, as every joint part), its profiled current shift and held-out share
 // from its own. The family's fit, p-value, shares and folds stay its own: the selection sees the new
 // size only through its physical range (Eligible).
-void SoftIronBesideField(const Analyzer& an, Attribution* at) {
+// Returns the family whose alone fit is outside the physical range (SIZE_MAX: none). As a first
+// effect the soft iron stands for its alone fit, the current field it took included, so it is
+// eligible only with both sizes inside the range (alone, the model's; beside the field, its own):
+// with the alone size unchecked, a soft iron took the headline from a throttle field beside a static
+// axis gain (real-profile selftest).
+size_t SoftIronBesideField(const Analyzer& an, Attribution* at) {
   for (size_t f = 0; f < at->fam_names.size(); ++f) {
     const Candidate& soft = *at->all[at->fam_best[f]].cand;
     if (soft.id != Effect::kCurrentSoftIron) continue;
+    const bool alone_in_range = plausibility::IsPlausible(at->results[f].effect, at->results[f].magnitude);
     const Candidate* same = SameCurrentField(*at, soft);
     if (same != nullptr) DescribeBeside(an, soft, 0, soft, *same, &at->results[f]);
-    return;
+    return alone_in_range ? SIZE_MAX : f;
   }
+  return SIZE_MAX;
 }
 
 // The same in the selected model: where current_soft_iron joined other effects but no current_hard_iron,
@@ -713,7 +720,7 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
   // The noise floor: the first-difference variance of the baseline residual (ExplainedShare).
   const double noise_sse = NoiseVariance(ch.t, an.y()) * an.total_n();
   Attribution at = Attribute(ch, an, o, rng, noise_sse);
-  SoftIronBesideField(an, &at);
+  const size_t soft_alone_out_of_range = SoftIronBesideField(an, &at);
   const size_t F = at.fam_names.size();
   for (CandidateResult& r : at.results) JudgeRange(nu.nuisance.field_scale, &r);
   double flex_p = 1.0, flex_gain_ms = 0.0;
@@ -730,6 +737,7 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
   const double cv0 = an.baseline().cv_sse;
   const double soft_alone_p = FamilyPValues(an, FieldMatrix(ch), &at);
   std::vector<bool> eligible = Eligible(at, o);
+  if (soft_alone_out_of_range < F) eligible[soft_alone_out_of_range] = false;
   NotMaterial current_not_material;
   const std::vector<std::string> why =
       MaterialOnTheirOwn(ch, an, at, cv0, st.noise_var, o, &eligible, &current_not_material);
