@@ -264,8 +264,8 @@ std::string JoinRefusal(const Analyzer& an, const SelectedModel& m, const Evalua
     why.push_back(fmt::format("its part over the model is not significant at the cluster sandwich over {} families (p {:.2g})",
                               families, p_sandwich));
   }
-  if (!IsMaterial(an, ej, m.eval.cv_sse, noise_var, o)) why.push_back("its held-out gain over the model is not material");
-  if (why.empty()) why.push_back("another family joined in its place");
+  if (!IsMaterial(an, ej, m.eval.cv_sse, noise_var, o)) why.emplace_back("its held-out gain over the model is not material");
+  if (why.empty()) why.emplace_back("another family joined in its place");
   std::string out;
   for (const std::string& w : why) out += (out.empty() ? "" : "; ") + w;
   return out;
