@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "../src/verdict.h"
+#include "support/synthetic_channel.h"
 
 #include "hexsim/common/rng.h"
 #include "hexsim/gap/diagnose.h"
@@ -70,14 +71,10 @@ Flight TiedChannel(const Vec3& phi_rad, Truth truth, double own_current, double 
   }
   Flight f;
   f.d_uT_per_A = sif / sii;
+  f.ch = gaptest::OffsetBaselineCompass("mag");
   internal::ChannelData& ch = f.ch;
-  ch.name = "mag";
-  ch.unit = "uT";
-  ch.compass = true;
-  ch.baseline = internal::MakeCandidate("offset", {"o_x", "o_y", "o_z"}, {1, 1, 1}, "uT");
-  internal::Candidate mis = internal::MakeCandidate("misalignment", {"phi_x_deg", "phi_y_deg", "phi_z_deg"},
-                                                    {180 / M_PI, 180 / M_PI, 180 / M_PI}, "deg");
-  internal::Candidate chi = internal::MakeCandidate("current_hard_iron", {"d_x", "d_y", "d_z"}, {1, 1, 1}, "uT/A");
+  internal::Candidate mis = gaptest::MisalignmentCandidate();
+  internal::Candidate chi = gaptest::CurrentHardIronCandidate();
   // The slow structure: four sinusoids per axis, random phases.
   const double periods[4] = {250.0, 140.0, 90.0, 60.0};
   double phase[3][4];

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "../src/verdict.h"
+#include "support/synthetic_channel.h"
 #include "../src/selftest_real.h"
 #include "support/gap_fixtures.h"
 
@@ -39,14 +40,9 @@ using internal::Vec3;
 // misalignment φ beside a current soft iron S), over an offset baseline; candidates misalignment,
 // current_soft_iron and current_hard_iron as the replay builds them (replay_compass.cc).
 internal::ChannelData TwoEffectChannel(const Vec3& phi_rad, const Eigen::Matrix3d& S, uint64_t seed) {
-  internal::ChannelData ch;
-  ch.name = "mag2";
-  ch.unit = "uT";
-  ch.compass = true;
-  ch.baseline = internal::MakeCandidate("offset", {"o_x", "o_y", "o_z"}, {1, 1, 1}, "uT");
-  internal::Candidate mis = internal::MakeCandidate("misalignment", {"phi_x_deg", "phi_y_deg", "phi_z_deg"},
-                                                    {180 / M_PI, 180 / M_PI, 180 / M_PI}, "deg");
-  internal::Candidate chi = internal::MakeCandidate("current_hard_iron", {"d_x", "d_y", "d_z"}, {1, 1, 1}, "uT/A");
+  internal::ChannelData ch = gaptest::OffsetBaselineCompass("mag2");
+  internal::Candidate mis = gaptest::MisalignmentCandidate();
+  internal::Candidate chi = gaptest::CurrentHardIronCandidate();
   internal::Candidate csi = internal::MakeCandidate("current_soft_iron", {"k0", "k1", "k2", "k3", "k4", "k5", "k6", "k7", "k8"},
                                                     std::vector<double>(9, 1.0), "1/A");
   RngStream rng(seed, "joint_fit_test");
