@@ -320,12 +320,7 @@ void DescribeBeside(const Analyzer& an, const Candidate& model, int off, const C
                     CandidateResult* r) {
   const Evaluated ej = an.Evaluate(Join(model, field));
   if (!ej.full.ok || ej.blocks.empty()) return;
-  const CandidateResult own = *r;
-  DescribeAt(soft, ej.full.beta, JackknifeCov(ej), ej.off + off, static_cast<int>(ej.blocks.size()), GridPicks{}, r);
-  if (!soft.grid_name.empty() && own.params.count(soft.grid_name) > 0) {
-    r->params[soft.grid_name] = own.params.at(soft.grid_name);
-    if (own.ci95.count(soft.grid_name) > 0) r->ci95[soft.grid_name] = own.ci95.at(soft.grid_name);
-  }
+  DescribePart(ej, JackknifeCov(ej), soft, ej.off + off, r);
 }
 
 // current_soft_iron's size beside the current's own field (SameCurrentField, the member at its current

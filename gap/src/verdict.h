@@ -100,6 +100,11 @@ struct SelectedModel {
 // where the leftover's shape finding says it. Beside a cause of another kind (a misalignment, a
 // scale, a current soft iron that turns with the attitude) a hidden effect may join.
 bool BesideAnotherCause(const Attribution& at, const std::vector<size_t>& model, size_t f);
+// Family c's part of a fit that holds its parameters at offset off of beta (covariance V): its
+// linear parameters, magnitude and intervals from that fit, its profiled grid parameters (a current
+// shift, an exponent) and a profiled lag (current_lag's magnitude) kept from its own fit, where they
+// were chosen.
+void DescribePart(const Evaluated& fit, const Eigen::MatrixXd& V, const Candidate& c, int off, CandidateResult* r);
 // joinable (empty: none beyond `eligible`): families that may join although refused on their own,
 // for being immaterial alone (a small effect beside a large one: held out, alone, it explains
 // nothing of a residual the large one dominates) or sized outside their range alone (Joinable); what
@@ -132,16 +137,16 @@ size_t AmbiguousRival(const Attribution& at, const SelectedModel& m, const std::
 // (`both`, the model with the rival joined; `refused` says why GrowModel did not join it); otherwise
 // ambiguous. Symmetric in the two families: no effect is preferred by its kind.
 enum class TieOutcome { kFirst, kRival, kBoth, kNeither };
-// The most effects a model holds (GrowModel's kMaxEffects: a flight log separates a few effects at
-// most); a tie whose parts both stay significant beside a model already this large keeps the model.
-inline constexpr size_t kMaxTieModelEffects = 3;
+// The most effects a model holds (GrowModel; a flight log separates a few effects at most); a tie
+// whose parts both stay significant beside a model already this large keeps the model (ResolveTie).
+inline constexpr size_t kMaxModelEffects = 3;
 struct Tie {
   TieOutcome outcome = TieOutcome::kNeither;
   size_t first = 0, rival = 0;  // families (Attribution order); first is m.fams.front()
   // Each part's p-value beside the other, Bonferroni-corrected over the two tests: 0..1.
   double p_first = 1.0, p_rival = 1.0;
   bool rival_plausible = true;  // the rival's size in the joint fit inside its physical range (judge)
-  bool model_full = false;      // both significant, but the model holds kMaxTieModelEffects already
+  bool model_full = false;      // both significant, but the model holds kMaxModelEffects already
   bool one_field = false;       // both significant, two forms of one field (OneFieldTwoForms): the first kept
   SelectedModel both;           // kBoth: m's families, then the rival, fitted together
   std::string refused;          // kBoth: GrowModel's tests the joint step failed

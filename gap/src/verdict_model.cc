@@ -103,12 +103,6 @@ bool IsMaterial(const Analyzer& an, const Evaluated& e, double cv_before, double
   return (cv_before - e.cv_sse) / an.total_n() >= o.materiality * noise_var;
 }
 
-namespace {
-
-// Family c's part of a fit that holds its parameters at offset off of beta (covariance V): its
-// linear parameters, magnitude and intervals from that fit, its profiled grid parameters (a current
-// shift, an exponent) and a profiled lag (current_lag's magnitude) kept from its own fit, where they
-// were chosen.
 void DescribePart(const Evaluated& fit, const Eigen::MatrixXd& V, const Candidate& c, int off, CandidateResult* r) {
   const CandidateResult own = *r;
   DescribeAt(c, fit.full.beta, V, off, static_cast<int>(fit.blocks.size()), GridPicks{}, r);
@@ -126,8 +120,6 @@ void DescribePart(const Evaluated& fit, const Eigen::MatrixXd& V, const Candidat
     r->magnitude_unit = own.magnitude_unit;
   }
 }
-
-}  // namespace
 
 bool BesideAnotherCause(const Attribution& at, const std::vector<size_t>& model, size_t f) {
   if (!Info(at.results[f].id).compensable) return true;
@@ -149,13 +141,12 @@ SelectedModel GrowModel(const Analyzer& an, const Attribution& at, size_t first,
     return eligible[f] || (f < joinable.size() && joinable[f] && BesideAnotherCause(at, m.fams, f));
   };
   // A flight log separates a few effects at most; each step fits every remaining family jointly.
-  constexpr size_t kMaxEffects = 3;
   struct Addition {
     size_t f;
     std::unique_ptr<Candidate> joint;
     Evaluated eval;
   };
-  while (m.fams.size() < kMaxEffects) {
+  while (m.fams.size() < kMaxModelEffects) {
     std::vector<Addition> qualified;
     for (size_t f = 0; f < F; ++f) {
       if (!may_join(f) || std::find(m.fams.begin(), m.fams.end(), f) != m.fams.end()) continue;
@@ -304,7 +295,7 @@ Tie ResolveTie(const Analyzer& an, const Attribution& at, const SelectedModel& m
     t.outcome = TieOutcome::kFirst;
     return t;
   }
-  if (m.fams.size() >= kMaxTieModelEffects) {
+  if (m.fams.size() >= kMaxModelEffects) {
     // The first's part stands beside the rival: the model as grown, the rival not added.
     t.model_full = true;
     t.outcome = TieOutcome::kFirst;
@@ -347,7 +338,7 @@ std::string TieFinding(const Tie& t, const Attribution& at) {
       if (t.model_full) {
         return head + fmt::format(": both stay significant; the model already holds {} effects, the most a flight log "
                                   "separates: {} is not added",
-                                  kMaxTieModelEffects, b);
+                                  kMaxModelEffects, b);
       }
       return head + fmt::format(": the variation they do not share decides for {}", a);
     case TieOutcome::kRival:
