@@ -168,6 +168,11 @@ struct CompassReplayOptions {
   // The attitude is an estimator's that fuses a compass (ReplayResult::contaminated): build
   // reference_yaw, its heading error in proportion to the current (AddReferenceYaw).
   bool reference_yaw = false;
+  // The attitude reference fused this compass: its heading follows this compass's, so a rotation of
+  // the compass about the vertical turns the reference with it and leaves no residual (a mounting
+  // yaw is not identifiable here; what a fitted one would take is the reference's own heading
+  // error). The misalignment family then holds only the tilt angles φx, φy.
+  bool fused_by_reference = false;
   // Refits of reported members only (PropagatePlugIns): build just these families (empty: every
   // family), and of current_lag just the reported form's lag profile (LagMembers).
   std::vector<Effect> only_families;

@@ -301,6 +301,7 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
   ro.latency_s = align ? timing.latency_s : 0.0;
   ro.current_shift_s = shift_s;
   ro.reference_yaw = !rr.contaminated.empty();
+  ro.fused_by_reference = name == rr.contaminated;
   // The current-driven families' members: the in-flight model's shift grid (one definition).
   ro.member_shifts_s = shift_grid;
   ChannelData ch = internal::ReplayCompass(log, vehicle, c, rr.inputs, B_N, ro);

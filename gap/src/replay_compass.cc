@@ -402,10 +402,14 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
     return o.only_families.empty() || std::find(o.only_families.begin(), o.only_families.end(), e) != o.only_families.end();
   };
   if (want(Effect::kMisalignment)) {
-    // Misalignment only (scale and latency are the baseline's and the timing scan's).
-    Candidate mis = MakeCandidate("misalignment", {"phi_x_deg", "phi_y_deg", "phi_z_deg"},
-                                  {kRadToDeg, kRadToDeg, kRadToDeg}, "deg");
-    for (size_t k = 0; k < n; ++k) mis.X.emplace_back(-Skew(rows.h[k]));  // φ × h = −[h]×·φ
+    // Misalignment only (scale and latency are the baseline's and the timing scan's); on the compass
+    // the reference fused, the tilt angles only (CompassReplayOptions::fused_by_reference).
+    Candidate mis = o.fused_by_reference
+                        ? MakeCandidate("misalignment", {"phi_x_deg", "phi_y_deg"}, {kRadToDeg, kRadToDeg}, "deg")
+                        : MakeCandidate("misalignment", {"phi_x_deg", "phi_y_deg", "phi_z_deg"},
+                                        {kRadToDeg, kRadToDeg, kRadToDeg}, "deg");
+    const Eigen::Index angles = o.fused_by_reference ? 2 : 3;
+    for (size_t k = 0; k < n; ++k) mis.X.emplace_back((-Skew(rows.h[k])).leftCols(angles));  // φ × h = −[h]×·φ
     ch.candidates.push_back(std::move(mis));
   }
   if (has_current) {

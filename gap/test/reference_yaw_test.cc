@@ -175,5 +175,44 @@ TEST(GapReferenceYaw, GivenAHeldHeadingAndAnInternalFieldAlongTheTurn_WhenDiagno
   EXPECT_EQ(FindEffect(*mag2, Effect::kReferenceYaw), nullptr) << Summary(*rep);
 }
 
+// Given a 6-degree misalignment of the compass the estimator fused, whose heading the reference
+// adopted (the reference turned about down by the misalignment's rotation about the body's z), when
+// diagnosed, then the misalignment is named by its tilt angles alone, each inside its interval: the
+// rotation about the vertical turned the reference with the compass and is not the compass's to fit
+// (CompassReplayOptions::fused_by_reference).
+TEST(GapReferenceYaw, GivenAMisalignedFusedCompass_WhenDiagnosed_ThenOnlyItsTiltIsFitted) {
+  gaptest::Flown f = gaptest::FlyInjected({{"misalignment", 6.0}}, 2905, "reference_yaw", "selftest_flight");
+  const auto& truth = f.trial.truth.vehicle.compasses[kSelftestCompass].error.R_SB;
+  const auto& cfg = f.trial.configured.compasses[kSelftestCompass].error.R_SB;
+  const Eigen::AngleAxisd aa(Eigen::Matrix3d(truth * cfg.transpose()));
+  const Eigen::Vector3d phi_deg = aa.axis() * aa.angle() / kDegToRad;
+  // The reference's heading follows the compass's: a yaw of φz (body z ≈ down in level flight).
+  const size_t iw = static_cast<size_t>(f.log.ColumnIndex("q_w"));
+  const Eigen::Quaterniond turn(Eigen::AngleAxisd(phi_deg.z() * kDegToRad, Eigen::Vector3d::UnitZ()));
+  for (size_t i = 0; i < f.log.rows(); ++i) {
+    const Eigen::Quaterniond q(f.log.At(i, iw), f.log.At(i, iw + 1), f.log.At(i, iw + 2), f.log.At(i, iw + 3));
+    const Eigen::Quaterniond qr = turn * q;
+    const double v[4] = {qr.w(), qr.x(), qr.y(), qr.z()};
+    for (size_t k = 0; k < 4; ++k) f.log.MutableColumn(iw + k)[i] = v[k];
+  }
+  auto rep = Diagnose(f.log, f.trial.configured, FusedMag2());
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr) << Summary(*rep);
+  EXPECT_TRUE(mag2->reference_contaminated);
+  EXPECT_TRUE(gaptest::InEffects(*mag2, "misalignment")) << Summary(*rep);
+  const CandidateResult* mis = gaptest::FindCandidate(*mag2, "misalignment");
+  ASSERT_NE(mis, nullptr) << Summary(*rep);
+  EXPECT_EQ(mis->params.count("phi_z_deg"), 0U) << Summary(*rep);
+  const char* names[2] = {"phi_x_deg", "phi_y_deg"};
+  for (int k = 0; k < 2; ++k) {
+    ASSERT_EQ(mis->params.count(names[k]), 1U) << names[k];
+    const auto& ci = mis->ci95.at(names[k]);
+    // The replay's systematic error (effects_test.cc: 5 % of the magnitude) beside the interval.
+    EXPECT_LE(ci.lo - 0.05 * mis->magnitude, phi_deg[k]) << names[k] << ": " << Summary(*rep);
+    EXPECT_GE(ci.hi + 0.05 * mis->magnitude, phi_deg[k]) << names[k] << ": " << Summary(*rep);
+  }
+}
+
 }  // namespace
 }  // namespace hexsim::gap
