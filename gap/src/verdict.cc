@@ -690,42 +690,6 @@ void NotMaterialFinding(const Attribution& at, const NotMaterial& nm, const Diag
       nm.turn.lo_deg, o.material_heading_deg));
 }
 
-// The reported model, its tie decided (verdict.h ResolveTie): grown from `first`; a rival as simple
-// and within one standard error alone (AmbiguousRival) is fitted beside it, and the part that stays
-// significant beside the other is the effect (the model regrown from the rival where that is the
-// rival), both parts significant give both, neither leaves the verdict ambiguous.
-struct ModelChoice {
-  SelectedModel m;
-  bool ambiguous = false;
-  size_t rival = 0;
-  std::string tie;  // TieFinding; empty: no tie
-};
-ModelChoice ChooseModel(const Analyzer& an, const Attribution& at, size_t first, const std::vector<bool>& eligible,
-                        double noise_var, const DiagnoseOptions& o, const std::vector<bool>& joinable,
-                        const std::function<void(CandidateResult*)>& judge) {
-  ModelChoice c;
-  c.m = GrowModel(an, at, first, eligible, noise_var, o, joinable, judge);
-  const size_t rival = AmbiguousRival(at, c.m, eligible);
-  if (rival >= at.fam_names.size()) return c;
-  Tie t = ResolveTie(an, at, c.m, rival, noise_var, o, judge);
-  c.tie = TieFinding(t, at);
-  c.rival = rival;
-  switch (t.outcome) {
-    case TieOutcome::kFirst:
-      break;
-    case TieOutcome::kRival:
-      c.m = GrowModel(an, at, rival, eligible, noise_var, o, joinable, judge);
-      break;
-    case TieOutcome::kBoth:
-      c.m = std::move(t.both);
-      break;
-    case TieOutcome::kNeither:
-      c.ambiguous = true;
-      break;
-  }
-  return c;
-}
-
 }  // namespace
 
 ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, const std::vector<std::string>& phases,
@@ -818,13 +782,8 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
     res.chosen_regressor = at.all[at.fam_best[m.fams.front()]].cand->regressor;
     left_found = LeftStructure(ch, an, at, m, after, st.noise_var, o);
     if (choice.ambiguous) {
-      const size_t rival = choice.rival;
       res.verdict = "ambiguous";
-      res.explanation = fmt::format("{} and {} explain the held-out residual equally well ({} and {}), and fitted together "
-                                    "neither decides: {}",
-                                    at.fam_names[first], at.fam_names[rival], Percent(at.results[first].explained_share),
-                                    Percent(at.results[rival].explained_share),
-                                    SeparatingManoeuvre(at.results[first].id, at.results[rival].id));
+      res.explanation = TieUndecided(at, first, choice.rival);
     }
     if (!choice.tie.empty()) res.findings.push_back(choice.tie);
   }

@@ -160,6 +160,23 @@ Tie ResolveTie(const Analyzer& an, const Attribution& at, const SelectedModel& m
                const DiagnoseOptions& o, const std::function<void(CandidateResult*)>& judge = nullptr);
 // The tie's outcome in words: which part stayed significant beside the other, with both p-values.
 std::string TieFinding(const Tie& t, const Attribution& at);
+// The reported model, its tie decided (ResolveTie), for every channel: grown from `first`
+// (GrowModel); a rival as simple and within one standard error alone (AmbiguousRival) is fitted
+// beside it, and the part that stays significant beside the other is the effect (the model regrown
+// from the rival where that is the rival), both parts significant give both, neither leaves the
+// verdict ambiguous (`ambiguous`, TieUndecided says it). `tie`: TieFinding, empty without a tie.
+struct ModelChoice {
+  SelectedModel m;
+  bool ambiguous = false;
+  size_t rival = 0;
+  std::string tie;
+};
+ModelChoice ChooseModel(const Analyzer& an, const Attribution& at, size_t first, const std::vector<bool>& eligible,
+                        double noise_var, const DiagnoseOptions& o, const std::vector<bool>& joinable = {},
+                        const std::function<void(CandidateResult*)>& judge = nullptr);
+// The explanation of an ambiguous verdict: the two families, their shares alone, and the manoeuvre
+// that would separate them.
+std::string TieUndecided(const Attribution& at, size_t first, size_t rival);
 // The effects-list entry of a selected candidate (its autopilot unit where one exists).
 EffectShare ToEffect(const CandidateResult& k, double share, const std::string& source);
 void SortEffects(std::vector<EffectShare>* effects);

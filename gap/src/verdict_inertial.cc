@@ -97,7 +97,8 @@ void Decide(const Analyzer& an, double noise_var, const DiagnoseOptions& o, Attr
       if (!k.plausible && k.p_value <= o.alpha && k.explained_share >= o.min_effect_share) res->findings.push_back(RefusedFinding(k, false));
     }
   } else {
-    const SelectedModel m = GrowModel(an, *at, first, eligible, noise_var, o);
+    const ModelChoice choice = ChooseModel(an, *at, first, eligible, noise_var, o);
+    const SelectedModel& m = choice.m;
     for (size_t f : m.fams) {
       all[f].selected = true;
       res->effects.push_back(ToEffect(all[f], all[f].explained_share, "fit"));
@@ -107,12 +108,11 @@ void Decide(const Analyzer& an, double noise_var, const DiagnoseOptions& o, Attr
     res->heldout_shrink = Shrink(m.eval.cv_sse, cv0);
     res->explained_share = ExplainedShare(cv0, m.eval.cv_sse, noise_var * an.total_n());
     res->chosen_regressor_name = m.joint->regressor_name;
-    res->chosen_regressor = at->all[at->fam_best[first]].cand->regressor;
-    const size_t rival = AmbiguousRival(*at, m, eligible);
-    if (rival < F) {
+    res->chosen_regressor = at->all[at->fam_best[m.fams.front()]].cand->regressor;
+    if (!choice.tie.empty()) res->findings.push_back(choice.tie);
+    if (choice.ambiguous) {
       res->verdict = "ambiguous";
-      res->explanation = fmt::format("{} and {} explain the held-out residual equally well: {}", at->fam_names[first],
-                                     at->fam_names[rival], SeparatingManoeuvre(at->results[first].id, at->results[rival].id));
+      res->explanation = TieUndecided(*at, first, choice.rival);
     } else {
       res->verdict = res->effects.front().effect;
       res->partial = res->effects.front().explained_share < o.headline_share;

@@ -450,4 +450,38 @@ std::string RefusedFinding(const CandidateResult& k, bool beside_a_model) {
                                     : "refused: why no effect is reported");
 }
 
+ModelChoice ChooseModel(const Analyzer& an, const Attribution& at, size_t first, const std::vector<bool>& eligible,
+                        double noise_var, const DiagnoseOptions& o, const std::vector<bool>& joinable,
+                        const std::function<void(CandidateResult*)>& judge) {
+  ModelChoice c;
+  c.m = GrowModel(an, at, first, eligible, noise_var, o, joinable, judge);
+  const size_t rival = AmbiguousRival(at, c.m, eligible);
+  if (rival >= at.fam_names.size()) return c;
+  Tie t = ResolveTie(an, at, c.m, rival, noise_var, o, judge);
+  c.tie = TieFinding(t, at);
+  c.rival = rival;
+  switch (t.outcome) {
+    case TieOutcome::kFirst:
+      break;
+    case TieOutcome::kRival:
+      c.m = GrowModel(an, at, rival, eligible, noise_var, o, joinable, judge);
+      break;
+    case TieOutcome::kBoth:
+      c.m = std::move(t.both);
+      break;
+    case TieOutcome::kNeither:
+      c.ambiguous = true;
+      break;
+  }
+  return c;
+}
+
+std::string TieUndecided(const Attribution& at, size_t first, size_t rival) {
+  return fmt::format("{} and {} explain the held-out residual equally well ({:.0f} % and {:.0f} %), and fitted together "
+                     "neither decides: {}",
+                     at.fam_names[first], at.fam_names[rival], 100 * at.results[first].explained_share,
+                     100 * at.results[rival].explained_share,
+                     SeparatingManoeuvre(at.results[first].id, at.results[rival].id));
+}
+
 }  // namespace hexsim::gap::internal
