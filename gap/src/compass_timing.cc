@@ -116,6 +116,7 @@ void ScanLatency(const logs::FlightLog& log, const vehicle::VehicleParams& v, si
   const double cv1 = a1.baseline().cv_sse / static_cast<double>(c1.t.size());
   const double noise = 3.0 * NoiseVariance(c1.t, a1.y());
   tm.latency_share = std::max(0.0, ExplainedShare(cv0, cv1, noise));
+  tm.latency_noise_share = noise > 0 ? std::max(0.0, (cv0 - cv1) / noise) : 0.0;
   tm.report.latency.explained_share = tm.latency_share;
 }
 

@@ -202,6 +202,7 @@ struct CompassTiming {
   bool latency_ok = false;
   double latency_s = 0.0, latency_ci95_s[2] = {0.0, 0.0};
   double latency_share = 0.0;        // held-out share of the unaligned baseline residual the alignment removes
+  double latency_noise_share = 0.0;  // what the alignment removes held out, over the noise floor's power
   double staleness_s = 0.0;
 };
 

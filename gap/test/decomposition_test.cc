@@ -79,6 +79,31 @@ TEST(GapDecomposition, GivenACompassLaterThanTheVehicleModels_WhenDiagnosed_Then
   EXPECT_FALSE(InEffects(*mag_m, "latency")) << Summary(*rep2);
 }
 
+// Given a compass later than the vehicle models beside a 7-degree misalignment that dominates its
+// structure, when diagnosed, then both are effects: the latency is material as every compass effect
+// is, by the noise floor's power its alignment removes (LatencyTerm), not only by its share of a
+// structure the misalignment holds.
+TEST(GapDecomposition, GivenALatencyBesideADominantMisalignment_WhenDiagnosed_ThenBothAreEffects) {
+  gaptest::Flown f = gaptest::FlyInjected({{"misalignment", 7.0}}, 2107, "decomposition", "selftest_flight");
+  RngStream rng(2107, "decomposition/degrade");
+  internal::RealLogTruth truth;
+  auto log = internal::DegradeToRealLog(f.log, f.trial.configured, &rng, &truth);
+  ASSERT_TRUE(log.ok()) << log.status().message();
+  DiagnoseOptions o;
+  o.channels = {"mag2"};
+  auto rep = Diagnose(*log, f.trial.configured, o);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr) << Summary(*rep);
+  EXPECT_EQ(mag2->verdict, "misalignment") << Summary(*rep);
+  ASSERT_TRUE(InEffects(*mag2, "latency")) << Summary(*rep);
+  for (const EffectShare& e : mag2->effects) {
+    if (e.effect != "latency") continue;
+    EXPECT_LE(e.ci95.lo, truth.latency_s + 0.01) << Summary(*rep);
+    EXPECT_GE(e.ci95.hi, truth.latency_s - 0.01) << Summary(*rep);
+  }
+}
+
 // Given one compass axis reading 6 % large, when diagnosed, then it is a calibration error
 // (scale_error, the gains' spread in its interval), not a current effect.
 TEST(GapDecomposition, GivenOneAxisReadingLarge_WhenDiagnosed_ThenItIsAScaleErrorNotACurrentEffect) {

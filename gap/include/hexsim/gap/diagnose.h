@@ -104,7 +104,8 @@ struct DiagnoseOptions {
   bool timing_scan = true;  // compass latency and current staleness before fitting
   // The compass latency the vehicle file models (s). hexsim's simulated compasses are stamped at
   // their measurement epoch, so 0; a measured latency whose interval excludes it is an effect (the
-  // gap is relative to the simulator), named when its alignment removes min_effect_share or more.
+  // gap is relative to the simulator), named when its alignment removes `materiality` of the noise
+  // floor's power held out, or min_effect_share of the unaligned structure (the compass rule, MaterialWhy).
   double compass_latency_s = 0.0;
   // The channels to diagnose, by name (mag, mag2, …, gyro, accel, dynamics); empty: every channel.
   // Each channel's bootstrap draws its own random stream (seed, channel name), so a channel's
