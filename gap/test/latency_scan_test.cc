@@ -17,8 +17,9 @@ namespace {
 // the attitude, diagnosed against a vehicle file without wiring, when the latency is scanned, then
 // each internal compass's 95 % interval holds the planted latency. A manoeuvre's torque moves the
 // motors' split, and with it their wiring field, while the battery current barely changes; with only
-// the battery current's term beside it the scan read quad_x's latencies 5-7 ms late, outside their
-// ±5 ms intervals (withheld_sim cases 012, 030, 031, 050: 94 → 100 ms, 95 → 100, 130 → 137, 137 → 144).
+// the battery current's term beside it the scan read this flight's 64 ms as 71-72 ms [66-67, 76-77],
+// and quad_x's latencies in withheld_sim 5-7 ms late (cases 012, 030, 031, 050: 94 → 100 ms,
+// 95 → 100, 130 → 137, 137 → 144).
 TEST(GapLatencyScan, GivenNoModelledWiringField_WhenScanned_ThenTheInternalCompassLatencyIsUnbiased) {
   gaptest::Flown f = gaptest::FlyInjected({}, 2111, "latency_scan", "selftest_flight");
   RngStream rng(2111, "latency_scan/degrade");
