@@ -39,7 +39,6 @@ constexpr int kMaxScanMotors = 8;
 constexpr int kMaxScanParams = 6 + 3 + 3 * kMaxScanMotors;
 using ScanA = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxScanParams, kMaxScanParams>;
 using ScanV = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxScanParams, 1>;
-using ScanX = Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kMaxScanParams>;
 
 // How many motors' currents the scan's per-motor form has (0: no such form).
 size_t ScanMotors(const CompassSampler& sampler, const vehicle::VehicleParams& v, const LogInputs& in) {
@@ -55,6 +54,55 @@ struct BlockNormal {
   ScanA A;
   ScanV r;
   double yy = 0;
+};
+
+// A block's sums before they are spread over the columns. Every column group but the field
+// correction's is a scalar f_i times the identity (f = 1 for the offset, the battery current, each
+// motor's current), so xᵀx needs only Σ f_i f_j, Σ f_i·H and HᵀH (H = M·R_NBᵀ), not the 3p² products
+// of the full 3 × p regressor: a sample costs about (k + 6)² multiply-adds for k scalars, against
+// 3p² (p = 3 + 3k) for the full regressor.
+constexpr int kMaxScalars = 2 + kMaxScanMotors;
+struct BlockSums {
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxScalars, kMaxScalars> ff;
+  Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, 3 * kMaxScalars> fH;  // [Σ f_0·H, Σ f_1·H, …]
+  Eigen::Matrix<double, 3, Eigen::Dynamic, 0, 3, kMaxScalars> fy;      // [Σ f_0·y, Σ f_1·y, …]
+  Eigen::Matrix3d HH = Eigen::Matrix3d::Zero();
+  Vec3 Hy = Vec3::Zero();
+  double yy = 0;
+
+  explicit BlockSums(int k) : ff(decltype(ff)::Zero(k, k)), fH(3, 3 * k), fy(3, k) {
+    fH.setZero();
+    fy.setZero();
+  }
+  template <typename F>
+  void Add(const F& f, const Eigen::Matrix3d& H, const Vec3& y) {
+    ff.noalias() += f * f.transpose();
+    for (Eigen::Index i = 0; i < f.size(); ++i) {
+      fH.middleCols<3>(3 * i) += f[i] * H;
+      fy.col(i) += f[i] * y;
+    }
+    HH.noalias() += H.transpose() * H;
+    Hy.noalias() += H.transpose() * y;
+    yy += y.squaredNorm();
+  }
+  // Column start of scalar i's identity group: the offset at 0, the field correction at 3, the
+  // battery current at 6, motor j at 9 + 3j.
+  static Eigen::Index Start(Eigen::Index i) { return i == 0 ? 0 : 3 + 3 * i; }
+  BlockNormal Spread(int p) const {
+    BlockNormal b{ScanA::Zero(p, p), ScanV::Zero(p), yy};
+    const Eigen::Index k = ff.rows();
+    const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+    for (Eigen::Index i = 0; i < k; ++i) {
+      const Eigen::Index ci = Start(i);
+      for (Eigen::Index j = 0; j < k; ++j) b.A.block<3, 3>(ci, Start(j)) = ff(i, j) * I;
+      b.A.block<3, 3>(ci, 3) = fH.middleCols<3>(3 * i);
+      b.A.block<3, 3>(3, ci) = fH.middleCols<3>(3 * i).transpose();
+      b.r.segment<3>(ci) = fy.col(i);
+    }
+    b.A.block<3, 3>(3, 3) = HH;
+    b.r.segment<3>(3) = Hy;
+    return b;
+  }
 };
 
 // A form of the scan's fit: its columns, per trial latency its per-block SSE and its held-out SSE.
@@ -143,32 +191,27 @@ std::vector<ScanForm> LatencyProfile(CompassSampler* sampler, const CompassRepla
   if (common < 100) return {};
   const int p = 9 + 3 * static_cast<int>(motors);
   std::vector<ScanForm> forms = ScanForms(sampler->has_current(), motors);
+  const int k = 2 + static_cast<int>(motors);  // scalars: 1, battery, each motor
+  std::vector<BlockSums> sums(static_cast<size_t>(G), BlockSums(k));
   std::vector<BlockNormal> blocks(static_cast<size_t>(G));
-  ScanX x = ScanX::Zero(3, p);
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxScalars, 1> scalars(k);
   for (size_t g = 0; g < grid.size(); ++g) {
-    for (BlockNormal& b : blocks) b = {ScanA::Zero(p, p), ScanV::Zero(p), 0.0};
+    std::fill(sums.begin(), sums.end(), BlockSums(k));
     // Every sample usable at this latency advances the configured current lag, as in the replay.
     sampler->Begin(grid[g], shift_s, base.LongestMemberShift_s());
     size_t m = 0;
-    for (size_t k = 0; k < ns; ++k) {
-      if (!wanted(samples[k]) || !sampler->Locate(samples[k], &ls)) continue;
+    for (size_t s = 0; s < ns; ++s) {
+      if (!wanted(samples[s]) || !sampler->Locate(samples[s], &ls)) continue;
       R_NB = ls.q.toRotationMatrix();
-      const CompassSampler::Prediction pr = sampler->Predict(samples[k], ls, R_NB);
-      if (usable[k] != static_cast<int>(grid.size())) continue;
-      x.leftCols<3>().setIdentity();
-      x.middleCols<3>(3) = pr.M * R_NB.transpose();
-      x.middleCols<3>(6) = Eigen::Matrix3d::Identity() * ls.currents.battery_A;
-      for (size_t j = 0; j < motors; ++j) {
-        x.middleCols<3>(9 + 3 * static_cast<Eigen::Index>(j)) = Eigen::Matrix3d::Identity() * ls.currents.motor_A[j];
-      }
-      const Vec3 y = samples[k].m - pr.pred;
-      BlockNormal& b = blocks[m * static_cast<size_t>(G) / common];
-      // Coefficient-wise: a 3-row block is far below the size where the blocked GEMM pays.
-      b.A.noalias() += x.transpose().lazyProduct(x);
-      b.r.noalias() += x.transpose().lazyProduct(y);
-      b.yy += y.squaredNorm();
+      const CompassSampler::Prediction pr = sampler->Predict(samples[s], ls, R_NB);
+      if (usable[s] != static_cast<int>(grid.size())) continue;
+      scalars[0] = 1.0;
+      scalars[1] = ls.currents.battery_A;
+      for (size_t j = 0; j < motors; ++j) scalars[2 + static_cast<Eigen::Index>(j)] = ls.currents.motor_A[j];
+      sums[m * static_cast<size_t>(G) / common].Add(scalars, pr.M * R_NB.transpose(), samples[s].m - pr.pred);
       ++m;
     }
+    for (size_t b = 0; b < blocks.size(); ++b) blocks[b] = sums[b].Spread(p);
     for (ScanForm& f : forms) FitForm(blocks, &f);
   }
   return forms;
