@@ -276,8 +276,11 @@ std::string HeadlineBody(const ChannelResult& c) {
   for (size_t i = 1; i < c.effects.size(); ++i) {
     const std::string beside = absolute.empty() ? AbsoluteBeside(c, c.effects[i]) : std::string();
     absolute += beside;
-    s += fmt::format("; also {} {}{} ({:.0f} %)", c.effects[i].effect, EffectSize(c.effects[i]), beside,
-                     100 * c.effects[i].explained_share);
+    // A nuisance term beside the fitted effects is a gap the baseline absorbed (its offset or field
+    // beyond the normal range): it removes nothing over that baseline, so it has no share to print.
+    const std::string share = c.effects[i].source == "nuisance" ? "beyond its normal range, absorbed by the baseline"
+                                                                : fmt::format("{:.0f} %", 100 * c.effects[i].explained_share);
+    s += fmt::format("; also {} {}{} ({})", c.effects[i].effect, EffectSize(c.effects[i]), beside, share);
   }
   return s + LeftText(c.residual_left);
 }

@@ -153,6 +153,11 @@ TEST(GapDecomposition, GivenACurrentFieldAndAnOffsetBeyondItsNormalRange_WhenDia
   const CandidateResult* off = gaptest::FindCandidate(*mag2, "hard_iron_offset");
   ASSERT_NE(off, nullptr);
   EXPECT_TRUE(off->selected);
+  // The offset removes nothing over the baseline that absorbed it: the headline gives it no share.
+  const std::string h = Headline(*mag2);
+  EXPECT_NE(h.find("hard_iron_offset"), std::string::npos) << h;
+  EXPECT_NE(h.find("absorbed by the baseline"), std::string::npos) << h;
+  EXPECT_EQ(h.find("(0 %)"), std::string::npos) << h;
 }
 
 // Given a current field alone (zero with the motors off, k·I), when diagnosed with the normal

@@ -96,9 +96,11 @@ std::string EffectsHtml(const gap::ChannelResult& c) {
                                : fmt::format("{:.4g} [{:.4g}, {:.4g}] {}", e.autopilot_factor * e.magnitude,
                                              e.autopilot_factor * e.ci95.lo, e.autopilot_factor * e.ci95.hi,
                                              Escape(e.autopilot_unit));
-    h += fmt::format("<tr><td>{}</td><td>{:.4g} [{:.4g}, {:.4g}] {}</td><td>{}</td><td>{:.0f} %</td><td>{}</td></tr>",
-                     Escape(e.effect), e.magnitude, e.ci95.lo, e.ci95.hi, Escape(e.unit), ap, 100 * e.explained_share,
-                     Escape(e.source));
+    // A nuisance term beside fitted effects removes nothing over the baseline that absorbed it.
+    const std::string share =
+        e.source == "nuisance" ? std::string("absorbed by the baseline") : fmt::format("{:.0f} %", 100 * e.explained_share);
+    h += fmt::format("<tr><td>{}</td><td>{:.4g} [{:.4g}, {:.4g}] {}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                     Escape(e.effect), e.magnitude, e.ci95.lo, e.ci95.hi, Escape(e.unit), ap, share, Escape(e.source));
   }
   return h + "</table>";
 }
