@@ -92,11 +92,17 @@ TEST(CompassTerms, GivenAnUnusableCurrent_WhenDiagnosed_ThenNoCurrentFamilyIsFit
     if (c.channel == "mag2") mag2 = &c;
   }
   ASSERT_NE(mag2, nullptr);
+  bool per_motor = false;
   for (const auto& k : mag2->candidates) {
     EXPECT_NE(k.id, Effect::kCurrentHardIron) << k.effect;
     EXPECT_NE(k.id, Effect::kCurrentSoftIron) << k.effect;
     EXPECT_NE(k.id, Effect::kCurrentLag) << k.effect;
+    // the output-driven families stay, in their own units: no conversion through the current
+    per_motor = per_motor || k.id == Effect::kPerMotorCurrentHardIron;
+    EXPECT_EQ(k.params.count("current_equivalent_uT_per_A"), 0u) << k.effect;
   }
+  EXPECT_TRUE(per_motor);
+  for (const auto& e : mag2->effects) EXPECT_NE(e.autopilot_unit, "mG/A") << e.effect;
   EXPECT_FALSE(mag2->timing.current_staleness.present);
   bool said = false;
   for (const auto& why : mag2->not_available) said = said || why.find("units or no power monitor") != std::string::npos;
