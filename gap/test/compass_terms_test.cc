@@ -131,6 +131,23 @@ TEST(CompassTerms, GivenALogFlownWithThrottleCompensation_WhenMag2sCurrentFieldI
   EXPECT_NE(files.params.find("CAL_MAG_COMP_TYP"), std::string::npos) << files.params;
 }
 
+// A fit that saw no flight (every flight window a run on the ground, as a props-off run) writes no
+// compensation and zeroes none: MAG2's resolved field of the same rows, flown, is written.
+TEST(CompassTerms, GivenOnlyRunsOnTheGround_WhenMag2sFieldIsResolved_ThenNoCompensationIsWrittenOrZeroed) {
+  const realdata::FlightWindows flown = realdata::FindFlightWindows(Log171().log);
+  realdata::FlightWindows ground = flown;
+  for (auto& w : ground.windows) w.on_ground = w.kind == "flight";
+  auto f = internal::FitCompassTerms(Log171().log, Log171().vehicle, 1, "mag2", flown, 1);
+  auto g = internal::FitCompassTerms(Log171().log, Log171().vehicle, 1, "mag2", ground, 1);
+  ASSERT_TRUE(f.ok()) << f.status().message();
+  ASSERT_TRUE(g.ok()) << g.status().message();
+  ASSERT_TRUE(f->term_fitted && f->term_resolved && f->term_plausible) << f->term_note;
+  EXPECT_TRUE(f->motor.action == "written" || f->motor.action == "replaced") << f->motor.action;
+  EXPECT_NE(g->ground_run_note.find("on the ground"), std::string::npos) << g->ground_run_note;
+  // kept, none, or no parameter file at all (the gate judges the fit without the unapplied term)
+  for (const char* wrote : {"written", "replaced", "zeroed"}) EXPECT_NE(g->motor.action, wrote) << g->motor.comment;
+}
+
 // The external compass (MAG): no resolved current field, so no compensation line is written, and a
 // log with none in force keeps none.
 TEST(CompassTerms, GivenTheExternalCompass_WhenItsFieldIsNotResolved_ThenNoCompensationIsWritten) {
