@@ -213,12 +213,15 @@ namespace {
 // An effect's size in its physical unit and, where one exists, the autopilot's (mG/A for a current
 // term, also for a throttle or per-motor form through its battery-current equivalent).
 std::string EffectSize(const EffectShare& e) {
+  // The per-motor form's coefficients are fields at full output (its regressors are the outputs,
+  // u_i^0.65, not a current): its size is their norm over motors and axes at output 1.
+  const char* at = e.id == Effect::kPerMotorCurrentHardIron ? " at full output (all motors)" : "";
   if (e.unit == "s") return fmt::format("{:.0f} [{:.0f}, {:.0f}] ms", 1000 * e.magnitude, 1000 * e.ci95.lo, 1000 * e.ci95.hi);
   if (e.unit == "uT/A") return fmt::format("{:.1f} [{:.1f}, {:.1f}] mG/A", kMilliGaussPerMicroTesla * e.magnitude, kMilliGaussPerMicroTesla * e.ci95.lo,
                                                     kMilliGaussPerMicroTesla * e.ci95.hi);
-  if (e.unit == "uT" && e.autopilot_unit == "mG") return fmt::format("{:.1f} [{:.1f}, {:.1f}] mG", kMilliGaussPerMicroTesla * e.magnitude,
-                                                                    kMilliGaussPerMicroTesla * e.ci95.lo, kMilliGaussPerMicroTesla * e.ci95.hi);
-  std::string m = fmt::format("{:.3g} [{:.3g}, {:.3g}] {}", e.magnitude, e.ci95.lo, e.ci95.hi, e.unit);
+  if (e.unit == "uT" && e.autopilot_unit == "mG") return fmt::format("{:.1f} [{:.1f}, {:.1f}] mG{}", kMilliGaussPerMicroTesla * e.magnitude,
+                                                                    kMilliGaussPerMicroTesla * e.ci95.lo, kMilliGaussPerMicroTesla * e.ci95.hi, at);
+  std::string m = fmt::format("{:.3g} [{:.3g}, {:.3g}] {}{}", e.magnitude, e.ci95.lo, e.ci95.hi, e.unit, at);
   if (e.autopilot_unit == "mG/A") {
     m += fmt::format(" (= {:.1f} [{:.1f}, {:.1f}] mG/A in battery-current terms)", e.autopilot_factor * e.magnitude,
                      e.autopilot_factor * e.ci95.lo, e.autopilot_factor * e.ci95.hi);
