@@ -46,12 +46,12 @@ void GapInterval(const Eigen::Matrix3d& cov, int blocks, CompassTerms* t) {
 void Parameters(const logs::MagInput& in, int index, const logs::FlightLog& log, CompassTerms* t) {
   if (!t->gate_accepted) return;  // as calibrate: no parameter file for a fit its gate rejects
   const bool throttle = t->form == "throttle";
-  // A fit that saw no flight neither writes nor zeroes a compensation: the log's own is kept.
-  t->motor = magnetics::CompensationParams(index, in.px4_index, t->term_fitted && t->ground_run_note.empty(),
+  t->motor = magnetics::CompensationParams(index, in.px4_index, t->term_fitted,
                                            t->term_fitted && t->term_resolved && t->term_plausible && t->ground_run_note.empty(),
                                            throttle, t->term_uT,
                                            t->term_ci_half_uT, in.body_from_raw.inverse(),
-                                           realdata::MotorCompensationOf(log, t->channel), in.px4_comp_type, in.px4_comp_G);
+                                           realdata::MotorCompensationOf(log, t->channel), in.px4_comp_type, in.px4_comp_G,
+                                           t->ground_run_note);
   if (t->offset_plausible) {
     t->ardupilot = magnetics::ArduPilotCompassParams(t->offset_uT, in.soft_iron_in_force, index);
     t->px4 = magnetics::Px4CompassParams(t->offset_uT, in.soft_iron_in_force, in.px4_index >= 0 ? in.px4_index : index);

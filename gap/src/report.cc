@@ -237,9 +237,12 @@ std::string AbsoluteBeside(const ChannelResult& c, const EffectShare& e) {
   const CompassTerms& t = *c.absolute_terms;
   if (!t.term_fitted || !t.term_plausible) return "";
   const bool throttle = t.form == "throttle";
+  // A fit that saw no flight (CompassTerms::ground_run_note) writes no compensation: said beside it.
+  const std::string use = t.ground_run_note.empty() ? std::string(throttle ? "COMPASS_MOTCT 1" : "COMPASS_MOT")
+                                                    : "not written: the fit saw no flight";
   return fmt::format(", absolute {} term {:.1f} [{:.1f}, {:.1f}] {} ({}, as hexsim calibrate)", throttle ? "throttle" : "current",
                      kMilliGaussPerMicroTesla * t.term_norm_uT, kMilliGaussPerMicroTesla * t.term_norm_ci95_uT[0], kMilliGaussPerMicroTesla * t.term_norm_ci95_uT[1],
-                     throttle ? "mG per unit throttle" : "mG/A", throttle ? "COMPASS_MOTCT 1" : "COMPASS_MOT");
+                     throttle ? "mG per unit throttle" : "mG/A", use);
 }
 
 std::string LeftText(const ResidualLeft& l) {

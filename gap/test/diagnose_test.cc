@@ -66,6 +66,18 @@ TEST(Headline, GivenAPerMotorEffect_WhenPrinted_ThenItsSizeSaysItIsTheFieldAtFul
   c.effects.push_back(e);
   const std::string line = Headline(c);
   EXPECT_NE(line.find("25.0 [8.2, 41.8] mG at full output (all motors)"), std::string::npos) << line;
+  // beside it the in-flight model's throttle term, fitted on that ground run: not to be written
+  CompassTerms t;
+  t.form = "throttle";
+  t.term_fitted = true;
+  t.term_plausible = true;
+  t.term_norm_uT = 1.34;
+  t.ground_run_note = "on runs on the ground only";
+  c.absolute_terms = t;
+  const std::string ground = Headline(c);
+  EXPECT_NE(ground.find("absolute throttle term 13.4"), std::string::npos) << ground;
+  EXPECT_NE(ground.find("not written: the fit saw no flight"), std::string::npos) << ground;
+  EXPECT_EQ(ground.find("COMPASS_MOTCT 1"), std::string::npos) << ground;
 }
 
 const ChannelResult* Find(const GapReport& r, const std::string& ch) { return gaptest::FindChannel(r, ch); }

@@ -178,11 +178,9 @@ Result<CalibrateOutcome> FlightPath(CalibrateOutcome out, const std::vector<MagS
   // log's own COMPASS_MOTCT / COMPASS_MOT* kept, replaced or zeroed (and the files say which).
   out.params_keep_soft_iron = true;
   out.params_A = fc.soft_iron_in_force;
-  // A fit that saw no flight neither writes nor zeroes a compensation: the log's own is kept.
-  const MotorParams mp = CompensationParams(rq.compass_index, rq.px4_index, fit->term_fitted && pf.ground_run_note.empty(),
-                                            fo.term_applied, throttle,
+  const MotorParams mp = CompensationParams(rq.compass_index, rq.px4_index, fit->term_fitted, fo.term_applied, throttle,
                                             fit->term_uT, fit->term_ci_half_uT, Minv, fc.motor_compensation,
-                                            fc.px4_comp_type, fc.px4_comp_G);
+                                            fc.px4_comp_type, fc.px4_comp_G, pf.ground_run_note);
   out.ardupilot_extra = mp.ardupilot;
   out.px4_extra = mp.px4;
   fo.motor_params_note = mp.comment;
