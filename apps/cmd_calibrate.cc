@@ -132,6 +132,7 @@ Status PrepareFlightFit(const logs::MagInput& input, const std::string& compass,
   p.current_shift_range_s[1] = cf->current_shift_range_s[1];
   p.current_note = cf->current_note;
   p.current_per_throttle_A = cf->current_per_throttle_A;
+  p.ground_run_note = cf->ground_run_note;
   fc->prepared = std::move(p);
   fc->motor_compensation = realdata::MotorCompensationOf(log, compass);
   return Status::Ok();

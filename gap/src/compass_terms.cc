@@ -47,9 +47,11 @@ void Parameters(const logs::MagInput& in, int index, const logs::FlightLog& log,
   if (!t->gate_accepted) return;  // as calibrate: no parameter file for a fit its gate rejects
   const bool throttle = t->form == "throttle";
   t->motor = magnetics::CompensationParams(index, in.px4_index, t->term_fitted,
-                                           t->term_fitted && t->term_resolved && t->term_plausible, throttle, t->term_uT,
+                                           t->term_fitted && t->term_resolved && t->term_plausible && t->ground_run_note.empty(),
+                                           throttle, t->term_uT,
                                            t->term_ci_half_uT, in.body_from_raw.inverse(),
-                                           realdata::MotorCompensationOf(log, t->channel), in.px4_comp_type, in.px4_comp_G);
+                                           realdata::MotorCompensationOf(log, t->channel), in.px4_comp_type, in.px4_comp_G,
+                                           t->ground_run_note);
   if (t->offset_plausible) {
     t->ardupilot = magnetics::ArduPilotCompassParams(t->offset_uT, in.soft_iron_in_force, index);
     t->px4 = magnetics::Px4CompassParams(t->offset_uT, in.soft_iron_in_force, in.px4_index >= 0 ? in.px4_index : index);
@@ -108,6 +110,7 @@ Result<CompassTerms> FitCompassTerms(const logs::FlightLog& log, const vehicle::
   t.current_shift_range_s[0] = cf->current_shift_range_s[0];
   t.current_shift_range_s[1] = cf->current_shift_range_s[1];
   t.timing_note = realdata::TimingNote(*cf);
+  t.ground_run_note = cf->ground_run_note;
   t.windows_note = cf->windows_note;
   t.flight_only = cf->flight_only;
   t.samples = f.samples_used;
@@ -116,7 +119,7 @@ Result<CompassTerms> FitCompassTerms(const logs::FlightLog& log, const vehicle::
   t.block_s = cf->options.block_s;
   t.rms_before_uT = f.rms_prior_uT;
   t.rms_after_uT = f.rms_after_uT;
-  const bool applied = t.term_fitted && t.term_resolved && t.term_plausible;
+  const bool applied = t.term_fitted && t.term_resolved && t.term_plausible && t.ground_run_note.empty();
   t.fitness_uT = magnetics::FlightFitness_uT(f, cf->samples, applied);
   t.gate_accepted = t.fitness_uT <= magnetics::kMaxFlightFitness_uT && t.offset_plausible;
   Parameters(*in, logs::CompassIndex(name), log, &t);
@@ -156,6 +159,7 @@ nlohmann::json CompassTermsJson(const CompassTerms& t) {
   nlohmann::json j = {{"model", "in-flight compass model (magnetics/flight_fit.h), as hexsim calibrate --method flight"},
                       {"form", t.form},
                       {"current_note", t.current_note},
+                      {"ground_run_note", t.ground_run_note},
                       {"offset_uT", Vec(t.offset_uT)},
                       {"offset_ci95_half_uT", Vec(t.offset_ci_half_uT)},
                       {"offset_plausible", t.offset_plausible},

@@ -213,12 +213,15 @@ namespace {
 // An effect's size in its physical unit and, where one exists, the autopilot's (mG/A for a current
 // term, also for a throttle or per-motor form through its battery-current equivalent).
 std::string EffectSize(const EffectShare& e) {
+  // The per-motor form's coefficients are fields at full output (its regressors are the outputs,
+  // u_i^0.65, not a current): its size is their norm over motors and axes at output 1.
+  const char* at = e.id == Effect::kPerMotorCurrentHardIron ? " at full output (all motors)" : "";
   if (e.unit == "s") return fmt::format("{:.0f} [{:.0f}, {:.0f}] ms", 1000 * e.magnitude, 1000 * e.ci95.lo, 1000 * e.ci95.hi);
   if (e.unit == "uT/A") return fmt::format("{:.1f} [{:.1f}, {:.1f}] mG/A", kMilliGaussPerMicroTesla * e.magnitude, kMilliGaussPerMicroTesla * e.ci95.lo,
                                                     kMilliGaussPerMicroTesla * e.ci95.hi);
-  if (e.unit == "uT" && e.autopilot_unit == "mG") return fmt::format("{:.1f} [{:.1f}, {:.1f}] mG", kMilliGaussPerMicroTesla * e.magnitude,
-                                                                    kMilliGaussPerMicroTesla * e.ci95.lo, kMilliGaussPerMicroTesla * e.ci95.hi);
-  std::string m = fmt::format("{:.3g} [{:.3g}, {:.3g}] {}", e.magnitude, e.ci95.lo, e.ci95.hi, e.unit);
+  if (e.unit == "uT" && e.autopilot_unit == "mG") return fmt::format("{:.1f} [{:.1f}, {:.1f}] mG{}", kMilliGaussPerMicroTesla * e.magnitude,
+                                                                    kMilliGaussPerMicroTesla * e.ci95.lo, kMilliGaussPerMicroTesla * e.ci95.hi, at);
+  std::string m = fmt::format("{:.3g} [{:.3g}, {:.3g}] {}{}", e.magnitude, e.ci95.lo, e.ci95.hi, e.unit, at);
   if (e.autopilot_unit == "mG/A") {
     m += fmt::format(" (= {:.1f} [{:.1f}, {:.1f}] mG/A in battery-current terms)", e.autopilot_factor * e.magnitude,
                      e.autopilot_factor * e.ci95.lo, e.autopilot_factor * e.ci95.hi);
@@ -234,9 +237,12 @@ std::string AbsoluteBeside(const ChannelResult& c, const EffectShare& e) {
   const CompassTerms& t = *c.absolute_terms;
   if (!t.term_fitted || !t.term_plausible) return "";
   const bool throttle = t.form == "throttle";
+  // A fit that saw no flight (CompassTerms::ground_run_note) writes no compensation: said beside it.
+  const std::string use = t.ground_run_note.empty() ? std::string(throttle ? "COMPASS_MOTCT 1" : "COMPASS_MOT")
+                                                    : "not written: the fit saw no flight";
   return fmt::format(", absolute {} term {:.1f} [{:.1f}, {:.1f}] {} ({}, as hexsim calibrate)", throttle ? "throttle" : "current",
                      kMilliGaussPerMicroTesla * t.term_norm_uT, kMilliGaussPerMicroTesla * t.term_norm_ci95_uT[0], kMilliGaussPerMicroTesla * t.term_norm_ci95_uT[1],
-                     throttle ? "mG per unit throttle" : "mG/A", throttle ? "COMPASS_MOTCT 1" : "COMPASS_MOT");
+                     throttle ? "mG per unit throttle" : "mG/A", use);
 }
 
 std::string LeftText(const ResidualLeft& l) {

@@ -92,11 +92,17 @@ TEST(CompassTerms, GivenAnUnusableCurrent_WhenDiagnosed_ThenNoCurrentFamilyIsFit
     if (c.channel == "mag2") mag2 = &c;
   }
   ASSERT_NE(mag2, nullptr);
+  bool per_motor = false;
   for (const auto& k : mag2->candidates) {
     EXPECT_NE(k.id, Effect::kCurrentHardIron) << k.effect;
     EXPECT_NE(k.id, Effect::kCurrentSoftIron) << k.effect;
     EXPECT_NE(k.id, Effect::kCurrentLag) << k.effect;
+    // the output-driven families stay, in their own units: no conversion through the current
+    per_motor = per_motor || k.id == Effect::kPerMotorCurrentHardIron;
+    EXPECT_EQ(k.params.count("current_equivalent_uT_per_A"), 0u) << k.effect;
   }
+  EXPECT_TRUE(per_motor);
+  for (const auto& e : mag2->effects) EXPECT_NE(e.autopilot_unit, "mG/A") << e.effect;
   EXPECT_FALSE(mag2->timing.current_staleness.present);
   bool said = false;
   for (const auto& why : mag2->not_available) said = said || why.find("units or no power monitor") != std::string::npos;
@@ -123,6 +129,23 @@ TEST(CompassTerms, GivenALogFlownWithThrottleCompensation_WhenMag2sCurrentFieldI
   EXPECT_NE(files.parm.find("replaced by the fitted current field (the log had COMPASS_MOTCT 1"), std::string::npos)
       << files.parm;
   EXPECT_NE(files.params.find("CAL_MAG_COMP_TYP"), std::string::npos) << files.params;
+}
+
+// A fit that saw no flight (every flight window a run on the ground, as a props-off run) writes no
+// compensation and zeroes none: MAG2's resolved field of the same rows, flown, is written.
+TEST(CompassTerms, GivenOnlyRunsOnTheGround_WhenMag2sFieldIsResolved_ThenNoCompensationIsWrittenOrZeroed) {
+  const realdata::FlightWindows flown = realdata::FindFlightWindows(Log171().log);
+  realdata::FlightWindows ground = flown;
+  for (auto& w : ground.windows) w.on_ground = w.kind == "flight";
+  auto f = internal::FitCompassTerms(Log171().log, Log171().vehicle, 1, "mag2", flown, 1);
+  auto g = internal::FitCompassTerms(Log171().log, Log171().vehicle, 1, "mag2", ground, 1);
+  ASSERT_TRUE(f.ok()) << f.status().message();
+  ASSERT_TRUE(g.ok()) << g.status().message();
+  ASSERT_TRUE(f->term_fitted && f->term_resolved && f->term_plausible) << f->term_note;
+  EXPECT_TRUE(f->motor.action == "written" || f->motor.action == "replaced") << f->motor.action;
+  EXPECT_NE(g->ground_run_note.find("on the ground"), std::string::npos) << g->ground_run_note;
+  // kept, none, or no parameter file at all (the gate judges the fit without the unapplied term)
+  for (const char* wrote : {"written", "replaced", "zeroed"}) EXPECT_NE(g->motor.action, wrote) << g->motor.comment;
 }
 
 // The external compass (MAG): no resolved current field, so no compensation line is written, and a

@@ -45,6 +45,41 @@ TEST(Headline, GivenNoGapDetectedWithAResidualManyTimesTheFloor_WhenPrinted_Then
   EXPECT_NE(floor.find("no gap: residual at the noise floor (power ratio 1.04)"), std::string::npos) << floor;
 }
 
+// The per-motor form (c_i·u_i^0.65) is driven by the outputs: on a public ArduCopter ground run with
+// an unusable current its verdict read "per_motor_current_hard_iron 25.0 [8.2, 41.8] mG", a field
+// with no state it is at. Its size is the motors' fields at full output, and says so.
+TEST(Headline, GivenAPerMotorEffect_WhenPrinted_ThenItsSizeSaysItIsTheFieldAtFullOutput) {
+  ChannelResult c;
+  c.channel = "mag";
+  c.gap_detected = true;
+  c.noise_floor_ratio = 5.0;
+  c.verdict = "per_motor_current_hard_iron";
+  EffectShare e;
+  e.effect = c.verdict;
+  e.id = Effect::kPerMotorCurrentHardIron;
+  e.unit = "uT";
+  e.autopilot_unit = "mG";
+  e.autopilot_factor = 10.0;
+  e.magnitude = 2.5;
+  e.ci95 = {0.82, 4.18};
+  e.explained_share = 0.81;
+  c.effects.push_back(e);
+  const std::string line = Headline(c);
+  EXPECT_NE(line.find("25.0 [8.2, 41.8] mG at full output (all motors)"), std::string::npos) << line;
+  // beside it the in-flight model's throttle term, fitted on that ground run: not to be written
+  CompassTerms t;
+  t.form = "throttle";
+  t.term_fitted = true;
+  t.term_plausible = true;
+  t.term_norm_uT = 1.34;
+  t.ground_run_note = "on runs on the ground only";
+  c.absolute_terms = t;
+  const std::string ground = Headline(c);
+  EXPECT_NE(ground.find("absolute throttle term 13.4"), std::string::npos) << ground;
+  EXPECT_NE(ground.find("not written: the fit saw no flight"), std::string::npos) << ground;
+  EXPECT_EQ(ground.find("COMPASS_MOTCT 1"), std::string::npos) << ground;
+}
+
 const ChannelResult* Find(const GapReport& r, const std::string& ch) { return gaptest::FindChannel(r, ch); }
 
 bool NotDiagnosed(const GapReport& r, const std::string& ch) {

@@ -15,6 +15,7 @@ constexpr double kBatVoltMaxPerCell_V = 4.2;  // MOT_BAT_VOLT_MAX: "4.2 × cell 
 constexpr double kBatVoltMinPerCell_V = 3.3;  // MOT_BAT_VOLT_MIN: "3.3 × cell count"
 constexpr int kMaxCells = 24;                 // no multirotor pack has more (a 100 V class system)
 constexpr char kUnusable[] = "current sensor unusable: units or no power monitor";
+constexpr char kNotFlown[] = "current sensor unusable: not checked in flight";
 
 double Median(std::vector<double> v) {
   if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
@@ -90,6 +91,19 @@ std::vector<size_t> FlightRows(const FlightLog& log, int motors) {
     if (level >= kFlyingMotorOutput) rows.push_back(r);
   }
   return rows;
+}
+
+// Whether the log can say when the vehicle flies: motor outputs or control_u with a value.
+bool LogsTheThrottle(const FlightLog& log, int motors) {
+  auto has_value = [&log](const std::string& c) {
+    if (!log.Has(c)) return false;
+    const std::vector<double>& v = log.Column(c);
+    return std::any_of(v.begin(), v.end(), [](double x) { return std::isfinite(x); });
+  };
+  for (int i = 1; i <= motors; ++i) {
+    if (has_value(fmt::format("motor_{}_u", i))) return true;
+  }
+  return has_value("control_u");
 }
 
 double Percentile(std::vector<double> v, double q) {
@@ -174,6 +188,12 @@ CurrentSensorCheck CheckCurrentSensor(const FlightLog& log) {
                                           kFlyingMotorOutput)
                             : std::string("current not checked: no current logged in flight");
   }
+  // A log whose throttle shows the motors never carried the vehicle (never at flight output while
+  // armed, or at flight output without climbing) leaves its current unverified: the flight rule is
+  // the only check of its scale (a x0.01 unit error reads like a props-off motor's no-load current),
+  // and what it measured is no flight current (props off, a motor draws its no-load current; a
+  // 12S quad's ground run at output 0.4-0.9 drew 0.66 A per motor). No current-based fit then.
+  const bool not_flown = !c.checked && (!ground_run.empty() || (flight.empty() && LogsTheThrottle(log, c.motors)));
   if (log.Has("voltage_V")) {
     std::vector<double> voltage = ValuesAt(log.Column("voltage_V"), flight);
     if (voltage.empty()) {
@@ -200,6 +220,10 @@ CurrentSensorCheck CheckCurrentSensor(const FlightLog& log) {
     for (size_t i = 0; i < reasons.size(); ++i) c.why += (i == 0 ? ": " : "; ") + reasons[i];
     const double monitor = MetaParam(log, "BATT_MONITOR");
     if (monitor == 0.0) c.why += "; BATT_MONITOR 0 (no power monitor)";
+  } else if (not_flown) {
+    c.usable = false;
+    c.why = std::string(kNotFlown) + ": " + c.note.substr(c.note.find(": ") + 2) +
+            " (the current is judged where the motors carry the vehicle; no current-based fit without it)";
   }
   return c;
 }

@@ -151,21 +151,6 @@ TEST(CurrentCheck, GivenTheCellCountFromTheParameters_WhenThePackReadsTwoVoltsPe
   EXPECT_TRUE(CurrentSensorOf(unknown.log).usable) << CurrentSensorOf(unknown.log).why;
 }
 
-TEST(CurrentCheck, GivenALogWithoutFlight_WhenChecked_ThenTheCurrentIsNotJudgedAndTheNoteSaysSo) {
-  FlightLog log;
-  for (int i = 0; i < 50; ++i) {
-    log.AppendRow();
-    log.Set("t_s", 0.1 * i);
-    log.Set("current_A", 0.3);
-    log.Set("voltage_V", 12.4);
-    log.Set("motor_1_u", 0.05);
-  }
-  const CurrentSensorCheck c = CheckCurrentSensor(log);
-  EXPECT_TRUE(c.usable);
-  EXPECT_FALSE(c.checked);
-  EXPECT_NE(c.note.find("no flight rows"), std::string::npos) << c.note;
-}
-
 TEST(CurrentCheck, GivenAFlightWithoutAMotorCount_WhenPrinted_ThenTheLineSaysTheCountIsUnknownNotZeroMotors) {
   // Given: a flight known from control_u alone (ArduCopter 3.1: no RCOU, no frame in the log)
   FlightLog log;
@@ -211,6 +196,40 @@ TEST(CurrentCheck, GivenMotorsAtFlightOutputButNoClimb_WhenChecked_ThenTheCurren
   EXPECT_NE(ground.note.find("a run on the ground"), std::string::npos) << ground.note;
   EXPECT_TRUE(flown.checked);
   EXPECT_EQ(flown.flight_rows, 300u);
+  // the ground run's current is unverified and no flight current: unusable, with the reason
+  EXPECT_FALSE(ground.usable);
+  EXPECT_EQ(ground.why.rfind("current sensor unusable: not checked in flight: ", 0), 0u) << ground.why;
+  EXPECT_NE(ground.why.find("a run on the ground"), std::string::npos) << ground.why;
+  EXPECT_NE(CurrentCheckLine(ground).find("unusable"), std::string::npos) << CurrentCheckLine(ground);
+  EXPECT_TRUE(flown.usable) << flown.why;
+}
+
+TEST(CurrentCheck, GivenMotorsThatNeverReachFlightOutput_WhenChecked_ThenTheCurrentIsUnusableButALogWithoutThrottleIsNotJudged) {
+  // Given: 30 s armed at motor output 0.1 (idle: never carried the vehicle), 1.2 A, 16 V; and the
+  // same rows with no motor outputs and no control_u (the log cannot tell when it flew)
+  auto make = [](bool outputs) {
+    FlightLog log;
+    for (int i = 0; i < 300; ++i) {
+      log.AppendRow();
+      log.Set("t_s", 0.1 * i);
+      log.Set("current_A", 1.2);
+      log.Set("voltage_V", 16.0);
+      log.Set("armed", 1.0);
+      if (outputs) {
+        for (int m = 1; m <= 4; ++m) log.Set("motor_" + std::to_string(m) + "_u", 0.1);
+      }
+    }
+    return log;
+  };
+  // When
+  const CurrentSensorCheck idle = CheckCurrentSensor(make(true));
+  const CurrentSensorCheck blind = CheckCurrentSensor(make(false));
+  // Then
+  EXPECT_FALSE(idle.usable);
+  EXPECT_EQ(idle.why.rfind("current sensor unusable: not checked in flight: no flight rows", 0), 0u) << idle.why;
+  EXPECT_TRUE(blind.usable) << blind.why;
+  EXPECT_FALSE(blind.checked);
+  EXPECT_NE(blind.note.find("no flight rows"), std::string::npos) << blind.note;
 }
 
 TEST(CurrentCheck, GivenALogOfOneMotor_WhenTheCurrentIsJudged_ThenTheLineSaysTheLogsCountBesideTheThree) {

@@ -93,8 +93,10 @@ std::string Px4ParamsText(const ParamList& params, const std::string& source, co
 
 MotorParams CompensationParams(int compass_index, int px4_index, bool fitted, bool usable, bool form_throttle,
                                const Vector3d& d_uT, const Vector3d& d_ci_half_uT, const Matrix3d& body_from_raw_inv,
-                               const MotorCompensationInLog& log, int px4_comp_type, const Vector3d& px4_comp_G) {
+                               const MotorCompensationInLog& log, int px4_comp_type, const Vector3d& px4_comp_G,
+                               const std::string& no_flight) {
   MotorParams m;
+  if (!no_flight.empty()) fitted = usable = false;  // a fit that saw no flight neither writes nor zeroes
   const std::string n = ApSuffix(compass_index);
   const std::string mot = "COMPASS_MOT" + n + "_";
   const int motct = form_throttle ? 1 : 2;  // ArduPilot: 1 throttle, 2 current
@@ -125,7 +127,10 @@ MotorParams CompensationParams(int compass_index, int px4_index, bool fitted, bo
   }
   if (log.motct <= 0 || log.mot.isZero()) {
     m.action = "none";
-    m.comment = Format("COMPASS_MOTCT/%s*: not written, no resolved and plausible field (%s)", mot.c_str(), had.c_str());
+    m.comment = no_flight.empty()
+                    ? Format("COMPASS_MOTCT/%s*: not written, no resolved and plausible field (%s)", mot.c_str(), had.c_str())
+                    : Format("COMPASS_MOTCT/%s*: not written: the fit saw no flight, %s (%s)", mot.c_str(), no_flight.c_str(),
+                             had.c_str());
     return m;
   }
   // The fit saw the field with the log's compensation undone: the log's value as a d is −MOT/10.
@@ -142,7 +147,10 @@ MotorParams CompensationParams(int compass_index, int px4_index, bool fitted, bo
     write_mot(log.motct, log.mot);
     m.action = "kept";
     m.comment = Format("COMPASS_MOTCT/%s*: kept as the log had them: the fit %s (%s)", mot.c_str(),
-                       !fitted ? "has no such term" : !same_form ? "is in the other form" : "cannot tell them apart",
+                       !no_flight.empty() ? ("saw no flight, " + no_flight).c_str()
+                       : !fitted          ? "has no such term"
+                       : !same_form       ? "is in the other form"
+                                          : "cannot tell them apart",
                        had.c_str());
   }
   return m;

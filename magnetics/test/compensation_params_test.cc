@@ -62,5 +62,25 @@ TEST(CompensationParams, GivenAnUnresolvedFit_ThenTheLogsCompensationIsKeptOrZer
   EXPECT_TRUE(m.ardupilot.empty());
 }
 
+// A public ArduCopter 4.7.0-dev log ran its motors on the ground only (props off): its throttle fit
+// replaced the log's current compensation (COMPASS_MOTCT 2). A fit that saw no flight keeps the log's.
+TEST(CompensationParams, GivenAFitThatSawNoFlight_ThenTheLogsCompensationIsKeptAndTheCommentSaysWhy) {
+  const MotorCompensationInLog log{2, Vector3d(1.1, 0.6, 2.7)};
+  const std::string why = "on runs on the ground only";
+  const MotorParams m = CompensationParams(0, -1, true, true, true, Vector3d(2, -6, 4), kHalf, Matrix3d::Identity(), log,
+                                           -1, Vector3d::Zero(), why);
+  EXPECT_EQ(m.action, "kept");
+  EXPECT_EQ(Value(m.ardupilot, "COMPASS_MOTCT"), 2.0);
+  EXPECT_NEAR(Value(m.ardupilot, "COMPASS_MOT_Z"), 2.7, 1e-12);
+  EXPECT_NE(m.comment.find("saw no flight, on runs on the ground only"), std::string::npos) << m.comment;
+  // nothing in the log, and a fit whose zero-including interval would zero it: neither written nor zeroed
+  EXPECT_EQ(CompensationParams(0, -1, true, true, true, Vector3d(2, -6, 4), kHalf, Matrix3d::Identity(), {0, Vector3d::Zero()},
+                               -1, Vector3d::Zero(), why).action,
+            "none");
+  EXPECT_EQ(CompensationParams(0, -1, true, false, false, Vector3d(0.01, 0, 0), kHalf, Matrix3d::Identity(),
+                               {2, Vector3d(0.0, 8.0, 0.0)}, -1, Vector3d::Zero(), why).action,
+            "kept");
+}
+
 }  // namespace
 }  // namespace hexsim::magnetics

@@ -227,8 +227,10 @@ std::vector<size_t> Pick(const logs::MagInput& in, const FlightWindows& w, int m
                          CompassFlight* out) {
   std::vector<char> flight(in.t_s.size(), 0);
   std::string spans;
+  bool airborne_window = false;
   for (const auto& win : w.windows) {
     if (win.kind != "flight") continue;
+    airborne_window = airborne_window || !win.on_ground;
     spans += (spans.empty() ? "" : ", ") +
              fmt::format("{:.1f}-{:.1f} s{}", win.start_s, win.end_s, win.on_ground ? " (on the ground: motors running, no climb)" : "");
     for (size_t i = 0; i < in.t_s.size(); ++i) {
@@ -240,6 +242,11 @@ std::vector<size_t> Pick(const logs::MagInput& in, const FlightWindows& w, int m
   out->flight_only = std::count(flight.begin(), flight.end(), 1) >= min_samples;
   out->windows_note = out->flight_only ? "flight windows only (" + where + ")"
                                        : "too few flight samples: ground samples used too (" + where + ")";
+  if (!out->flight_only) {
+    out->ground_run_note = "on ground samples (too few flight samples)";
+  } else if (!airborne_window) {
+    out->ground_run_note = "on runs on the ground only (motors at flight output, no climb: tied down or props off)";
+  }
   const double cos_max_tilt = std::cos(max_tilt_deg * M_PI / 180.0);
   std::vector<size_t> pick;
   for (size_t i = 0; i < in.t_s.size(); ++i) {

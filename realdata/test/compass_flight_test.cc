@@ -136,6 +136,32 @@ TEST(CompassFlight, GivenNoFlightWindow_WhenFitted_ThenTheCurrentNoteSaysThereIs
   EXPECT_EQ(f->current_note.find("no current logged"), std::string::npos) << f->current_note;
 }
 
+// A public ArduCopter 4.7.0-dev log (quiver pt2_00000002) ran its motors at output 0.4-0.9 on the
+// ground, props off (0.66 A per motor on 12S, the barometer within 0.2 m); calibrate wrote a throttle
+// compensation from it in place of the log's current compensation. A fit that saw no flight says so.
+TEST(CompassFlight, GivenOnlyARunOnTheGround_WhenFitted_ThenItsTermIsMarkedAsNoFlightsAndAFlightsIsNot) {
+  const logs::FlightLog log = Flight(0.0, Vector3d::Zero());
+  auto in = logs::MagInputFromFlightLog(log, "synthetic", "mag");
+  ASSERT_TRUE(in.ok()) << in.status().message();
+  CompassFlightOptions o;
+  o.scan_latency = false;
+  FlightWindows ground = WindowsFromRange(log, 0.0, 200.0);
+  for (Window& w : ground.windows) w.on_ground = w.kind == "flight";
+  auto on_ground = FitCompassInFlight(log, *in, ground, o);
+  auto flown = FitCompassInFlight(log, *in, WindowsFromRange(log, 0.0, 200.0), o);
+  ASSERT_TRUE(on_ground.ok()) << on_ground.status().message();
+  ASSERT_TRUE(flown.ok()) << flown.status().message();
+  EXPECT_NE(on_ground->ground_run_note.find("runs on the ground only"), std::string::npos) << on_ground->ground_run_note;
+  EXPECT_TRUE(flown->ground_run_note.empty()) << flown->ground_run_note;
+  // ground samples used for want of flight ones: no flight either
+  FlightWindows none = WindowsFromRange(log, 0.0, 200.0);
+  std::fill(none.row_kind.begin(), none.row_kind.end(), RowKind::kGround);
+  none.windows.clear();
+  auto grounded = FitCompassInFlight(log, *in, none, o);
+  ASSERT_TRUE(grounded.ok()) << grounded.status().message();
+  EXPECT_NE(grounded->ground_run_note.find("ground samples"), std::string::npos) << grounded->ground_run_note;
+}
+
 // A log without a GPS fix (six Erle logs of the corpus) has no place and date for the WMM: the model's
 // Earth-field terms are fitted freely, and the fit still finds the field, the offset and the current
 // term (it was refused: "no place and date").

@@ -242,7 +242,7 @@ def analyse_compass(f, c, cur):
     t = c["t"]
     m = extract.in_segments(t, f.segs)
     out = {"compass": c["name"], "external": c["external"], "use": c["use"],
-           "motct": c["motct"], "mot": c["mot"]}
+           "motct": c["motct"], "mot": c["mot"], "device_id": c.get("device_id")}
     if not len(t) or np.ptp(c["xyz"], axis=0).max() <= 0:
         out["status"] = "compass not logged (constant)"
         return out

@@ -87,7 +87,14 @@ nlohmann::json TermReport(const FlightFit& fit, const PreparedFlightFit& pf, Fli
                                       fit.term_t_threshold));
   }
   if (!pf.current_note.empty()) f->warnings.push_back("current not used: " + pf.current_note);
-  fo->term_applied = resolved && fo->term_plausible;
+  fo->term_applied = resolved && fo->term_plausible && pf.ground_run_note.empty();
+  if (resolved && fo->term_plausible && !fo->term_applied) {
+    f->warnings.push_back(fmt::format("{} field {:.1f} {} fitted {}: not applied (a flight's relation of field to {} is "
+                                      "not a ground run's; the log's own compensation is kept)",
+                                      throttle ? "throttle" : "current", 10 * fit.term_norm_uT, unit, pf.ground_run_note,
+                                      throttle ? "throttle" : "current"));
+  }
+  cur["ground_run_note"] = pf.ground_run_note;
   cur["applied"] = fo->term_applied;
   return cur;
 }
@@ -173,7 +180,7 @@ Result<CalibrateOutcome> FlightPath(CalibrateOutcome out, const std::vector<MagS
   out.params_A = fc.soft_iron_in_force;
   const MotorParams mp = CompensationParams(rq.compass_index, rq.px4_index, fit->term_fitted, fo.term_applied, throttle,
                                             fit->term_uT, fit->term_ci_half_uT, Minv, fc.motor_compensation,
-                                            fc.px4_comp_type, fc.px4_comp_G);
+                                            fc.px4_comp_type, fc.px4_comp_G, pf.ground_run_note);
   out.ardupilot_extra = mp.ardupilot;
   out.px4_extra = mp.px4;
   fo.motor_params_note = mp.comment;

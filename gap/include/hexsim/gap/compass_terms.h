@@ -39,6 +39,8 @@ struct CompassTerms {
   Eigen::Vector3d wmm_field_N_uT = Eigen::Vector3d::Zero();
   // The disturbance term d (body frame, per unit of the form's regressor) and |d| with its interval.
   bool term_fitted = false, term_resolved = false, term_plausible = true;
+  // realdata::CompassFlight::ground_run_note: the fit saw no flight, so its term is not written.
+  std::string ground_run_note;
   std::string term_note;
   Eigen::Vector3d term_uT = Eigen::Vector3d::Zero(), term_ci_half_uT = Eigen::Vector3d::Zero();
   double term_norm_uT = 0.0, term_norm_ci95_uT[2] = {0.0, 0.0};

@@ -7,8 +7,13 @@
 //                 parameters (ArduPilot MOT_BAT_VOLT_MAX / MOT_BAT_VOLT_MIN, PX4 BAT1_N_CELLS /
 //                 BAT_N_CELLS); under kMinPackVoltageUnknownCells_V where the count is unknown
 // Either flags "current sensor unusable: units or no power monitor" (a wrongly scaled field, or a
-// log without a power monitor, which logs 0 A). Every current-based fit and conversion downstream
-// must then stay off with that reason. The verdict is written into the meta (and its side file):
+// log without a power monitor, which logs 0 A), or "current sensor unusable: not checked in flight"
+// where the log's throttle shows the motors never carried the vehicle (no flight rows although the
+// log has motor outputs or control_u, or a run on the ground, kMinFlightClimb_m): the rule above is
+// the only check of the current's scale, and a ground run's current is no flight current (props
+// off, a motor draws its no-load current). A log with no throttle at all cannot tell and keeps its
+// current unjudged (usable, with a note). Every current-based fit and conversion downstream must
+// stay off when unusable, with that reason. The verdict is written into the meta (and its side file):
 //   current_usable          bool
 //   current_unusable_why    string, empty when usable
 //   current_check           {checked, flight_rows, median_current_A, median_voltage_V, motors,
@@ -52,7 +57,7 @@ double LoggedHeightSpan_m(const FlightLog& log, const std::vector<size_t>& rows,
 
 struct CurrentSensorCheck {
   bool usable = true;
-  std::string why;       // empty when usable; else starts "current sensor unusable: units or no power monitor"
+  std::string why;       // empty when usable; else starts "current sensor unusable: "
   bool checked = false;  // the current was compared with the flight rule (flight rows with a current)
   size_t flight_rows = 0;
   double median_current_A = std::numeric_limits<double>::quiet_NaN();

@@ -42,6 +42,8 @@ struct MotorCompensationInLog {
 // done to the log's own (`action`: "written", "replaced", "kept", "zeroed", "none"; `comment` says it
 // in a line for the parameter files). form_throttle: d is per unit throttle (COMPASS_MOTCT 1), else per A
 // (COMPASS_MOTCT 2). usable: resolved from zero and inside its physical range. d_ci_half_uT: per axis.
+// no_flight: why the fit saw no flight (realdata::CompassFlight::ground_run_note), empty when it did:
+// then nothing is written or zeroed, the log's own compensation is kept, and the comment says why.
 struct MotorParams {
   ParamList ardupilot, px4;
   std::string action, comment;
@@ -49,7 +51,7 @@ struct MotorParams {
 MotorParams CompensationParams(int compass_index, int px4_index, bool fitted, bool usable, bool form_throttle,
                                const Eigen::Vector3d& d_uT, const Eigen::Vector3d& d_ci_half_uT,
                                const Eigen::Matrix3d& body_from_raw_inv, const MotorCompensationInLog& log,
-                               int px4_comp_type, const Eigen::Vector3d& px4_comp_G);
+                               int px4_comp_type, const Eigen::Vector3d& px4_comp_G, const std::string& no_flight = {});
 
 // "NAME VALUE" lines (ArduPilot .parm) and QGroundControl's tab-separated
 // "sysid compid NAME VALUE type" lines (type 9: float), each with a comment header.

@@ -80,6 +80,12 @@ struct CompassFlight {
   // where the current is unusable; a throttle term's current equivalent is term / this slope.
   double current_per_throttle_A = std::nan("");
   bool flight_only = false;
+  // Non-empty when the fit saw no flight: every flight window a run on the ground (motors at flight
+  // output, no climb: tied down or props off), or ground samples used for want of flight ones. Its
+  // disturbance term is then reported but not written as compensation: a ground run's throttle-to-
+  // current relation is not the flight's (props off, a motor draws its no-load current: a 12S quad at
+  // output 0.4-0.9 drew 0.66 A per motor) and its current was not checked in flight.
+  std::string ground_run_note;
   std::string windows_note;
   int tilted = 0, outside = 0;
   int not_airborne = 0;  // flight-window samples at a current under min_current_per_motor_A per motor

@@ -38,6 +38,8 @@ struct PreparedFlightFit {
   double current_shift_s = 0.0, current_shift_range_s[2] = {0.0, 0.0};
   std::string current_note;   // why the current is unusable (empty when usable)
   double current_per_throttle_A = std::nan("");
+  // realdata::CompassFlight::ground_run_note: the fit saw no flight, its term is not applied.
+  std::string ground_run_note;
 };
 
 // What a flight log adds to its compass samples, for the attitude-aided fit ("flight").
