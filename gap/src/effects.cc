@@ -12,7 +12,9 @@ const std::vector<EffectInfo>& Effects() {
       {Effect::kCurrentHardIron, "current_hard_iron", K::kCurrentField, "uT/A", "current_hard_iron",
        "battery current I: d·I per axis", true},
       {Effect::kPerMotorCurrentHardIron, "per_motor_current_hard_iron", K::kCurrentField, "uT", "per_motor_current_hard_iron",
-       "each motor's share of the current (its output to the fitted power): c_m per motor and axis", true},
+       "each motor's field in proportion to its output to the power 0.65 (ArduPilot's COMPASS_PMOT): c_m per motor and "
+       "axis, the field at full output",
+       true},
       {Effect::kCurrentLag, "current_lag", K::kCurrentField, "s", "current_lag",
        "the current low-passed with time constant tau (grid), to a power 1..2: d per axis", true},
       {Effect::kThrottleHardIron, "throttle_hard_iron", K::kThrottleField, "uT/throttle", "throttle_hard_iron",

@@ -1,4 +1,5 @@
 // gap.json (hexsim.gap/1 with the real-data keys of CONTRACTS.md) and the stdout summary.
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -277,15 +278,23 @@ std::string HeadlineBody(const ChannelResult& c) {
   }
   // The absolute term once, beside the first current-driven effect.
   std::string absolute = AbsoluteBeside(c, top);
-  std::string s = fmt::format("{}: {} {}{}, explains {:.0f} % of the held-out structure above the noise floor{}", c.channel,
-                              c.verdict, EffectSize(top), absolute, 100 * top.explained_share, c.partial ? " (partial)" : "");
+  // A negative held-out share (an effect material by the heading it turns, which held out predicts
+  // worse than the baseline) is said as such, not as a negative part explained.
+  const std::string explains =
+      top.explained_share >= 0
+          ? fmt::format("explains {:.0f} % of the held-out structure above the noise floor", 100 * top.explained_share)
+          : fmt::format("explains none of the held-out structure above the noise floor (held out it predicts {:.0f} % "
+                        "worse than the baseline; see the findings)",
+                        -100 * top.explained_share);
+  std::string s = fmt::format("{}: {} {}{}, {}{}", c.channel, c.verdict, EffectSize(top), absolute, explains,
+                              c.partial ? " (partial)" : "");
   for (size_t i = 1; i < c.effects.size(); ++i) {
     const std::string beside = absolute.empty() ? AbsoluteBeside(c, c.effects[i]) : std::string();
     absolute += beside;
     // A nuisance term beside the fitted effects is a gap the baseline absorbed (its offset or field
     // beyond the normal range): it removes nothing over that baseline, so it has no share to print.
     const std::string share = c.effects[i].source == "nuisance" ? "beyond its normal range, absorbed by the baseline"
-                                                                : fmt::format("{:.0f} %", 100 * c.effects[i].explained_share);
+                                                                : fmt::format("{:.0f} %", 100 * std::max(0.0, c.effects[i].explained_share));
     s += fmt::format("; also {} {}{} ({})", c.effects[i].effect, EffectSize(c.effects[i]), beside, share);
   }
   return s + LeftText(c.residual_left);

@@ -45,6 +45,31 @@ TEST(Headline, GivenNoGapDetectedWithAResidualManyTimesTheFloor_WhenPrinted_Then
   EXPECT_NE(floor.find("no gap: residual at the noise floor (power ratio 1.04)"), std::string::npos) << floor;
 }
 
+// An effect material by the heading it turns may predict held-out blocks worse than the baseline (a
+// public PX4 log's external compass: current_hard_iron 4.8 mG/A "explains -23 %"): the headline says it
+// explains none of the structure and how much worse, never a negative part explained.
+TEST(Headline, GivenAHeadlineEffectWithANegativeHeldOutShare_WhenPrinted_ThenItSaysItExplainsNone) {
+  ChannelResult c;
+  c.channel = "mag2";
+  c.gap_detected = true;
+  c.noise_floor_ratio = 3.0;
+  c.verdict = "current_hard_iron";
+  c.partial = true;
+  EffectShare e;
+  e.effect = c.verdict;
+  e.id = Effect::kCurrentHardIron;
+  e.unit = "uT/A";
+  e.magnitude = 0.48;
+  e.ci95 = {0.17, 0.80};
+  e.explained_share = -0.23;
+  c.effects.push_back(e);
+  const std::string line = Headline(c);
+  EXPECT_EQ(line.find("-23 %"), std::string::npos) << line;
+  EXPECT_NE(line.find("explains none of the held-out structure above the noise floor (held out it predicts 23 % worse"),
+            std::string::npos)
+      << line;
+}
+
 // The per-motor form (c_i·u_i^0.65) is driven by the outputs: on a public ArduCopter ground run with
 // an unusable current its verdict read "per_motor_current_hard_iron 25.0 [8.2, 41.8] mG", a field
 // with no state it is at. Its size is the motors' fields at full output, and says so.

@@ -97,8 +97,10 @@ std::string EffectsHtml(const gap::ChannelResult& c) {
                                              e.autopilot_factor * e.ci95.lo, e.autopilot_factor * e.ci95.hi,
                                              Escape(e.autopilot_unit));
     // A nuisance term beside fitted effects removes nothing over the baseline that absorbed it.
-    const std::string share =
-        e.source == "nuisance" ? std::string("absorbed by the baseline") : fmt::format("{:.0f} %", 100 * e.explained_share);
+    // A negative held-out share (material by the heading it turns) is none of the structure.
+    const std::string share = e.source == "nuisance"      ? std::string("absorbed by the baseline")
+                              : e.explained_share < 0 ? fmt::format("none (held out {:.0f} % worse)", -100 * e.explained_share)
+                                                      : fmt::format("{:.0f} %", 100 * e.explained_share);
     h += fmt::format("<tr><td>{}</td><td>{:.4g} [{:.4g}, {:.4g}] {}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
                      Escape(e.effect), e.magnitude, e.ci95.lo, e.ci95.hi, Escape(e.unit), ap, share, Escape(e.source));
   }
