@@ -52,11 +52,10 @@ TEST(GapDecomposition, GivenACleanSimulatedLog_WhenDiagnosed_ThenNoImplausibleFi
 // latency is an effect named with its size (the gap is relative to the simulator); given the vehicle
 // models that latency, it is not.
 TEST(GapDecomposition, GivenACompassLaterThanTheVehicleModels_WhenDiagnosed_ThenLatencyIsAnEffectWithItsSize) {
-  gaptest::Flown f = gaptest::FlyInjected({}, 2102, "decomposition", "selftest_flight");
-  RngStream rng(2102, "decomposition/degrade");
-  internal::RealLogTruth truth;
-  auto log = internal::DegradeToRealLog(f.log, f.trial.configured, &rng, &truth);
-  ASSERT_TRUE(log.ok()) << log.status().message();
+  const gaptest::FlownReal r = gaptest::FlyAsRealLog({}, 2102, "decomposition");
+  const internal::RealLogTruth& truth = r.truth;
+  const logs::FlightLog* log = &r.log;
+  const gaptest::Flown& f = r.flown;
   DiagnoseOptions unmodelled;
   unmodelled.channels = {"mag"};
   auto rep = Diagnose(*log, f.trial.configured, unmodelled);
@@ -84,14 +83,11 @@ TEST(GapDecomposition, GivenACompassLaterThanTheVehicleModels_WhenDiagnosed_Then
 // is, by the noise floor's power its alignment removes (LatencyTerm), not only by its share of a
 // structure the misalignment holds.
 TEST(GapDecomposition, GivenALatencyBesideADominantMisalignment_WhenDiagnosed_ThenBothAreEffects) {
-  gaptest::Flown f = gaptest::FlyInjected({{"misalignment", 7.0}}, 2107, "decomposition", "selftest_flight");
-  RngStream rng(2107, "decomposition/degrade");
-  internal::RealLogTruth truth;
-  auto log = internal::DegradeToRealLog(f.log, f.trial.configured, &rng, &truth);
-  ASSERT_TRUE(log.ok()) << log.status().message();
+  const gaptest::FlownReal r = gaptest::FlyAsRealLog({{"misalignment", 7.0}}, 2107, "decomposition");
+  const internal::RealLogTruth& truth = r.truth;
   DiagnoseOptions o;
   o.channels = {"mag2"};
-  auto rep = Diagnose(*log, f.trial.configured, o);
+  auto rep = Diagnose(r.log, r.flown.trial.configured, o);
   ASSERT_TRUE(rep.ok()) << rep.status().message();
   const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
   ASSERT_NE(mag2, nullptr) << Summary(*rep);

@@ -21,17 +21,14 @@ namespace {
 // and quad_x's latencies in withheld_sim 5-7 ms late (cases 012, 030, 031, 050: 94 → 100 ms,
 // 95 → 100, 130 → 137, 137 → 144).
 TEST(GapLatencyScan, GivenNoModelledWiringField_WhenScanned_ThenTheInternalCompassLatencyIsUnbiased) {
-  gaptest::Flown f = gaptest::FlyInjected({}, 2111, "latency_scan", "selftest_flight");
-  RngStream rng(2111, "latency_scan/degrade");
-  internal::RealLogTruth truth;
-  auto log = internal::DegradeToRealLog(f.log, f.trial.configured, &rng, &truth);
-  ASSERT_TRUE(log.ok()) << log.status().message();
-  vehicle::VehicleParams unwired = f.trial.configured;
+  const gaptest::FlownReal r = gaptest::FlyAsRealLog({}, 2111, "latency_scan");
+  const internal::RealLogTruth& truth = r.truth;
+  vehicle::VehicleParams unwired = r.flown.trial.configured;
   unwired.wiring.segments.clear();
   unwired.wiring.dipoles.clear();
   DiagnoseOptions o;
   o.channels = {"mag2", "mag3"};
-  auto rep = Diagnose(*log, unwired, o);
+  auto rep = Diagnose(r.log, unwired, o);
   ASSERT_TRUE(rep.ok()) << rep.status().message();
   for (const char* name : {"mag2", "mag3"}) {
     const ChannelResult* mag = gaptest::FindChannel(*rep, name);

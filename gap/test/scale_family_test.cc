@@ -101,15 +101,11 @@ TEST(GapScaleFamily, GivenAnAxisScaleAndAnUnmodelledCurrentField_WhenDiagnosed_T
 // current_soft_iron is not an effect and the report says why: the flight cannot tell it from a static
 // calibration error beside a current field.
 TEST(GapScaleFamily, GivenASoftIronTheFlightCannotSeparate_WhenDiagnosed_ThenTheReportSaysSo) {
-  gaptest::Flown f = gaptest::FlyInjected({{"current_soft_iron", 0.003}}, 2133, "scale_family", "selftest_flight");
-  RngStream rng(2133, "scale_family/degrade");
-  internal::RealLogTruth truth;
-  auto log = internal::DegradeToRealLog(f.log, f.trial.configured, &rng, &truth);
-  ASSERT_TRUE(log.ok()) << log.status().message();
+  const gaptest::FlownReal r = gaptest::FlyAsRealLog({{"current_soft_iron", 0.003}}, 2133, "scale_family");
   DiagnoseOptions o;
   o.channels = {"mag2"};
-  o.compass_latency_s = truth.latency_s;
-  auto rep = Diagnose(*log, f.trial.configured, o);
+  o.compass_latency_s = r.truth.latency_s;
+  auto rep = Diagnose(r.log, r.flown.trial.configured, o);
   ASSERT_TRUE(rep.ok()) << rep.status().message();
   const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
   ASSERT_NE(mag2, nullptr);

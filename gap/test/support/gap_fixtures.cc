@@ -21,6 +21,16 @@ Flown FlyInjected(const std::vector<Injection>& injections, uint64_t seed, const
   return {std::move(*trial), std::move(*log)};
 }
 
+FlownReal FlyAsRealLog(const std::vector<Injection>& injections, uint64_t seed, const std::string& stream,
+                       const std::string& mission) {
+  FlownReal r{FlyInjected(injections, seed, stream, mission), {}, {}};
+  RngStream rng(seed, stream + "/degrade");
+  auto log = internal::DegradeToRealLog(r.flown.log, r.flown.trial.configured, &rng, &r.truth);
+  EXPECT_TRUE(log.ok()) << log.status().message();
+  if (log.ok()) r.log = std::move(*log);
+  return r;
+}
+
 DiagnoseOptions IdealOptions() {
   DiagnoseOptions o;
   o.nuisance_ranges = "exact";

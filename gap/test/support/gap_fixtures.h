@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "../../src/selftest_real.h"
 #include "hexsim/gap/diagnose.h"
 #include "hexsim/gap/selftest.h"
 #include "hexsim/logs/flight_log.h"
@@ -22,6 +23,16 @@ struct Flown {
 // `mission`: empty for the ideal profile's square; "selftest_flight" for the real profile's flight.
 Flown FlyInjected(const std::vector<Injection>& injections, uint64_t seed, const std::string& stream,
                   const std::string& mission = "");
+
+// A flown trial as a real autopilot would have logged it (selftest_real.h DegradeToRealLog), the
+// degradation drawn from the stream `stream`/degrade; `truth` its latency, offset and scale.
+struct FlownReal {
+  Flown flown;
+  logs::FlightLog log;
+  internal::RealLogTruth truth;
+};
+FlownReal FlyAsRealLog(const std::vector<Injection>& injections, uint64_t seed, const std::string& stream,
+                       const std::string& mission = "selftest_flight");
 
 // The diagnosis options of the ideal profile: the configured vehicle is the calibrated truth, so a
 // significant nuisance term (offset, field, scale) is a finding (CONTRACTS.md "Gap diagnosis").
