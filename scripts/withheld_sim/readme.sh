@@ -4,7 +4,8 @@
 # Runs withheld_sim.py (about 20 min for 72 cases on 2 cores) and replaces README's
 # <!-- readme_figures:withheld_sim --> block with the pass count per form and path. REUSE=1 with an
 # OUT that holds a finished run's results.json writes the block from it without running again.
-# COMMIT names the commit the binary was built at where it was copied out of its tree.
+# COMMIT names the commit the binary was built at where it was copied out of its tree. BLOCK names the
+# README block (default withheld_sim; withheld_sim_fresh: a seed the project has not developed against).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 hexsim=$(realpath "$1")
@@ -44,5 +45,6 @@ for f in forms:
     print("| %s | %s | %s |" % (f, cells[0], cells[1]))
 print("| **all** | **%d/%d** | **%d/%d** |" % (tot["sim"][0], tot["sim"][1], tot["nosim"][0], tot["nosim"][1]))
 PY
-"$py" "$here/../readme_tables.py" splice "$readme" withheld_sim "$out/section.md"
-echo "withheld_sim: $(tail -1 "$out/section.md"); README block 'withheld_sim' updated ($out)"
+block=${BLOCK:-withheld_sim}
+"$py" "$here/../readme_tables.py" splice "$readme" "$block" "$out/section.md"
+echo "withheld_sim: $(tail -1 "$out/section.md"); README block '$block' updated ($out)"
