@@ -46,9 +46,9 @@ void GapInterval(const Eigen::Matrix3d& cov, int blocks, CompassTerms* t) {
 void Parameters(const logs::MagInput& in, int index, const logs::FlightLog& log, CompassTerms* t) {
   if (!t->gate_accepted) return;  // as calibrate: no parameter file for a fit its gate rejects
   const bool throttle = t->form == "throttle";
+  // CompensationParams owns the no-flight rule (ground_run_note: neither written nor zeroed).
   t->motor = magnetics::CompensationParams(index, in.px4_index, t->term_fitted,
-                                           t->term_fitted && t->term_resolved && t->term_plausible && t->ground_run_note.empty(),
-                                           throttle, t->term_uT,
+                                           t->term_fitted && t->term_resolved && t->term_plausible, throttle, t->term_uT,
                                            t->term_ci_half_uT, in.body_from_raw.inverse(),
                                            realdata::MotorCompensationOf(log, t->channel), in.px4_comp_type, in.px4_comp_G,
                                            t->ground_run_note);
