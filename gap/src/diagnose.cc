@@ -339,7 +339,7 @@ std::optional<CompassChannel> DiagnoseCompass(const CompassRun& run, size_t c,
     const bool wiring = internal::HasWiring(vehicle);
     r.findings.emplace_back(std::string("logged values are the autopilot's calibrated ones: the vehicle file's hard and soft "
                                         "iron are not applied to them") +
-                            (wiring ? "; its wiring (current) field still is" : ""));
+                            (wiring ? "; its wiring (current) field still is applied" : ""));
   }
   AttachAbsoluteTerms(std::move(terms), log, &run.model_log != &log, &r);
   return CompassChannel{std::move(r), std::move(ch)};

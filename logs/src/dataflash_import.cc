@@ -11,6 +11,7 @@
 
 #include "hexsim/common/atomic_file.h"
 #include "hexsim/common/rotation.h"
+#include "dataflash_facts.h"
 #include "dataflash_streams.h"
 #include "hexsim/logs/current_check.h"
 #include "hexsim/logs/dataflash_plausibility.h"
@@ -19,9 +20,20 @@ namespace hexsim::logs {
 
 namespace {
 
+using internal::DamageJson;
+using internal::FirmwareOf;
+using internal::FrameNameOf;
 using internal::GpsBootTime_s;
 using internal::InstanceOf;
+using internal::IsoUtc;
 using internal::MagToMicroTesla;
+using internal::MotorsForFrameClass;
+using internal::MotorsForFrameName;
+using internal::ParamsOfInterest;
+using internal::Printable;
+using internal::StartsWith;
+using internal::UnixFromGps;
+using internal::VehicleTypeOf;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kThrottleScale = 1000.0;  // control_u: 0..1000
@@ -30,9 +42,6 @@ constexpr size_t kMaxOutputs = 14;  // RCOU C1..C14
 // WGS-84.
 constexpr double kWgs84A_m = 6378137.0;
 constexpr double kWgs84E2 = 6.69437999014e-3;
-// GPS epoch 1980-01-06 in Unix seconds.
-constexpr double kGpsEpochUnix_s = 315964800.0;
-constexpr double kSecondsPerWeek = 604800.0;
 
 // A sample-and-hold channel: its samples in time order, each with `columns.size()` values.
 struct Channel {
@@ -79,92 +88,12 @@ struct Channel {
   }
 };
 
-bool StartsWith(const std::string& s, const std::string& prefix) { return s.compare(0, prefix.size(), prefix) == 0; }
-
-// Log text as printable ASCII (damaged bytes become '?'), so JSON output stays valid UTF-8.
-std::string Printable(const std::string& s) {
-  std::string out = s;
-  for (char& ch : out) {
-    if (ch < 0x20 || ch > 0x7e) ch = '?';
-  }
-  return out;
-}
-
 double Clamp01(double x) { return std::isfinite(x) ? std::clamp(x, 0.0, 1.0) : kNaN; }
-
-// Motors of a frame named in the "Frame: QUAD" message.
-int MotorsForFrameName(const std::string& frame) {
-  static const std::pair<const char*, int> kFrames[] = {
-      {"OCTA_QUAD", 8}, {"OCTAQUAD", 8}, {"DODECA", 12}, {"QUAD", 4}, {"HEXA", 6}, {"OCTA", 8},
-      {"Y6", 6}, {"TRI", 3}, {"DECA", 10}};
-  for (const auto& [name, n] : kFrames) {
-    if (frame.find(name) != std::string::npos) return n;
-  }
-  return 0;
-}
-
-// Motors of FRAME_CLASS (ArduCopter 3.5+).
-int MotorsForFrameClass(int frame_class) {
-  switch (frame_class) {
-    case 1: return 4;
-    case 2: return 6;
-    case 3: return 8;
-    case 4: return 8;
-    case 5: return 6;
-    case 7: return 3;
-    case 12: return 12;
-    case 14: return 10;
-    default: return 0;
-  }
-}
-
-int64_t DaysFromCivil(int64_t y, unsigned m, unsigned d) {
-  y -= m <= 2;
-  const int64_t era = (y >= 0 ? y : y - 399) / 400;
-  const unsigned yoe = static_cast<unsigned>(y - era * 400);
-  const unsigned doy = (153 * (m + (m > 2 ? -3 : 9)) + 2) / 5 + d - 1;
-  const unsigned doe = yoe * 365 + yoe / 4 - yoe / 100 + doy;
-  return era * 146097 + static_cast<int64_t>(doe) - 719468;
-}
-
-// GPS - UTC leap seconds at a GPS time (table to 2017; none announced since).
-double LeapSeconds(double gps_s) {
-  const double unix_s = gps_s + kGpsEpochUnix_s;
-  struct Step { int64_t y; unsigned m; double leap; };
-  static const Step kSteps[] = {{2017, 1, 18}, {2015, 7, 17}, {2012, 7, 16}, {2009, 1, 15}, {2006, 1, 14}};
-  for (const auto& s : kSteps) {
-    if (unix_s >= static_cast<double>(DaysFromCivil(s.y, s.m, 1)) * 86400.0) return s.leap;
-  }
-  return 13.0;
-}
-
-double UnixFromGps(int week, double tow_s) {
-  const double gps_s = week * kSecondsPerWeek + tow_s;
-  return gps_s + kGpsEpochUnix_s - LeapSeconds(gps_s);
-}
-
-std::string IsoUtc(double unix_s) {
-  const std::time_t t = static_cast<std::time_t>(std::floor(unix_s));
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof(buf), "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
-}
 
 double Median(std::vector<double> v) {
   if (v.empty()) return kNaN;
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
   return v[v.size() / 2];
-}
-
-nlohmann::json DamageJson(const DataFlashDamage& d) {
-  return {{"skipped_bytes", d.skipped_bytes},
-          {"bad_header_runs", d.bad_header_runs},
-          {"unknown_type_messages", d.unknown_type_messages},
-          {"bad_formats", d.bad_formats},
-          {"misaligned_messages", d.misaligned_messages},
-          {"truncated_tail_bytes", d.truncated_tail_bytes}};
 }
 
 // Everything the first pass collects.
@@ -390,39 +319,6 @@ std::vector<size_t> MeasuredColumns(const Channel& ch) {
   return v;
 }
 
-std::string FirmwareOf(const std::vector<std::string>& texts) {
-  for (const auto& t : texts) {
-    if (t.find("APM:") != std::string::npos || t.find("Ardu") != std::string::npos ||
-        t.find("ArduPilot") != std::string::npos) {
-      return t;
-    }
-  }
-  return "";
-}
-
-std::string VehicleTypeOf(const std::string& firmware) {
-  if (firmware.find("Copter") != std::string::npos) return "copter";
-  if (firmware.find("Plane") != std::string::npos) return "plane";
-  if (firmware.find("Rover") != std::string::npos) return "rover";
-  if (firmware.find("Sub") != std::string::npos) return "sub";
-  return "unknown";
-}
-
-std::string FrameNameOf(const std::vector<std::string>& texts) {
-  for (const auto& t : texts) {
-    if (StartsWith(t, "Frame: ")) return t.substr(7);
-  }
-  return "";
-}
-
-nlohmann::json ParamsOfInterest(const std::map<std::string, double>& params) {
-  nlohmann::json j = nlohmann::json::object();
-  for (const auto& [k, v] : params) {
-    if (IsParameterOfInterest(k)) j[k] = v;
-  }
-  return j;
-}
-
 // The meta's description of compass instance k (0-based) from its parameters.
 nlohmann::json CompassMeta(const Collected& c, size_t k, const std::string& prefix) {
   const std::string n = k == 0 ? "" : std::to_string(k + 1);
@@ -458,7 +354,6 @@ nlohmann::json CompassMeta(const Collected& c, size_t k, const std::string& pref
                                   : nlohmann::json("all zero: not written");
   return j;
 }
-
 
 double Quantile(std::vector<double> v, double q) {
   if (v.empty()) return kNaN;
@@ -532,29 +427,6 @@ int MotorCount(const Collected& c, const std::string& frame_name, std::string* s
   return active;
 }
 }  // namespace
-
-bool IsParameterOfInterest(const std::string& n) {
-  static const char* kPrefixes[] = {"COMPASS_", "MOT_PWM_", "MOT_BAT_", "RC3_", "BATT", "FRAME", "AHRS_ORIENTATION",
-                                    "MOT_SPIN_", "MOT_THST_", "INS_GYROFFS", "INS_ACCOFFS"};
-  for (const char* p : kPrefixes) {
-    if (StartsWith(n, p)) return true;
-  }
-  return false;
-}
-
-double DecimalYearFromGps(int week, double time_of_week_s) { return DecimalYearFromUnix(UnixFromGps(week, time_of_week_s)); }
-
-std::string IsoUtcFromUnix(double unix_s) { return IsoUtc(unix_s); }
-
-double DecimalYearFromUnix(double unix_s) {
-  const std::time_t t = static_cast<std::time_t>(std::floor(unix_s));
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  const int64_t year = tm.tm_year + 1900;
-  const double start = static_cast<double>(DaysFromCivil(year, 1, 1)) * 86400.0;
-  const double end = static_cast<double>(DaysFromCivil(year + 1, 1, 1)) * 86400.0;
-  return static_cast<double>(year) + (unix_s - start) / (end - start);
-}
 
 namespace {
 
@@ -877,94 +749,6 @@ Result<ImportResult> ImportDataFlashFile(const std::string& path, const ImportOp
 
 Status WriteImport(const ImportResult& result, const std::string& csv_path) {
   return WriteFlightLog(result.log, csv_path);
-}
-
-nlohmann::json DataFlashInfoJson(const std::string& bytes, const std::string& name) {
-  struct TypeStats {
-    size_t count = 0;
-    double first_s = kNaN, last_s = kNaN;
-  };
-  std::map<std::string, TypeStats> stats;
-  std::map<std::string, double> params;
-  std::vector<std::string> texts;
-  DataFlashReader reader(bytes);
-  DataFlashMessage m;
-  double t_min = kNaN, t_max = kNaN;
-  RecordPlausibility plausibility;
-  size_t data_messages = 0;
-  while (reader.Next(&m)) {
-    if (m.type() != kDataFlashFmtType) ++data_messages;
-    if (!plausibility.Accept(m)) continue;
-    TypeStats& s = stats[m.name()];
-    ++s.count;
-    const double t = m.name() == "GPS" ? GpsBootTime_s(m) : m.BootTime_s();
-    if (std::isfinite(t)) {
-      if (!std::isfinite(s.first_s)) s.first_s = t;
-      s.last_s = t;
-      if (m.name() == "ATT") {
-        if (!std::isfinite(t_min)) t_min = t;
-        t_max = t;
-      }
-    }
-    if (m.name() == "PARM") {
-      const std::string p = Printable(m.GetString("Name"));
-      const double v = m.Get("Value");
-      if (!p.empty() && std::isfinite(v)) params[p] = v;
-    } else if (m.name() == "MSG" && texts.size() < 64) {
-      texts.push_back(Printable(m.GetString("Message")));
-    }
-  }
-  nlohmann::json j;
-  j["schema"] = "hexsim.dataflash_info/1";
-  j["source"] = name;
-  j["bytes"] = bytes.size();
-  j["firmware"] = FirmwareOf(texts);
-  j["messages_text"] = texts;
-  nlohmann::json types = nlohmann::json::array();
-  for (const auto& [n, s] : stats) {
-    nlohmann::json t{{"name", n}, {"count", s.count}};
-    if (std::isfinite(s.first_s)) {
-      t["first_s"] = s.first_s;
-      t["last_s"] = s.last_s;
-      if (s.count > 1 && s.last_s > s.first_s) t["rate_hz"] = static_cast<double>(s.count - 1) / (s.last_s - s.first_s);
-    }
-    types.push_back(t);
-  }
-  j["types"] = types;
-  if (std::isfinite(t_min)) j["time"] = {{"start_s", t_min}, {"end_s", t_max}, {"duration_s", t_max - t_min}};
-  j["params"] = ParamsOfInterest(params);
-  j["parameter_count"] = params.size();
-  j["damage"] = DamageJson(reader.damage());
-  j["damage"].update(RecordDamageJson(plausibility.damage()));
-  j["damage"]["damaged_record_share"] = DamagedRecordShare(reader.damage(), plausibility.damage(), data_messages);
-  return j;
-}
-
-std::string DataFlashInfo(const std::string& bytes, const std::string& name) {
-  const nlohmann::json j = DataFlashInfoJson(bytes, name);
-  std::string out = fmt::format("{}: ArduPilot DataFlash, {} bytes\n", name, bytes.size());
-  if (!j["firmware"].get<std::string>().empty()) out += fmt::format("firmware: {}\n", j["firmware"].get<std::string>());
-  for (const auto& t : j["messages_text"]) out += fmt::format("  text: {}\n", t.get<std::string>());
-  if (j.contains("time")) {
-    out += fmt::format("time: {:.3f} .. {:.3f} s since boot ({:.1f} s, from ATT)\n", j["time"]["start_s"].get<double>(),
-                       j["time"]["end_s"].get<double>(), j["time"]["duration_s"].get<double>());
-  }
-  out += fmt::format("{:<6} {:>8} {:>9}\n", "type", "count", "rate_Hz");
-  for (const auto& t : j["types"]) {
-    const std::string rate = t.contains("rate_hz") ? fmt::format("{:.2f}", t["rate_hz"].get<double>()) : "-";
-    out += fmt::format("{:<6} {:>8} {:>9}\n", t["name"].get<std::string>(), t["count"].get<size_t>(), rate);
-  }
-  out += fmt::format("parameters: {} ({} of interest)\n", j["parameter_count"].get<size_t>(), j["params"].size());
-  for (const auto& [k, v] : j["params"].items()) out += fmt::format("  {} = {}\n", k, v.get<double>());
-  out += "damage:";
-  for (const auto& [k, v] : j["damage"].items()) {
-    if (v.is_number_unsigned()) out += fmt::format(" {}={}", k, v.get<size_t>());
-  }
-  out += fmt::format(" damaged_record_share={:.4f}\n", j["damage"]["damaged_record_share"].get<double>());
-  for (const auto& [k, v] : j["damage"]["records_dropped_by_message"].items()) {
-    out += fmt::format("  dropped {} records: {}\n", k, v.get<size_t>());
-  }
-  return out;
 }
 
 }  // namespace hexsim::logs

@@ -8,6 +8,7 @@
 #include "hexsim/render/figures.h"
 #include "hexsim/render/html.h"
 #include "hexsim/render/plot.h"
+#include "gap_figures.h"
 
 namespace hexsim::reports {
 
@@ -15,21 +16,6 @@ using gap::GapReport;
 namespace {
 
 std::string Escape(const std::string& s) { return render::HtmlEscape(s); }
-
-std::vector<double> Norms(const std::vector<Eigen::Vector3d>& v) {
-  std::vector<double> n;
-  n.reserve(v.size());
-  for (const auto& x : v) n.push_back(x.norm());
-  return n;
-}
-
-render::Series MakeSeries(std::string label, std::vector<double> x, std::vector<double> y) {
-  render::Series s;
-  s.label = std::move(label);
-  s.x = std::move(x);
-  s.y = std::move(y);
-  return s;
-}
 
 Status Png(const render::Plot2D& p, const std::string& path) {
   auto img = render::Render(p, render::kFigureWidth_px, render::kFigureHeight_px);
@@ -39,10 +25,7 @@ Status Png(const render::Plot2D& p, const std::string& path) {
   return WriteFileAtomic(path, *png);
 }
 
-// Field quantities are shown in mG (1 mG = 0.1 µT), every other in the channel's own unit.
-bool IsCompass(const gap::ChannelResult& c) { return c.unit == "uT"; }
-double Shown(const gap::ChannelResult& c, double v) { return IsCompass(c) ? gap::kMilliGaussPerMicroTesla * v : v; }
-std::string ShownUnit(const gap::ChannelResult& c) { return IsCompass(c) ? "mG" : c.unit; }
+double Shown(const gap::ChannelResult& c, double v) { return GapShownScale(c) * v; }
 
 std::string LagRow(const char* what, const gap::LagReport& l) {
   if (!l.present) return "";
@@ -132,6 +115,17 @@ std::string LeftHtml(const gap::ResidualLeft& l) {
                      Escape(l.concentrated.empty() ? "no phase or regime" : l.concentrated));
 }
 
+// The channel's figures as PNGs beside gap.html, each in a paragraph (the time figure with its
+// phase shading's legend).
+Status ChannelFigures(const gap::ChannelResult& c, const std::vector<gap::PhaseSpan>& phases, const std::string& dir,
+                      std::string* html) {
+  for (const GapFigure& f : GapChannelFigures(c, phases)) {
+    HEXSIM_RETURN_IF_ERROR(Png(f.plot, fmt::format("{}/{}", dir, f.file)));
+    *html += "<p><img src=\"" + f.file + "\">" + (f.phase_legend ? "<br>Shading: " + PhaseLegendHtml() : "") + "</p>";
+  }
+  return Status::Ok();
+}
+
 }  // namespace
 
 Status WriteGapHtml(const GapReport& r, const std::string& dir) {
@@ -152,14 +146,12 @@ Status WriteGapHtml(const GapReport& r, const std::string& dir) {
     }
     html += "</table>";
   }
-  static const char* kPhaseColours[] = {"#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f"};
-  static const char* kPhases[] = {"ground", "takeoff", "hover", "climb", "cruise", "descent", "landing", "excluded"};
   for (const auto& c : r.channels) {
     html += "<h2>" + Escape(c.channel) + "</h2>";
     html += fmt::format("<p>verdict <b>{}</b>{}; residual RMS {:.3g} {}, noise floor {:.2g} {} RMS, p = {:.3g}, "
                         "held-out shrink {:.0f} %{}</p>",
-                        Escape(c.verdict), c.partial ? " (partial)" : "", Shown(c, c.rms_before), ShownUnit(c),
-                        Shown(c, c.noise_rms), ShownUnit(c), c.p_value, 100 * c.heldout_shrink,
+                        Escape(c.verdict), c.partial ? " (partial)" : "", Shown(c, c.rms_before), GapShownUnit(c),
+                        Shown(c, c.noise_rms), GapShownUnit(c), c.p_value, 100 * c.heldout_shrink,
                         c.reference_contaminated ? " &mdash; <b>reference-contaminated</b>" : "");
     if (!c.headline.empty()) html += "<p><b>" + Escape(c.headline) + "</b></p>";
     if (!c.explanation.empty()) html += "<p>" + Escape(c.explanation) + "</p>";
@@ -170,61 +162,7 @@ Status WriteGapHtml(const GapReport& r, const std::string& dir) {
     }
     html += TimingHtml(c.timing) + NuisanceHtml(c) + LeftHtml(c.residual_left);
     html += EffectsHtml(c) + CandidatesHtml(c);
-    // Residual vs time with phases.
-    render::Plot2D p;
-    p.title = c.channel + ": |residual| against time";
-    p.x_label = "t (s)";
-    p.y_label = "|residual| (" + c.unit + ")";
-    p.series.push_back(MakeSeries("before", c.t_s, Norms(c.residual_before)));
-    p.series.push_back(MakeSeries("after", c.t_s, Norms(c.residual_after)));
-    for (const auto& ph : r.phases) {
-      for (int i = 0; i < 8; ++i) {
-        if (ph.phase == kPhases[i] && ph.t1_s > ph.t0_s) {
-          p.spans.push_back({ph.t0_s, ph.t1_s, "", render::Hex(kPhaseColours[i], 0.12f)});
-        }
-      }
-    }
-    const std::string f1 = "gap_" + c.channel + "_time.png";
-    HEXSIM_RETURN_IF_ERROR(Png(p, fmt::format("{}/{}", dir, f1)));
-    html += "<p><img src=\"" + f1 + "\"><br>Shading: ";
-    for (int i = 0; i < 8; ++i) html += fmt::format("<span style=\"color:{}\">{}</span> ", kPhaseColours[i], kPhases[i]);
-    html += "</p>";
-    // Per-axis before/after.
-    render::Plot2D q;
-    q.title = c.channel + ": residual per axis, before (solid) and after (dashed) the chosen effect";
-    q.x_label = "t (s)";
-    q.y_label = c.unit;
-    const char* ax[3] = {"x", "y", "z"};
-    for (int a = 0; a < 3; ++a) {
-      render::Series sb = MakeSeries(std::string(ax[a]) + " before", c.t_s, {});
-      render::Series sa = MakeSeries(std::string(ax[a]) + " after", c.t_s, {});
-      for (const auto& v : c.residual_before) sb.y.push_back(v[a]);
-      for (const auto& v : c.residual_after) sa.y.push_back(v[a]);
-      sb.colour = render::PaletteColour(a);
-      sa.colour = render::PaletteColour(a);
-      sa.dashed = true;
-      q.series.push_back(sb);
-      q.series.push_back(sa);
-    }
-    const std::string f2 = "gap_" + c.channel + "_axes.png";
-    HEXSIM_RETURN_IF_ERROR(Png(q, fmt::format("{}/{}", dir, f2)));
-    html += "<p><img src=\"" + f2 + "\"></p>";
-    if (!c.chosen_regressor.empty() && c.chosen_regressor.size() == c.residual_before.size()) {
-      render::Plot2D s;
-      s.title = c.channel + ": residual against " + c.chosen_regressor_name;
-      s.x_label = c.chosen_regressor_name;
-      s.y_label = c.unit;
-      for (int a = 0; a < 3; ++a) {
-        render::Series se = MakeSeries(std::string(ax[a]), c.chosen_regressor, {});
-        for (const auto& v : c.residual_before) se.y.push_back(v[a]);
-        se.style = render::SeriesStyle::kScatter;
-        se.marker_px = 2.0f;
-        s.series.push_back(se);
-      }
-      const std::string f3 = "gap_" + c.channel + "_regressor.png";
-      HEXSIM_RETURN_IF_ERROR(Png(s, fmt::format("{}/{}", dir, f3)));
-      html += "<p><img src=\"" + f3 + "\"></p>";
-    }
+    HEXSIM_RETURN_IF_ERROR(ChannelFigures(c, r.phases, dir, &html));
   }
   if (!r.not_diagnosed.empty()) {
     html += "<h2>Not diagnosed</h2><ul>";

@@ -142,13 +142,22 @@ def calib_current(cdir):
 
 
 def import_units(csv, ref):
-    """Failures of hexsim's imported current/voltage against the reference's own reading."""
+    """Failures of hexsim's imported current/voltage against the reference's own reading.
+
+    The reference's median is over the power messages as logged, so hexsim's is taken over its
+    native-rate power stream (<log>.batt.csv, the same records) where it wrote one: the main CSV holds
+    each value until the next on its own row grid, and on a short log that is half on the ground (a
+    current 0 A or 15 A) the median of two samplings of one signal can sit anywhere on the take-off
+    ramp (a 19-s PX4 log: 10.3 A on the row grid, 7.0 A over the records)."""
     fails = []
+    batt = csv[:-len(".csv")] + ".batt.csv"
+    if os.path.exists(batt):
+        csv = batt
     try:
         import numpy as np
         with open(csv) as fh:
             head = fh.readline().strip().split(",")
-        data = np.genfromtxt(csv, delimiter=",", skip_header=1, invalid_raise=False)
+        data = np.genfromtxt(csv, delimiter=",", skip_header=1, invalid_raise=False, ndmin=2)
     except (OSError, ValueError) as e:
         return ["import: CSV unreadable (%s)" % e]
     for col, key, unit in (("current_A", "amps_all", "A"), ("voltage_V", "volts_all", "V")):
@@ -407,10 +416,12 @@ def main():
     ap.add_argument("--json")
     ap.add_argument("--md")
     ap.add_argument("--status")
+    ap.add_argument("--sources", help="the sources file naming the logs (default: sources.json beside "
+                    "this script)")
     a = ap.parse_args()
     here = os.path.dirname(os.path.abspath(__file__))
     logs = [os.path.join(a.corpus, s["file"])
-            for s in json.load(open(os.path.join(here, "sources.json")))]
+            for s in json.load(open(a.sources or os.path.join(here, "sources.json")))]
     rows = []
     for log in logs:
         try:
