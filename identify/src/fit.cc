@@ -546,6 +546,17 @@ void FillParams(const std::map<std::string, double>& value, const std::map<std::
     p.range_reason = pr ? pr->reason : "no stated range";
     if (!std::isfinite(p.value) || !p.plausible()) p.source = "model mismatch";
     p.applied = p.source == "fitted" && p.ci95[0] >= p.range[0] && p.ci95[1] <= p.range[1];
+    if (p.source == "fitted" && !p.applied) p.not_applied = "the interval leaves the physical range";
+    // The profile's best value at the grid's last (slowest) lag: the held-out fit wants a slower
+    // response than the grid holds (a log whose outputs lead the thrust by a delay, filtering the
+    // first-order lag does not describe), so the value is a lower bound, not the motor's lag.
+    if (std::string(sp.name) == "motor_time_constant_s" && p.source == "fitted" &&
+        p.value >= kTauGrid_s[kTauCount - 1]) {
+      p.applied = false;
+      p.not_applied = fmt::format("the profile's best is its grid's last value ({:g} s): a lower bound, not an "
+                                  "estimate (the response lags more than a first-order motor lag describes)",
+                                  kTauGrid_s[kTauCount - 1]);
+    }
     res.params[sp.name] = p;
     res.param_order.emplace_back(sp.name);
   }

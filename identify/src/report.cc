@@ -44,6 +44,7 @@ nlohmann::json ToJson(const IdentifyResult& r) {
                  {"physical_range_reason", p.range_reason},
                  {"plausible", p.plausible()},
                  {"applied", p.applied},
+                 {"not_applied", p.not_applied},
                  {"note", p.note}};
   }
   j["params"] = params;
@@ -82,7 +83,7 @@ std::string Summary(const IdentifyResult& r) {
   for (const auto& k : r.param_order) {
     const Param& p = r.params.at(k);
     s += fmt::format("  {:<32} {:>11.5g}  [{:.5g}, {:.5g}] {:<7} {}{}\n", k, p.value, p.ci95[0], p.ci95[1], p.unit, p.source,
-                     p.source == "fitted" && !p.applied ? " (not applied: interval leaves the physical range)" : "");
+                     p.source == "fitted" && !p.applied ? " (not applied: " + p.not_applied + ")" : std::string());
   }
   for (const auto& h : r.heldout) {
     s += fmt::format("  held-out {:<24} RMS {:.4g} -> residual {:.4g} {} (R² {:.2f}, {} samples)\n", h.output,

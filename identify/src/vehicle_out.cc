@@ -207,7 +207,7 @@ Result<std::string> IdentifiedVehicleYaml(const std::string& base_yaml_text, con
   for (const auto& k : r.param_order) {
     const Param& p = r.params.at(k);
     head += fmt::format("#   {:<32} {:>12.5g} [{:.5g}, {:.5g}] {} ({}{})\n", k, p.value, p.ci95[0], p.ci95[1], p.unit,
-                        p.source, p.source == "fitted" ? (p.applied ? ", applied" : ", not applied: interval leaves the range") : "");
+                        p.source, p.source == "fitted" ? (p.applied ? ", applied" : ", not applied: " + p.not_applied) : std::string());
   }
   head += "# Control: " + control_note + ".\n";  head += "# Rotors: " + (r.layout_from_log ? "the log's layout, from " + r.layout_source : "the base's") + ".\n";
   head += "# Applied: k_T (thrust_scale), k_Q (yaw_torque_coefficient_m), motor inertia (motor_time_constant_s),\n"

@@ -408,6 +408,35 @@ TEST(Identify, GivenFitBlocksThatMisleadTheFit_WhenIdentified_ThenItImprovesNoth
   EXPECT_EQ(outcome, "not written");
 }
 
+// A log whose motor outputs lead the thrust by half a second (the outputs stamped earlier than the
+// vehicle answers): the motor-lag profile's best is its grid's slowest value, a bound the fit cannot
+// place; it is reported, not written into the vehicle, and every output says why.
+TEST(Identify, GivenOutputsThatLeadTheThrustByADelay_WhenIdentified_ThenTheMotorLagAtTheGridsEdgeIsNotApplied) {
+  const Flight& f = QuadFlight();
+  logs::FlightLog log = f.log;
+  const auto& t = log.Column("t_s");
+  const double dt_s = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
+  const auto lead = static_cast<size_t>(std::lround(0.5 / dt_s));
+  for (int m = 1; m <= 4; ++m) {
+    auto& u = log.MutableColumn(static_cast<size_t>(log.ColumnIndex(fmt::format("motor_{}_u", m))));
+    for (size_t k = 0; k + lead < u.size(); ++k) u[k] = u[k + lead];
+  }
+  auto r = Identify(log, f.setup.vehicle);
+  ASSERT_TRUE(r.ok()) << r.status().message();
+  const Param& tau = r->params.at("motor_time_constant_s");
+  EXPECT_EQ(tau.source, "fitted");
+  EXPECT_DOUBLE_EQ(tau.value, 0.3);
+  EXPECT_FALSE(tau.applied);
+  EXPECT_NE(tau.not_applied.find("a lower bound, not an estimate"), std::string::npos) << tau.not_applied;
+  EXPECT_NE(Summary(*r).find("(not applied: the profile's best is its grid's last value (0.3 s)"), std::string::npos)
+      << Summary(*r);
+  EXPECT_EQ(ToJson(*r)["params"]["motor_time_constant_s"]["not_applied"], tau.not_applied);
+  // The unshifted flight's lag is an estimate and applied.
+  auto ref = Identify(f.log, f.setup.vehicle);
+  ASSERT_TRUE(ref.ok()) << ref.status().message();
+  EXPECT_TRUE(ref->params.at("motor_time_constant_s").applied) << ref->params.at("motor_time_constant_s").not_applied;
+}
+
 // The simulated quad's motors renumbered as another autopilot order: motor k of the new log is the
 // quad_x motor perm[k] (1-based).
 logs::FlightLog Renumbered(const logs::FlightLog& in, const std::vector<int>& perm) {

@@ -36,7 +36,7 @@ Status Png(const render::Plot2D& p, const std::string& path) {
 std::string InTheVehicle(const identify::Param& p) {
   if (p.source == "base") return "kept from the base";
   if (p.source == "model mismatch") return "not applied: outside its physical range (model mismatch), base kept";
-  if (!p.applied) return "not applied: the interval leaves the physical range, base kept";
+  if (!p.applied) return "not applied: " + p.not_applied + ", base kept";
   return "applied";
 }
 

@@ -56,8 +56,10 @@ struct Param {
   std::string range_reason;       // that row's reason
   std::string note;
   // Written into the vehicle: fitted, and the whole 95 % interval inside the physical range (a fit
-  // whose interval leaves the range did not determine the parameter; the base value stays).
+  // whose interval leaves the range did not determine the parameter; the base value stays), and, for
+  // a value profiled over a grid, not the grid's last value (there it is a bound, not an estimate).
   bool applied = false;
+  std::string not_applied;  // why a fitted value was not applied ("" where applied or not fitted)
   bool plausible() const { return value >= range[0] && value <= range[1]; }
 };
 
