@@ -45,8 +45,18 @@ std::string Head() {
   return "<!doctype html><html><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width, "
          "initial-scale=1\"><title>hexsim identify</title><style>body{font-family:sans-serif;max-width:1150px;margin:"
          "auto;padding:0 8px;overflow-wrap:anywhere}.wide{overflow-x:auto}table{border-collapse:collapse}td,th{border:"
-         "1px solid #ccc;padding:3px 6px;vertical-align:top}td.n{text-align:right;white-space:nowrap}img{max-width:"
+         "1px solid #ccc;padding:3px 6px;vertical-align:top}th,td.n,td.u{white-space:nowrap}td.n{text-align:right}td.k{overflow-wrap:normal}td.d{min-width:16em}img{max-width:"
          "100%;height:auto}.warn{background:#fde;padding:6px;border:1px solid #c99}</style></head><body>";
+}
+
+// A parameter name that may wrap after each underscore (a long name never breaks mid-word).
+std::string Breakable(const std::string& name) {
+  std::string out;
+  for (char ch : name) {
+    out += render::HtmlEscape(std::string(1, ch));
+    if (ch == '_') out += "<wbr>";
+  }
+  return out;
 }
 
 std::string ParamTable(const identify::IdentifyResult& r) {
@@ -55,9 +65,9 @@ std::string ParamTable(const identify::IdentifyResult& r) {
                      "<th>physical range</th><th>unit</th><th>source</th><th>in the vehicle</th><th>definition</th></tr>";
   for (const auto& k : r.param_order) {
     const identify::Param& p = r.params.at(k);
-    html += fmt::format("<tr><td>{}</td><td class=\"n\">{:.5g}</td><td class=\"n\">[{:.5g}, {:.5g}]</td><td class=\"n\" "
-                        "title=\"{}\">[{:.4g}, {:.4g}]</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-                        k, p.value, p.ci95[0], p.ci95[1], HtmlEscape(p.range_reason), p.range[0], p.range[1],
+    html += fmt::format("<tr><td class=\"k\">{}</td><td class=\"n\">{:.5g}</td><td class=\"n\">[{:.5g}, {:.5g}]</td><td "
+                        "class=\"n\" title=\"{}\">[{:.4g}, {:.4g}]</td><td class=\"u\">{}</td><td class=\"k\">{}</td><td>{}</td><td class=\"d\">{}</td></tr>",
+                        Breakable(k), p.value, p.ci95[0], p.ci95[1], HtmlEscape(p.range_reason), p.range[0], p.range[1],
                         HtmlEscape(p.unit), HtmlEscape(p.source), InTheVehicle(p), HtmlEscape(p.note));
   }
   return html + "</table></div>";
