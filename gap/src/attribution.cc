@@ -210,7 +210,7 @@ Candidate Join(const Candidate& a, const Candidate& b) {
   j.scale.insert(j.scale.end(), b.scale.begin(), b.scale.end());
   for (size_t k = 0; k < j.X.size(); ++k) {
     Mat3X x(3, a.p() + b.p());
-    x << a.X[k], b.X[k];
+    x << a.X[k], (b.X_joint.size() == b.X.size() ? b.X_joint[k] : b.X[k]);
     j.X[k] = x;
   }
   return j;

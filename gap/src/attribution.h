@@ -71,7 +71,7 @@ std::vector<int> Range(int a, int b);
 // nonlinear parameter profiled over a grid away from its default (an exponent other than the linear
 // 1, a lag τ other than 0): choosing the best of several grid values is a fit too.
 int Dof(const Candidate& c);
-// Stacks two candidates' regressors side by side.
+// Stacks two candidates' regressors side by side (b's Candidate::X_joint where it has them).
 Candidate Join(const Candidate& a, const Candidate& b);
 
 class Analyzer {

@@ -36,6 +36,9 @@ struct Candidate {
   std::string grid2_name;         // e.g. "exponent"; empty: none
   std::string magnitude_unit;
   int magnitude_params = -1;  // the magnitude uses the first this many parameters (-1: all)
+  // The columns it joins another effect's fit with (Join), where X are taken beside a field that
+  // effect describes (verdict.cc BesideDrive keeps its own columns here); empty: X.
+  std::vector<Mat3X> X_joint;
   int p() const { return static_cast<int>(names.size()); }
 };
 

@@ -164,5 +164,26 @@ TEST(GapJointFit, GivenACurrentSoftIronBesideACurrentHardIron_WhenDiagnosed_Then
   EXPECT_GE(soft->ci95.hi + w, truth) << Summary(*rep);
 }
 
+// Given a member whose own columns were taken beside a field (verdict.cc BesideDrive) and which keeps
+// its columns as they were (Candidate::X_joint), when joined to a model, then it enters with those:
+// the joint fit holds the whole effect, not only the part the removed field did not share.
+TEST(GapJointFit, GivenAMemberWithColumnsForAJointFit_WhenJoined_ThenItEntersWithThem) {
+  internal::Candidate model = internal::MakeCandidate("current_hard_iron", {"d"}, {1.0}, "uT/A");
+  internal::Candidate member = internal::MakeCandidate("scale_error", {"g"}, {1.0}, "1");
+  for (int k = 0; k < 3; ++k) {
+    model.X.push_back(internal::Mat3X::Constant(3, 1, 1.0 + k));
+    member.X.push_back(internal::Mat3X::Constant(3, 1, -0.5));   // as taken beside the field
+    member.X_joint.push_back(internal::Mat3X::Constant(3, 1, 2.0 * k));  // as they were
+  }
+  const internal::Candidate j = internal::Join(model, member);
+  ASSERT_EQ(j.p(), 2);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_DOUBLE_EQ(j.X[static_cast<size_t>(k)](0, 0), 1.0 + k);
+    EXPECT_DOUBLE_EQ(j.X[static_cast<size_t>(k)](2, 1), 2.0 * k);
+  }
+  member.X_joint.clear();
+  EXPECT_DOUBLE_EQ(internal::Join(model, member).X[1](0, 1), -0.5);
+}
+
 }  // namespace
 }  // namespace hexsim::gap

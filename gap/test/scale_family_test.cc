@@ -95,6 +95,63 @@ TEST(GapScaleFamily, GivenAnAxisScaleAndAnUnmodelledCurrentField_WhenDiagnosed_T
   ExpectScaleBesideCurrentField(2113);
 }
 
+// Given the vertical axis reading 10 % small beside a current field the vehicle file does not model,
+// when diagnosed, then the scale family reads the vertical gain it has beside that field: the tilt a
+// copter takes to fly fast carries the current's field into the gain the family alone fits (the
+// member was refused and the scale went missing; scripts/withheld_sim: −0.10 on z beside a log's
+// whole current field read −0.068 alone, −0.098 beside it), so the family is fitted beside the field
+// (verdict.cc BesideDrive) and its z gain and interval hold the planted one.
+TEST(GapScaleFamily, GivenAVerticalAxisScaleBesideAnUnmodelledCurrentField_WhenDiagnosed_ThenTheGainIsReadBesideTheField) {
+  gaptest::Flown f = gaptest::FlyInjected({{"current_hard_iron", 0.3}}, 2114, "scale_family", "selftest_flight");
+  constexpr double kGain = -0.10;
+  ScaleMag2Z(kGain, &f.log);
+  DiagnoseOptions o;
+  o.channels = {"mag2"};
+  auto rep = Diagnose(f.log, f.trial.configured, o);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr);
+  EXPECT_TRUE(InEffects(*mag2, "current_hard_iron")) << Summary(*rep);
+  const CandidateResult* s = gaptest::FindCandidate(*mag2, "scale_error");
+  ASSERT_NE(s, nullptr) << Summary(*rep);
+  ASSERT_TRUE(s->params.count("scale_z_minus_1")) << Summary(*rep);
+  EXPECT_NEAR(s->params.at("scale_z_minus_1"), kGain, 0.2 * std::fabs(kGain)) << Summary(*rep);
+  EXPECT_LE(s->magnitude_ci95[0], std::fabs(kGain)) << Summary(*rep);
+  EXPECT_GE(s->magnitude_ci95[1], std::fabs(kGain)) << Summary(*rep);
+  EXPECT_TRUE(InEffects(*mag2, "scale_error")) << Summary(*rep);
+}
+
+// A vertical axis reading 10 % small on a log at a real autopilot's rates beside a current field the
+// vehicle file does not model (its latency unmodelled too), flown with `seed`: scale_error in effects,
+// sized in the joint fit, its interval widened by a tenth of its width on each side holding the gain.
+void ExpectVerticalScaleBesideFieldOnARealLog(uint64_t seed) {
+  gaptest::FlownReal r = gaptest::FlyAsRealLog({{"current_hard_iron", 0.3}}, seed, "scale_family");
+  constexpr double kGain = -0.10;
+  ScaleMag2Z(kGain, &r.log);
+  DiagnoseOptions o;
+  o.channels = {"mag2"};
+  auto rep = Diagnose(r.log, r.flown.trial.configured, o);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr);
+  bool found = false;
+  for (const EffectShare& e : mag2->effects) {
+    if (e.effect != "scale_error") continue;
+    found = true;
+    const double w = e.ci95.hi - e.ci95.lo;
+    EXPECT_LE(e.ci95.lo - 0.1 * w, std::fabs(kGain)) << Summary(*rep);
+    EXPECT_GE(e.ci95.hi + 0.1 * w, std::fabs(kGain)) << Summary(*rep);
+  }
+  EXPECT_TRUE(found) << "seed " << seed << "\n" << Summary(*rep);
+}
+
+// Given that on logs at a real autopilot's rates, when diagnosed, then the scale is an effect with its
+// size (on each of these flights the vertical member was refused for the gain it moved to alone, and
+// no scale_error was named: scripts/withheld_sim's −0.10 z scale beside a 91 ms latency, seed 2028).
+TEST(GapScaleFamily, GivenAVerticalAxisScaleBesideAnUnmodelledFieldOnARealLog_WhenDiagnosed_ThenItIsAnEffectWithItsSize) {
+  for (uint64_t seed : {2115, 2116, 2117}) ExpectVerticalScaleBesideFieldOnARealLog(seed);
+}
+
 // Given a current-driven soft iron on a log at a real autopilot's rates (10 Hz rows, the current
 // stale), whose current does not vary enough while the vehicle turns for the soft iron's dependence on
 // it to be resolved beyond a constant matrix and the current's own field, when diagnosed, then
