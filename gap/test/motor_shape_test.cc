@@ -12,7 +12,10 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include "../src/attribution.h"
 #include "../src/channels.h"
+#include "hexsim/common/rng.h"
+#include "support/synthetic_channel.h"
 #include "hexsim/magnetics/current_field.h"
 #include "hexsim/vehicle/vehicle_io.h"
 
@@ -121,6 +124,50 @@ TEST(GapMotorShape, GivenNoPerMotorShape_WhenReplayed_ThenCurrentHardIronHasNoSh
     if (s.source == magnetics::CurrentSource::kBattery) battery_only.wiring.segments.push_back(s);
   }
   EXPECT_EQ(ShapeMember(Replay(RollingLog(0.15), battery_only)), nullptr);
+}
+
+// A compass channel over an offset baseline whose residual is −shape (the file's per-motor shape
+// the aircraft does not have) plus `d_uT_per_A`·I on x and 0.2 µT noise, and current_hard_iron's
+// shape member (d·I beside the shape's column, its magnitude d alone).
+internal::ChannelData ShapeChannel(double d_uT_per_A, uint64_t seed) {
+  internal::ChannelData ch = gaptest::OffsetBaselineCompass("mag2");
+  internal::Candidate chs = internal::MakeCandidate("current_hard_iron", {"d_x", "d_y", "d_z", "motor_shape_share"},
+                                                    {1, 1, 1, 1}, "uT/A");
+  chs.magnitude_params = 3;
+  RngStream rng(seed, "motor_shape_test");
+  for (int k = 0; k < 1200; ++k) {
+    const double t = 0.1 * k;
+    const double I = 14.0 + 4.0 * std::sin(2 * M_PI * t / 29.0);
+    const Vec3 shape = 0.6 * Vec3(std::sin(2 * M_PI * t / 7.0), std::cos(2 * M_PI * t / 11.0), 0.5 * std::sin(2 * M_PI * t / 5.0));
+    ch.t.push_back(t);
+    ch.y.emplace_back(-shape + Vec3(d_uT_per_A * I, 0, 0) + 0.2 * Vec3(rng.Normal(), rng.Normal(), rng.Normal()));
+    ch.current_A.push_back(I);
+    ch.baseline.X.emplace_back(internal::Mat3X(Eigen::Matrix3d::Identity()));
+    internal::Mat3X x(3, 4);
+    x << Eigen::Matrix3d::Identity() * I, shape;
+    chs.X.push_back(x);
+  }
+  ch.candidates = {chs};
+  return ch;
+}
+
+// Given a residual that is all per-motor shape (no field in proportion to the battery current),
+// when the shape member is tested, then its test, over the field per ampere it reports, finds
+// nothing (over all four columns the shape's share alone made p ≈ 0: a current effect of 0 mG/A
+// "detected"); and a 0.5 mG/A field beside the shape is still found.
+TEST(GapMotorShape, GivenAResidualThatIsAllShape_WhenTheShapeMemberIsTested_ThenOnlyItsFieldPerAmpereIsTested) {
+  DiagnoseOptions o;
+  for (uint64_t seed : {41u, 42u, 43u}) {
+    const internal::ChannelData none = ShapeChannel(0.0, seed);
+    const internal::Analyzer an(none, o);
+    const internal::Evaluated e = an.Evaluate(none.candidates[0]);
+    ASSERT_TRUE(e.full.ok);
+    EXPECT_NEAR(e.full.beta[e.off + 3], -1.0, 0.05);  // the shape's share: −1, none of it in the aircraft
+    EXPECT_GT(e.wald_p, 0.01) << "seed " << seed;
+    const internal::ChannelData some = ShapeChannel(0.05, seed);
+    const internal::Analyzer an2(some, o);
+    EXPECT_LT(an2.Evaluate(some.candidates[0]).wald_p, 1e-3) << "seed " << seed;
+  }
 }
 
 }  // namespace
