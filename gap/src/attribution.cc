@@ -390,7 +390,10 @@ Evaluated Analyzer::EvaluateX(const Candidate* c, bool full_only) const {
   }
   const Eigen::MatrixXd Ainv = A.inverse();
   e.cov = Ainv * meat * Ainv * (static_cast<double>(G_) / (G_ - 1));
-  e.wald_p = WaldP(e.full.beta, e.cov, Range(p0, p), G_);
+  // The test asks for the effect's own parameters, those its magnitude holds: a form column beside
+  // them (current_hard_iron's per-motor shape share, replay_compass.cc MotorShape) is fitted, not tested.
+  const int tested = c != nullptr && c->magnitude_params > 0 ? std::min(c->magnitude_params, pc) : pc;
+  e.wald_p = WaldP(e.full.beta, e.cov, Range(p0, p0 + tested), G_);
   return e;
 }
 

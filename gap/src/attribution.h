@@ -50,7 +50,8 @@ struct Evaluated {
   std::vector<double> fold_sse;  // held-out SSE per CV fold
   double p_value = 1;
   double bic = 0;
-  double wald_p = 1;    // cluster-robust Wald test of the candidate's parameters (Hotelling T², F(q, G − q))
+  double wald_p = 1;    // cluster-robust Wald test of the effect's own parameters, those its magnitude holds
+                        // (Candidate::magnitude_params; Hotelling T², F(q, G − q))
   Eigen::MatrixXd cov;  // cluster-robust covariance of beta
   int p() const { return static_cast<int>(full.beta.size()); }
 };

@@ -378,7 +378,14 @@ const Candidate* RefitMember(const ChannelData& ch, const Analyzer& an, const Ca
         !(k.params.count(cand.grid_name) > 0 && k.params.at(cand.grid_name) == cand.grid_value)) {
       continue;
     }
-    if (!profiled) return &cand;
+    // Members of one shift that differ in their columns (current_hard_iron's with the file's
+    // per-motor shape, MotorShape): the one with every reported parameter, the most columns.
+    if (!profiled) {
+      const bool reported = std::all_of(cand.names.begin(), cand.names.end(),
+                                        [&k](const std::string& n) { return k.params.count(n) > 0; });
+      if (reported && (member == nullptr || cand.names.size() > member->names.size())) member = &cand;
+      continue;
+    }
     const Evaluated e = an.FitOnly(cand);
     if (e.full.ok && (member == nullptr || e.full.sse < best_sse)) {
       member = &cand;

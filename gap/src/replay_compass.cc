@@ -176,7 +176,44 @@ std::vector<CurrentMember> CurrentMembers(const CompassRows& rows, const Compass
   return out;
 }
 
-void AddCurrentIron(const std::vector<CurrentMember>& members, const CompassRows& rows, ChannelData* ch) {
+// The configured wiring field's per-motor shape at each sample, in the sensor frame: the field of
+// the currents as split over the motors (the prediction's) less the field of the same motor current
+// shared equally, which is in proportion to the battery current. With --sim the residual holds
+// −shape where the aircraft's field does not follow the file's per-motor split (a wiring field the
+// file models wrongly); the battery current cannot describe it, and a manoeuvre moves it (differential
+// thrust follows the tilt). Empty where the file has no per-motor wiring or the shape stays under
+// kMotorShapeFloor_uT RMS.
+// The floor: current_lag's configured-wiring member's (0.05 µT RMS, 0.5 mG: under a tenth of a
+// compass's per-sample noise, 0.2-0.4 µT, a column no flight resolves).
+constexpr double kMotorShapeFloor_uT = 0.05;
+std::vector<Vec3> MotorShape(const CompassSampler& sampler, const CompassRows& rows, const std::vector<double>& t) {
+  const size_t n = rows.currents.size();
+  std::vector<Vec3> shape(n, Vec3::Zero());
+  if (n == 0 || n != t.size()) return {};
+  magnetics::CurrentLagState lag;
+  double energy = 0;
+  for (size_t k = 0; k < n; ++k) {
+    const double dt = k == 0 ? 0.0 : t[k] - t[k - 1];
+    const magnetics::Currents& cur = magnetics::StepCurrentLag(sampler.wiring(), rows.currents[k], dt, &lag);
+    if (cur.motor_A.empty()) return {};
+    magnetics::Currents equal = cur;
+    double motors = 0;
+    for (double a : cur.motor_A) motors += a;
+    std::fill(equal.motor_A.begin(), equal.motor_A.end(), motors / static_cast<double>(cur.motor_A.size()));
+    shape[k] = rows.Msens[k] * (sampler.field()(cur) - sampler.field()(equal));
+    energy += shape[k].squaredNorm();
+  }
+  if (!(std::sqrt(energy / static_cast<double>(n)) > kMotorShapeFloor_uT)) return {};
+  return shape;
+}
+
+// current_hard_iron's members: d·I (the field in proportion to the battery current) and, where the
+// file models a per-motor shape (MotorShape), d·I + a·shape, a the share of the modelled per-motor
+// shape the aircraft shows beyond the file's (physical range [−1, 1]: −1 none of it, the field in
+// proportion to the battery current; 0 the file's; +1 twice the file's). Its magnitude is |d| alone
+// (the gap's field per ampere); the held-out blocks decide between the two members (ReportedMember).
+void AddCurrentIron(const std::vector<CurrentMember>& members, const CompassRows& rows, const std::vector<Vec3>& shape,
+                    ChannelData* ch) {
   for (const CurrentMember& mem : members) {
     const double shift = mem.shift_s;
     const std::vector<double>& I = mem.I;
@@ -201,6 +238,20 @@ void AddCurrentIron(const std::vector<CurrentMember>& members, const CompassRows
     }
     ch->candidates.push_back(std::move(chi));
     ch->candidates.push_back(std::move(csi));
+    if (!shape.empty()) {
+      Candidate chs = MakeCandidate("current_hard_iron", {"d_x_uT_per_A", "d_y_uT_per_A", "d_z_uT_per_A", "motor_shape_share"},
+                                    {1, 1, 1, 1}, "uT/A", "current_A");
+      chs.magnitude_params = 3;
+      chs.grid_name = "current_aligned";
+      chs.grid_value = mem.shift_s;
+      for (size_t k = 0; k < ch->t.size(); ++k) {
+        Mat3X x(3, 4);
+        x << Diag3(I[k]), shape[k];
+        chs.X.push_back(x);
+        chs.regressor.push_back(I[k]);
+      }
+      ch->candidates.push_back(std::move(chs));
+    }
   }
 }
 
@@ -417,7 +468,7 @@ ChannelData ReplayCompass(const logs::FlightLog& log, const vehicle::VehiclePara
     const bool reference = o.reference_yaw && want(Effect::kReferenceYaw);
     const std::vector<CurrentMember> members =
         iron || reference ? CurrentMembers(rows, o, log.Column("t_s"), *in.current) : std::vector<CurrentMember>{};
-    if (iron) AddCurrentIron(members, rows, &ch);
+    if (iron) AddCurrentIron(members, rows, MotorShape(sampler, rows, ch.t), &ch);
     using Form = LagMembers::Form;
     const Form lag = o.lag_members.form;
     if (want(Effect::kCurrentLag) && lag != Form::kFree) AddCurrentLag(sampler, rows, &ch);
