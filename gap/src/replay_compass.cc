@@ -209,9 +209,13 @@ std::vector<Vec3> MotorShape(const CompassSampler& sampler, const CompassRows& r
 
 // current_hard_iron's members: d·I (the field in proportion to the battery current) and, where the
 // file models a per-motor shape (MotorShape), d·I + a·shape, a the share of the modelled per-motor
-// shape the aircraft shows beyond the file's (physical range [−1, 1]: −1 none of it, the field in
-// proportion to the battery current; 0 the file's; +1 twice the file's). Its magnitude is |d| alone
-// (the gap's field per ampere); the held-out blocks decide between the two members (ReportedMember).
+// shape the aircraft shows beyond the file's: a + 1 is the aircraft's per-motor shape over the
+// file's, −1 none of it (the field in proportion to the battery current), 0 the file's. Physical
+// range [−3, 1]: an aircraft's ESC feeds at the compass carry up to twice the field of the file's
+// typical layout, routed either way (log_30's internal compass against quad_x: −1.7 [−2.1, −1.4]).
+// A form column: fitted and reported (gap.json params), not tested (Analyzer: magnitude_params) and
+// not a verdict of its own. Its magnitude is |d| alone (the gap's field per ampere); the held-out
+// blocks decide between the two members (ReportedMember).
 void AddCurrentIron(const std::vector<CurrentMember>& members, const CompassRows& rows, const std::vector<Vec3>& shape,
                     ChannelData* ch) {
   for (const CurrentMember& mem : members) {
