@@ -728,13 +728,29 @@ void DescribeFamilies(const DiagnoseOptions& o, double cv0, double noise_sse, co
             [&](size_t a, size_t b) { return at->results[a].heldout_shrink > at->results[b].heldout_shrink; });
 }
 
+// Whether each of the member's form columns (Candidate::form_ranges) lies inside its physical range.
+bool FormInRange(const Evaluated& e) {
+  for (const Candidate::FormRange& r : e.cand->form_ranges) {
+    const double v = e.full.beta(e.off + r.param) * e.cand->scale[static_cast<size_t>(r.param)];
+    if (!(v >= r.lo && v <= r.hi)) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 Attribution Attribute(const ChannelData& ch, const Analyzer& an, const DiagnoseOptions& o, RngStream* rng,
                       double noise_sse) {
   Attribution at;
   EvaluateCandidates(ch, an, &at);
-  for (const auto& [name, members] : at.family) {
+  for (auto& [name, members] : at.family) {
+    // A member whose form lies outside its range is no description of the family's field; the
+    // family keeps its others (where every member is outside, all of them, and its size is judged).
+    std::vector<size_t> in_range;
+    for (size_t m : members) {
+      if (FormInRange(at.all[m])) in_range.push_back(m);
+    }
+    if (!in_range.empty() && in_range.size() < members.size()) members = std::move(in_range);
     at.fam_names.push_back(name);
     at.fam_best.push_back(ReportedMember(at.all, members));
     std::vector<const Candidate*> cands;

@@ -39,6 +39,14 @@ struct Candidate {
   // The columns it joins another effect's fit with (Join), where X are taken beside a field that
   // effect describes (verdict.cc BesideDrive keeps its own columns here); empty: X.
   std::vector<Mat3X> X_joint;
+  // The parameters past magnitude_params that describe the field's form rather than its size (a
+  // share of the vehicle file's per-motor shape): each one's physical range. A member whose fitted
+  // form lies outside it describes no field of that form and is not the family's (ReportedMember).
+  struct FormRange {
+    int param = 0;
+    double lo = 0.0, hi = 0.0;
+  };
+  std::vector<FormRange> form_ranges;
   int p() const { return static_cast<int>(names.size()); }
 };
 

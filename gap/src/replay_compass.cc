@@ -214,8 +214,11 @@ std::vector<Vec3> MotorShape(const CompassSampler& sampler, const CompassRows& r
 // range [−3, 1]: an aircraft's ESC feeds at the compass carry up to twice the field of the file's
 // typical layout, routed either way (log_30's internal compass against quad_x: −1.7 [−2.1, −1.4]).
 // A form column: fitted and reported (gap.json params), not tested (Analyzer: magnitude_params) and
-// not a verdict of its own. Its magnitude is |d| alone (the gap's field per ampere); the held-out
-// blocks decide between the two members (ReportedMember).
+// not a verdict of its own; a member whose share falls outside the range describes no aircraft's
+// per-motor field (an external compass's tiny modelled shape, scaled by 109, took a slow trend on a
+// 14S log) and is not the family's (Candidate::form_ranges). Its magnitude is |d| alone (the gap's
+// field per ampere); the held-out blocks decide between the members in range (ReportedMember).
+constexpr double kMotorShapeShareLo = -3.0, kMotorShapeShareHi = 1.0;
 void AddCurrentIron(const std::vector<CurrentMember>& members, const CompassRows& rows, const std::vector<Vec3>& shape,
                     ChannelData* ch) {
   for (const CurrentMember& mem : members) {
@@ -246,6 +249,7 @@ void AddCurrentIron(const std::vector<CurrentMember>& members, const CompassRows
       Candidate chs = MakeCandidate("current_hard_iron", {"d_x_uT_per_A", "d_y_uT_per_A", "d_z_uT_per_A", "motor_shape_share"},
                                     {1, 1, 1, 1}, "uT/A", "current_A");
       chs.magnitude_params = 3;
+      chs.form_ranges.push_back({3, kMotorShapeShareLo, kMotorShapeShareHi});
       chs.grid_name = "current_aligned";
       chs.grid_value = mem.shift_s;
       for (size_t k = 0; k < ch->t.size(); ++k) {

@@ -22,6 +22,8 @@
 namespace hexsim::gap {
 namespace {
 
+using internal::Vec3;
+
 vehicle::VehicleParams QuadX() {
   auto v = vehicle::LoadVehicleFile(std::string(HEXSIM_SOURCE_DIR) + "/worlds/vehicles/quad_x.yaml");
   EXPECT_TRUE(v.ok()) << v.status().message();
@@ -167,6 +169,58 @@ TEST(GapMotorShape, GivenAResidualThatIsAllShape_WhenTheShapeMemberIsTested_Then
     const internal::ChannelData some = ShapeChannel(0.05, seed);
     const internal::Analyzer an2(some, o);
     EXPECT_LT(an2.Evaluate(some.candidates[0]).wald_p, 1e-3) << "seed " << seed;
+  }
+}
+
+// Current_hard_iron's two members (d·I alone, and d·I beside the shape with the share's range
+// [−3, 1]) over a residual `share`·shape + 0.05 µT/A·I on x, the shape `amplitude_uT` per axis.
+internal::ChannelData TwoMembers(double share, double amplitude_uT, uint64_t seed) {
+  internal::ChannelData ch = gaptest::OffsetBaselineCompass("mag2");
+  internal::Candidate plain = internal::MakeCandidate("current_hard_iron", {"d_x", "d_y", "d_z"}, {1, 1, 1}, "uT/A");
+  internal::Candidate chs = internal::MakeCandidate("current_hard_iron", {"d_x", "d_y", "d_z", "motor_shape_share"},
+                                                    {1, 1, 1, 1}, "uT/A");
+  chs.magnitude_params = 3;
+  chs.form_ranges.push_back({3, -3.0, 1.0});
+  RngStream rng(seed, "motor_shape_test");
+  for (int k = 0; k < 1200; ++k) {
+    const double t = 0.1 * k;
+    const double I = 14.0 + 4.0 * std::sin(2 * M_PI * t / 29.0);
+    const Vec3 shape = amplitude_uT * Vec3(std::sin(2 * M_PI * t / 7.0), std::cos(2 * M_PI * t / 11.0),
+                                            0.5 * std::sin(2 * M_PI * t / 5.0));
+    ch.t.push_back(t);
+    ch.y.emplace_back(share * shape + Vec3(0.05 * I, 0, 0) + 0.2 * Vec3(rng.Normal(), rng.Normal(), rng.Normal()));
+    ch.current_A.push_back(I);
+    ch.baseline.X.emplace_back(internal::Mat3X(Eigen::Matrix3d::Identity()));
+    plain.X.emplace_back(internal::Mat3X(Eigen::Matrix3d::Identity() * I));
+    internal::Mat3X x(3, 4);
+    x << Eigen::Matrix3d::Identity() * I, shape;
+    chs.X.push_back(x);
+  }
+  ch.candidates = {plain, chs};
+  return ch;
+}
+
+// Given a residual whose slow structure the file's (tiny, 0.006 µT) per-motor shape fits only scaled
+// by 150, when the family's member is chosen, then it is the battery-current member: a share outside
+// [−3, 1] describes no aircraft's per-motor field (an external compass on a 14S log read 109 [51,
+// 166] and a 6.9 mG/A field against an absolute 2.1). Where the share is inside (−1: the file's shape
+// absent in the aircraft, at a size the data resolve), the shape member may be the family's.
+TEST(GapMotorShape, GivenAShapeShareOutsideItsRange_WhenTheFamilysMemberIsChosen_ThenTheBatteryCurrentMemberIsReported) {
+  DiagnoseOptions o;
+  for (uint64_t seed : {51u, 52u}) {
+    const internal::ChannelData far = TwoMembers(150.0, 0.006, seed);
+    const internal::Analyzer an(far, o);
+    const internal::Evaluated shape_fit = an.Evaluate(far.candidates[1]);
+    ASSERT_GT(shape_fit.full.beta[shape_fit.off + 3], 50.0);  // the data do pull the share far out
+    RngStream rng(seed, "attribute");
+    const internal::Attribution at = internal::Attribute(far, an, o, &rng, an.base_sse());
+    ASSERT_EQ(at.fam_names.size(), 1u);
+    EXPECT_EQ(at.all[at.fam_best[0]].cand->p(), 3) << "seed " << seed;
+    // The file's shape at a size the data resolve, absent in the aircraft (share −1): the shape member.
+    const internal::ChannelData absent = TwoMembers(-1.0, 0.9, seed);
+    const internal::Analyzer an2(absent, o);
+    const internal::Attribution at2 = internal::Attribute(absent, an2, o, &rng, an2.base_sse());
+    EXPECT_EQ(at2.all[at2.fam_best[0]].cand->p(), 4) << "seed " << seed;
   }
 }
 
