@@ -206,6 +206,7 @@ int Dof(const Candidate& c) {
 Candidate Join(const Candidate& a, const Candidate& b) {
   Candidate j = a;
   j.effect = a.effect + "+" + b.effect;
+  j.X_joint.clear();  // the joint candidate's columns are X
   j.names.insert(j.names.end(), b.names.begin(), b.names.end());
   j.scale.insert(j.scale.end(), b.scale.begin(), b.scale.end());
   for (size_t k = 0; k < j.X.size(); ++k) {

@@ -246,6 +246,22 @@ void BesideDrive(const ChannelData& ch, const Candidate& drive, std::vector<Cand
   }
 }
 
+// The per-axis scale family's members as offered (VerticalGainResolved decides which, and how).
+std::vector<Candidate> ScaleMembers(const ChannelData& ch, const Analyzer& an) {
+  std::vector<Candidate> scale = AxisScale(ch);
+  if (scale.size() != 2) return scale;
+  const Candidate drive = LinearDrive(ch);
+  const VerticalGain vg = VerticalGainResolved(an, drive, scale[0], scale[1]);
+  if (vg == VerticalGain::kNotResolved) scale.pop_back();
+  // Beside the field the one-standard-error rule has taken the member with the vertical gain; alone
+  // the two members' held-out comparison holds the field too, so only that member is offered.
+  if (vg == VerticalGain::kBesideDrive) {
+    scale.erase(scale.begin());
+    BesideDrive(ch, drive, &scale);
+  }
+  return scale;
+}
+
 // The spread of the gains (max − min over the axes) for s_x = d/2, s_y = −d/2, s_z = g: a single
 // axis reading s large has spread |s| whichever axis it is (x: d = s, g = −s/2; z: d = 0, g = s).
 // Physical range: scale_error's (plausibility table), a chip's axes within 20 % of each other.
@@ -751,19 +767,7 @@ ChannelResult AnalyzeCompass(ChannelData* ch_io, const logs::FlightLog& log, con
                              const DiagnoseOptions& o, const CompassTiming& timing, RngStream* rng) {
   const ChannelData& ch = *ch_io;
   Analyzer an(ch, o);
-  std::vector<Candidate> scale = AxisScale(ch);
-  if (scale.size() == 2) {
-    const Candidate drive = LinearDrive(ch);
-    const VerticalGain vg = VerticalGainResolved(an, drive, scale[0], scale[1]);
-    if (vg == VerticalGain::kNotResolved) scale.pop_back();
-    // Beside the field the one-standard-error rule has taken the member with the vertical gain; alone
-    // the two members' held-out comparison holds the field too, so only that member is offered.
-    if (vg == VerticalGain::kBesideDrive) {
-      scale.erase(scale.begin());
-      BesideDrive(ch, drive, &scale);
-    }
-  }
-  for (Candidate& c : scale) ch_io->candidates.push_back(std::move(c));
+  for (Candidate& c : ScaleMembers(ch, an)) ch_io->candidates.push_back(std::move(c));
   ChannelResult res;
   res.channel = ch.name;
   res.unit = ch.unit;

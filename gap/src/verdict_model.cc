@@ -126,6 +126,20 @@ bool BesideAnotherCause(const Attribution& at, const std::vector<size_t>& model,
   return std::none_of(model.begin(), model.end(), [&](size_t g) { return Info(at.results[g].id).compensable; });
 }
 
+// The model as another family joins it: a member whose own columns were taken beside a field
+// (Candidate::X_joint, verdict.cc BesideDrive) with its columns as they are, as it would join one, so
+// the joining family fits beside the whole effect (a current field joining a first per-axis scale
+// taken beside the current's columns took the scale's part along them: 0.099 [0.093, 0.105] µT/A
+// for 0.108; scripts/withheld_sim). Alone the model keeps the member's own fit.
+namespace {
+Candidate AsJoined(const Candidate& model) {
+  Candidate c = model;
+  if (!c.X_joint.empty() && c.X_joint.size() == c.X.size()) c.X = std::move(c.X_joint);
+  c.X_joint.clear();
+  return c;
+}
+}  // namespace
+
 SelectedModel GrowModel(const Analyzer& an, const Attribution& at, size_t first, const std::vector<bool>& eligible,
                         double noise_var, const DiagnoseOptions& o, const std::vector<bool>& joinable,
                         const std::function<void(CandidateResult*)>& judge) {
@@ -151,7 +165,7 @@ SelectedModel GrowModel(const Analyzer& an, const Attribution& at, size_t first,
     for (size_t f = 0; f < F; ++f) {
       if (!may_join(f) || std::find(m.fams.begin(), m.fams.end(), f) != m.fams.end()) continue;
       const Candidate& cf = *at.all[at.fam_best[f]].cand;
-      auto j = std::make_unique<Candidate>(Join(*m.joint, cf));
+      auto j = std::make_unique<Candidate>(Join(AsJoined(*m.joint), cf));
       Evaluated ej = an.Evaluate(*j);
       if (!ej.full.ok || ej.cov.size() == 0) continue;
       const FoldDiff d = Diff(ej.fold_sse, m.eval.fold_sse);
@@ -276,7 +290,7 @@ Tie ResolveTie(const Analyzer& an, const Attribution& at, const SelectedModel& m
   t.rival = rival;
   const Candidate& c1 = *at.all[at.fam_best[t.first]].cand;
   const Candidate& cr = *at.all[at.fam_best[rival]].cand;
-  auto joint = std::make_unique<Candidate>(Join(*m.joint, cr));
+  auto joint = std::make_unique<Candidate>(Join(AsJoined(*m.joint), cr));
   Evaluated ej = an.Evaluate(*joint);
   if (!ej.full.ok || ej.cov.size() == 0) return t;
   // The jackknife holds the leverage of the few blocks where the two differ (JackknifeCov): the

@@ -152,6 +152,41 @@ TEST(GapScaleFamily, GivenAVerticalAxisScaleBesideAnUnmodelledFieldOnARealLog_Wh
   for (uint64_t seed : {2115, 2116, 2117}) ExpectVerticalScaleBesideFieldOnARealLog(seed);
 }
 
+// One horizontal axis reading 13 % large beside a 0.11 µT/A current field on a log at a real
+// autopilot's rates, flown with `seed`: the scale (taken beside the current's columns, BesideDrive)
+// is the first effect, and the current field that joins it is current_hard_iron with its interval,
+// widened by a tenth of its width on each side, holding 0.11.
+void ExpectCurrentFieldBesideAFirstScale(uint64_t seed) {
+  constexpr double kField = 0.11;
+  gaptest::FlownReal r =
+      gaptest::FlyAsRealLog({{"axis_scale_error", 0.13}, {"current_hard_iron", kField}}, seed, "scale_family");
+  DiagnoseOptions o;
+  o.channels = {"mag2"};
+  auto rep = Diagnose(r.log, r.flown.trial.configured, o);
+  ASSERT_TRUE(rep.ok()) << rep.status().message();
+  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  ASSERT_NE(mag2, nullptr);
+  EXPECT_TRUE(InEffects(*mag2, "scale_error")) << Summary(*rep);
+  bool found = false;
+  for (const EffectShare& e : mag2->effects) {
+    if (e.effect != "current_hard_iron") continue;
+    found = true;
+    const double w = e.ci95.hi - e.ci95.lo;
+    EXPECT_LE(e.ci95.lo - 0.1 * w, kField) << "seed " << seed << "\n" << Summary(*rep);
+    EXPECT_GE(e.ci95.hi + 0.1 * w, kField) << "seed " << seed << "\n" << Summary(*rep);
+  }
+  EXPECT_TRUE(found) << "seed " << seed << "\n" << Summary(*rep);
+}
+
+// Given a current field beside an axis scale taken beside the current's columns, when diagnosed, then
+// the field joins the scale's model as it is (GrowModel's AsJoined: the scale with its own columns),
+// and is sized so: joined to the scale's columns taken beside it, the field took the scale's part
+// along the current and throttle (0.197 [0.135, 0.259] µT/A, and throttle_hard_iron 43 µT/throttle
+// in place of the current field, on these flights).
+TEST(GapScaleFamily, GivenACurrentFieldBesideAFirstAxisScale_WhenDiagnosed_ThenTheFieldIsSizedBesideTheWholeScale) {
+  for (uint64_t seed : {2124, 2126, 2128}) ExpectCurrentFieldBesideAFirstScale(seed);
+}
+
 // Given a current-driven soft iron on a log at a real autopilot's rates (10 Hz rows, the current
 // stale), whose current does not vary enough while the vehicle turns for the soft iron's dependence on
 // it to be resolved beyond a constant matrix and the current's own field, when diagnosed, then
