@@ -171,9 +171,9 @@ TEST(GapJointFit, GivenAMemberWithColumnsForAJointFit_WhenJoined_ThenItEntersWit
   internal::Candidate model = internal::MakeCandidate("current_hard_iron", {"d"}, {1.0}, "uT/A");
   internal::Candidate member = internal::MakeCandidate("scale_error", {"g"}, {1.0}, "1");
   for (int k = 0; k < 3; ++k) {
-    model.X.push_back(internal::Mat3X::Constant(3, 1, 1.0 + k));
-    member.X.push_back(internal::Mat3X::Constant(3, 1, -0.5));   // as taken beside the field
-    member.X_joint.push_back(internal::Mat3X::Constant(3, 1, 2.0 * k));  // as they were
+    model.X.emplace_back(internal::Mat3X::Constant(3, 1, 1.0 + k));
+    member.X.emplace_back(internal::Mat3X::Constant(3, 1, -0.5));         // as taken beside the field
+    member.X_joint.emplace_back(internal::Mat3X::Constant(3, 1, 2.0 * k));  // as they were
   }
   const internal::Candidate j = internal::Join(model, member);
   ASSERT_EQ(j.p(), 2);
