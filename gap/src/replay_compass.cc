@@ -182,10 +182,11 @@ std::vector<CurrentMember> CurrentMembers(const CompassRows& rows, const Compass
 // −shape where the aircraft's field does not follow the file's per-motor split (a wiring field the
 // file models wrongly); the battery current cannot describe it, and a manoeuvre moves it (differential
 // thrust follows the tilt). Empty where the file has no per-motor wiring or the shape stays under
-// kMotorShapeFloor_uT RMS.
-// The floor: current_lag's configured-wiring member's (0.05 µT RMS, 0.5 mG: under a tenth of a
-// compass's per-sample noise, 0.2-0.4 µT, a column no flight resolves).
-constexpr double kMotorShapeFloor_uT = 0.05;
+// kWiringColumnFloor_uT RMS.
+// A column built from the vehicle file's wiring field (the per-motor shape here, current_lag's
+// configured-wiring member) under 0.05 µT RMS, 0.5 mG, is under a tenth of a compass's per-sample
+// noise (0.2-0.4 µT): a column no flight resolves, not offered.
+constexpr double kWiringColumnFloor_uT = 0.05;
 std::vector<Vec3> MotorShape(const CompassSampler& sampler, const CompassRows& rows, const std::vector<double>& t) {
   const size_t n = rows.currents.size();
   std::vector<Vec3> shape(n, Vec3::Zero());
@@ -203,7 +204,7 @@ std::vector<Vec3> MotorShape(const CompassSampler& sampler, const CompassRows& r
     shape[k] = rows.Msens[k] * (sampler.field()(cur) - sampler.field()(equal));
     energy += shape[k].squaredNorm();
   }
-  if (!(std::sqrt(energy / static_cast<double>(n)) > kMotorShapeFloor_uT)) return {};
+  if (!(std::sqrt(energy / static_cast<double>(n)) > kWiringColumnFloor_uT)) return {};
   return shape;
 }
 
@@ -303,7 +304,7 @@ void AddCurrentLag(const CompassSampler& sampler, const CompassRows& rows, Chann
       wiring_energy += field[k].squaredNorm();
     }
   }
-  if (!(n > 0 && std::sqrt(wiring_energy / static_cast<double>(n)) > 0.05)) {
+  if (!(n > 0 && std::sqrt(wiring_energy / static_cast<double>(n)) > kWiringColumnFloor_uT)) {
     ch->not_available.emplace_back("current_lag's configured-wiring member (the wiring field here is too small to show a lag)");
     return;
   }

@@ -1,5 +1,6 @@
 #include <cmath>
 #include <string>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -45,24 +46,31 @@ TEST(Headline, GivenNoGapDetectedWithAResidualManyTimesTheFloor_WhenPrinted_Then
   EXPECT_NE(floor.find("no gap: residual at the noise floor (power ratio 1.04)"), std::string::npos) << floor;
 }
 
+// A channel with a gap whose verdict is `verdict` and whose one effect is `e` (named the verdict).
+ChannelResult HeadlineChannel(const std::string& channel, const std::string& verdict, double noise_floor_ratio,
+                              EffectShare e) {
+  ChannelResult c;
+  c.channel = channel;
+  c.gap_detected = true;
+  c.noise_floor_ratio = noise_floor_ratio;
+  c.verdict = verdict;
+  e.effect = verdict;
+  c.effects.push_back(std::move(e));
+  return c;
+}
+
 // An effect material by the heading it turns may predict held-out blocks worse than the baseline (a
 // public PX4 log's external compass: current_hard_iron 4.8 mG/A "explains -23 %"): the headline says it
 // explains none of the structure and how much worse, never a negative part explained.
 TEST(Headline, GivenAHeadlineEffectWithANegativeHeldOutShare_WhenPrinted_ThenItSaysItExplainsNone) {
-  ChannelResult c;
-  c.channel = "mag2";
-  c.gap_detected = true;
-  c.noise_floor_ratio = 3.0;
-  c.verdict = "current_hard_iron";
-  c.partial = true;
   EffectShare e;
-  e.effect = c.verdict;
   e.id = Effect::kCurrentHardIron;
   e.unit = "uT/A";
   e.magnitude = 0.48;
   e.ci95 = {0.17, 0.80};
   e.explained_share = -0.23;
-  c.effects.push_back(e);
+  ChannelResult c = HeadlineChannel("mag2", "current_hard_iron", 3.0, e);
+  c.partial = true;
   const std::string line = Headline(c);
   EXPECT_EQ(line.find("-23 %"), std::string::npos) << line;
   EXPECT_NE(line.find("explains none of the held-out structure above the noise floor (held out it predicts 23 % worse"),
@@ -74,13 +82,7 @@ TEST(Headline, GivenAHeadlineEffectWithANegativeHeldOutShare_WhenPrinted_ThenItS
 // an unusable current its verdict read "per_motor_current_hard_iron 25.0 [8.2, 41.8] mG", a field
 // with no state it is at. Its size is the motors' fields at full output, and says so.
 TEST(Headline, GivenAPerMotorEffect_WhenPrinted_ThenItsSizeSaysItIsTheFieldAtFullOutput) {
-  ChannelResult c;
-  c.channel = "mag";
-  c.gap_detected = true;
-  c.noise_floor_ratio = 5.0;
-  c.verdict = "per_motor_current_hard_iron";
   EffectShare e;
-  e.effect = c.verdict;
   e.id = Effect::kPerMotorCurrentHardIron;
   e.unit = "uT";
   e.autopilot_unit = "mG";
@@ -88,7 +90,7 @@ TEST(Headline, GivenAPerMotorEffect_WhenPrinted_ThenItsSizeSaysItIsTheFieldAtFul
   e.magnitude = 2.5;
   e.ci95 = {0.82, 4.18};
   e.explained_share = 0.81;
-  c.effects.push_back(e);
+  ChannelResult c = HeadlineChannel("mag", "per_motor_current_hard_iron", 5.0, e);
   const std::string line = Headline(c);
   EXPECT_NE(line.find("25.0 [8.2, 41.8] mG at full output (all motors)"), std::string::npos) << line;
   // beside it the in-flight model's throttle term, fitted on that ground run: not to be written

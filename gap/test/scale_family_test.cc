@@ -105,20 +105,17 @@ TEST(GapScaleFamily, GivenAVerticalAxisScaleBesideAnUnmodelledCurrentField_WhenD
   gaptest::Flown f = gaptest::FlyInjected({{"current_hard_iron", 0.3}}, 2114, "scale_family", "selftest_flight");
   constexpr double kGain = -0.10;
   ScaleMag2Z(kGain, &f.log);
-  DiagnoseOptions o;
-  o.channels = {"mag2"};
-  auto rep = Diagnose(f.log, f.trial.configured, o);
-  ASSERT_TRUE(rep.ok()) << rep.status().message();
-  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  const GapReport rep = gaptest::DiagnoseChannel(f.log, f.trial.configured, "mag2");
+  const ChannelResult* mag2 = gaptest::FindChannel(rep, "mag2");
   ASSERT_NE(mag2, nullptr);
-  EXPECT_TRUE(InEffects(*mag2, "current_hard_iron")) << Summary(*rep);
+  EXPECT_TRUE(InEffects(*mag2, "current_hard_iron")) << Summary(rep);
   const CandidateResult* s = gaptest::FindCandidate(*mag2, "scale_error");
-  ASSERT_NE(s, nullptr) << Summary(*rep);
-  ASSERT_TRUE(s->params.count("scale_z_minus_1")) << Summary(*rep);
-  EXPECT_NEAR(s->params.at("scale_z_minus_1"), kGain, 0.2 * std::fabs(kGain)) << Summary(*rep);
-  EXPECT_LE(s->magnitude_ci95[0], std::fabs(kGain)) << Summary(*rep);
-  EXPECT_GE(s->magnitude_ci95[1], std::fabs(kGain)) << Summary(*rep);
-  EXPECT_TRUE(InEffects(*mag2, "scale_error")) << Summary(*rep);
+  ASSERT_NE(s, nullptr) << Summary(rep);
+  ASSERT_TRUE(s->params.count("scale_z_minus_1")) << Summary(rep);
+  EXPECT_NEAR(s->params.at("scale_z_minus_1"), kGain, 0.2 * std::fabs(kGain)) << Summary(rep);
+  EXPECT_LE(s->magnitude_ci95[0], std::fabs(kGain)) << Summary(rep);
+  EXPECT_GE(s->magnitude_ci95[1], std::fabs(kGain)) << Summary(rep);
+  EXPECT_TRUE(InEffects(*mag2, "scale_error")) << Summary(rep);
 }
 
 // A vertical axis reading 10 % small on a log at a real autopilot's rates beside a current field the
@@ -128,21 +125,18 @@ void ExpectVerticalScaleBesideFieldOnARealLog(uint64_t seed) {
   gaptest::FlownReal r = gaptest::FlyAsRealLog({{"current_hard_iron", 0.3}}, seed, "scale_family");
   constexpr double kGain = -0.10;
   ScaleMag2Z(kGain, &r.log);
-  DiagnoseOptions o;
-  o.channels = {"mag2"};
-  auto rep = Diagnose(r.log, r.flown.trial.configured, o);
-  ASSERT_TRUE(rep.ok()) << rep.status().message();
-  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  const GapReport rep = gaptest::DiagnoseChannel(r.log, r.flown.trial.configured, "mag2");
+  const ChannelResult* mag2 = gaptest::FindChannel(rep, "mag2");
   ASSERT_NE(mag2, nullptr);
   bool found = false;
   for (const EffectShare& e : mag2->effects) {
     if (e.effect != "scale_error") continue;
     found = true;
     const double w = e.ci95.hi - e.ci95.lo;
-    EXPECT_LE(e.ci95.lo - 0.1 * w, std::fabs(kGain)) << Summary(*rep);
-    EXPECT_GE(e.ci95.hi + 0.1 * w, std::fabs(kGain)) << Summary(*rep);
+    EXPECT_LE(e.ci95.lo - 0.1 * w, std::fabs(kGain)) << Summary(rep);
+    EXPECT_GE(e.ci95.hi + 0.1 * w, std::fabs(kGain)) << Summary(rep);
   }
-  EXPECT_TRUE(found) << "seed " << seed << "\n" << Summary(*rep);
+  EXPECT_TRUE(found) << "seed " << seed << "\n" << Summary(rep);
 }
 
 // Given that on logs at a real autopilot's rates, when diagnosed, then the scale is an effect with its
@@ -160,22 +154,19 @@ void ExpectCurrentFieldBesideAFirstScale(uint64_t seed) {
   constexpr double kField = 0.11;
   gaptest::FlownReal r =
       gaptest::FlyAsRealLog({{"axis_scale_error", 0.13}, {"current_hard_iron", kField}}, seed, "scale_family");
-  DiagnoseOptions o;
-  o.channels = {"mag2"};
-  auto rep = Diagnose(r.log, r.flown.trial.configured, o);
-  ASSERT_TRUE(rep.ok()) << rep.status().message();
-  const ChannelResult* mag2 = gaptest::FindChannel(*rep, "mag2");
+  const GapReport rep = gaptest::DiagnoseChannel(r.log, r.flown.trial.configured, "mag2");
+  const ChannelResult* mag2 = gaptest::FindChannel(rep, "mag2");
   ASSERT_NE(mag2, nullptr);
-  EXPECT_TRUE(InEffects(*mag2, "scale_error")) << Summary(*rep);
+  EXPECT_TRUE(InEffects(*mag2, "scale_error")) << Summary(rep);
   bool found = false;
   for (const EffectShare& e : mag2->effects) {
     if (e.effect != "current_hard_iron") continue;
     found = true;
     const double w = e.ci95.hi - e.ci95.lo;
-    EXPECT_LE(e.ci95.lo - 0.1 * w, kField) << "seed " << seed << "\n" << Summary(*rep);
-    EXPECT_GE(e.ci95.hi + 0.1 * w, kField) << "seed " << seed << "\n" << Summary(*rep);
+    EXPECT_LE(e.ci95.lo - 0.1 * w, kField) << "seed " << seed << "\n" << Summary(rep);
+    EXPECT_GE(e.ci95.hi + 0.1 * w, kField) << "seed " << seed << "\n" << Summary(rep);
   }
-  EXPECT_TRUE(found) << "seed " << seed << "\n" << Summary(*rep);
+  EXPECT_TRUE(found) << "seed " << seed << "\n" << Summary(rep);
 }
 
 // Given a current field beside an axis scale taken beside the current's columns, when diagnosed, then

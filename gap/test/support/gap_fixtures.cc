@@ -37,6 +37,18 @@ DiagnoseOptions IdealOptions() {
   return o;
 }
 
+GapReport DiagnoseChannel(const logs::FlightLog& log, const vehicle::VehicleParams& configured,
+                          const std::string& channel) {
+  DiagnoseOptions o;
+  o.channels = {channel};
+  auto rep = Diagnose(log, configured, o);
+  if (!rep.ok()) {
+    ADD_FAILURE() << rep.status().message();
+    return {};
+  }
+  return std::move(*rep);
+}
+
 const ChannelResult* FindChannel(const GapReport& report, const std::string& channel) {
   for (const auto& c : report.channels) {
     if (c.channel == channel) return &c;

@@ -38,6 +38,11 @@ FlownReal FlyAsRealLog(const std::vector<Injection>& injections, uint64_t seed, 
 // significant nuisance term (offset, field, scale) is a finding (CONTRACTS.md "Gap diagnosis").
 DiagnoseOptions IdealOptions();
 
+// `log` diagnosed on `channel` alone against `configured`, the other options their defaults; a
+// diagnosis that fails is a test failure and an empty report (FindChannel then finds nothing).
+GapReport DiagnoseChannel(const logs::FlightLog& log, const vehicle::VehicleParams& configured,
+                          const std::string& channel);
+
 const ChannelResult* FindChannel(const GapReport& report, const std::string& channel);
 const CandidateResult* FindCandidate(const ChannelResult& channel, const std::string& effect);
 // Whether `effect` is among the channel's effects.
