@@ -224,11 +224,14 @@ void JudgeNormal(const ChannelData& ch, const BaselineTerms& t, NuisanceReport* 
                                     : std::string("norm not resolved");
   if (scale_hi < sc->lo || scale_lo > sc->hi) {
     // Beyond what a compass reads of the Earth field: never a finding to act on.
-    nr.findings.push_back(fmt::format("{}: fitted field {:.1f} % {} the WMM field (horizontal part; {}), "
-                                      "outside the physical range {}: implausible, model mismatch (the field "
-                                      "model's place or date, or the log's compass units)",
-                                      ch.name, 100 * std::fabs(t.s_along), t.s_along < 0 ? "below" : "above", norm_text,
-                                      plausibility::RangeText("field_scale")));
+    // At or below zero the horizontal part points against the WMM field's: no percentage of it.
+    const std::string size = scale_h > 0 ? fmt::format("fitted field {:.1f} % {} the WMM field (horizontal part; {})",
+                                                       100 * std::fabs(t.s_along), t.s_along < 0 ? "below" : "above",
+                                                       norm_text)
+                                         : std::string("fitted horizontal field points against the WMM field's");
+    nr.findings.push_back(fmt::format("{}: {}, outside the physical range {}: implausible, model mismatch (the field "
+                                      "model's place or date, the heading of the attitude, or the log's compass units)",
+                                      ch.name, size, plausibility::RangeText("field_scale")));
   } else if (scale_hi < sc->normal_lo || scale_lo > sc->normal_hi) {
     if (nr.out_of_range.empty() && !anomaly_out) nr.out_of_range = "field_scale";
     if (!anomaly_out) nr.beyond_normal.emplace_back("field_scale");

@@ -320,6 +320,13 @@ std::string Headline(const ChannelResult& c) {
 
 std::string FieldScaleText(const Nuisance& n) {
   const std::string against = n.field_source.rfind("fitted", 0) == 0 ? "the freely fitted field" : "WMM";
+  // A horizontal part along the model's at zero or against it has no size a compass could read (a
+  // 14S public log printed "field -105.9 %"): said as a direction, a model mismatch.
+  if (!(n.field_scale_horizontal > 0)) {
+    return fmt::format("fitted horizontal field points against {}'s: model mismatch (the heading of the attitude, the "
+                       "compass's orientation or its units)",
+                       against);
+  }
   std::string s = fmt::format("field {:+.1f} % against {} (horizontal part", 100 * (n.field_scale_horizontal - 1), against);
   if (plausibility::IsPlausible("field_scale", n.field_scale)) {
     return s + fmt::format("; norm {:+.1f} %)", 100 * (n.field_scale - 1));

@@ -30,6 +30,19 @@ TEST(FieldScaleText, GivenANormOutsideItsPhysicalRange_WhenPrinted_ThenOnlyTheHo
   EXPECT_NE(in.find("norm +7.5 %"), std::string::npos) << in;
 }
 
+// A fitted horizontal field against the model's (a public 14S log's external compass: scale −0.059)
+// has no size a compass reads: the line says its direction and model mismatch, no "-105.9 %".
+TEST(FieldScaleText, GivenAHorizontalFieldAgainstTheModels_WhenPrinted_ThenNoPercentageOnlyItsDirection) {
+  Nuisance n;
+  n.present = true;
+  n.field_scale_horizontal = -0.059;
+  n.field_scale = 0.4;
+  const std::string out = FieldScaleText(n);
+  EXPECT_EQ(out.find("105.9"), std::string::npos) << out;
+  EXPECT_EQ(out.find('%'), std::string::npos) << out;
+  EXPECT_NE(out.find("points against WMM's: model mismatch"), std::string::npos) << out;
+}
+
 // A residual many times the noise floor's power that no test resolves (a public PX4 log's 28-s
 // flight: ratio 12.5) is not "at the noise floor": the headline says no gap is resolved, and why.
 TEST(Headline, GivenNoGapDetectedWithAResidualManyTimesTheFloor_WhenPrinted_ThenItDoesNotSayAtTheNoiseFloor) {
